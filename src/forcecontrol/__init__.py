@@ -1,0 +1,63 @@
+"""forcecontrol: the force-control chapter of Siciliano et al., runnable and checked.
+
+Manipulators interacting with an environment and every controller of chapter 9 of *Robotics:
+Modelling, Planning and Control*: compliance, impedance, admittance, direct force control,
+constrained motion and hybrid force/motion control, with a sampled-data simulator and analysis.
+"""
+
+__version__ = "0.1.0"
+
+from .controllers import (  # noqa: E402
+    Controller,
+    ImpedanceController,
+    JointSpacePD,
+    Measurement,
+    OperationalSpacePD,
+    Reference,
+)
+from .environments import ElasticPlane, Environment, LinearSpring  # noqa: E402
+from .errors import (  # noqa: E402
+    DimensionError,
+    ForceControlError,
+    MeasurementError,
+    ParameterError,
+    ScenarioError,
+    SimulationDivergedError,
+    SingularityError,
+    WorkspaceError,
+)
+from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel  # noqa: E402
+from .sensors import ForceSensor  # noqa: E402
+from .simulation import SimulationResult, simulate  # noqa: E402
+from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
+
+__all__ = [
+    "__version__",
+    "Controller",
+    "ImpedanceController",
+    "JointSpacePD",
+    "OperationalSpacePD",
+    "Measurement",
+    "Reference",
+    "Environment",
+    "ElasticPlane",
+    "LinearSpring",
+    "ForceControlError",
+    "DimensionError",
+    "ParameterError",
+    "ScenarioError",
+    "MeasurementError",
+    "SimulationDivergedError",
+    "SingularityError",
+    "WorkspaceError",
+    "RobotModel",
+    "PlanarTwoLink",
+    "PlanarTwoLinkParameters",
+    "CHAPTER_ARM",
+    "ForceSensor",
+    "simulate",
+    "SimulationResult",
+    "ReferenceSignal",
+    "Setpoint",
+    "LinearPath",
+]

@@ -1,0 +1,129 @@
+"""Input checks shared by constructors and loaders (never ``assert``)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .errors import DimensionError, ParameterError
+
+__all__ = [
+    "as_vector",
+    "as_matrix",
+    "as_gain_matrix",
+    "positive_scalar",
+    "nonnegative_scalar",
+    "readonly",
+]
+
+
+def readonly(a: np.ndarray) -> np.ndarray:
+    """Return ``a`` made read-only (it must already be a private copy)."""
+    a.flags.writeable = False
+    return a
+
+
+def _finite(name: str, a: np.ndarray) -> None:
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"{name} must be finite; got {a.tolist()}")
+
+
+def as_vector(name: str, value: Any, size: int | None = None) -> np.ndarray:
+    """Copy ``value`` into a read-only float64 vector, checking its length and finiteness."""
+    try:
+        a = np.array(value, dtype=np.float64).reshape(-1) if np.ndim(value) <= 1 else None
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a vector of numbers; got {value!r}") from exc
+    if a is None:
+        raise DimensionError(f"{name} must be a vector; got shape {np.shape(value)}")
+    if size is not None and a.shape != (size,):
+        raise DimensionError(f"{name} must have shape ({size},); got shape {a.shape}")
+    _finite(name, a)
+    return readonly(a)
+
+
+def as_matrix(name: str, value: Any, shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Copy ``value`` into a read-only float64 matrix of the given shape."""
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a matrix of numbers; got {value!r}") from exc
+    if a.ndim != 2 or (shape is not None and a.shape != shape):
+        want = f"{shape}" if shape is not None else "a 2-D matrix"
+        raise DimensionError(f"{name} must have shape {want}; got shape {a.shape}")
+    _finite(name, a)
+    return readonly(a)
+
+
+def as_gain_matrix(
+    name: str,
+    value: Any,
+    size: int,
+    *,
+    definite: bool = True,
+    diagonal_ok: bool = True,
+) -> np.ndarray:
+    """A symmetric positive (semi-)definite ``(size, size)`` gain or stiffness matrix.
+
+    A scalar means ``value * I``; a vector of length ``size`` means ``diag(value)``.
+
+    Args:
+        name: the parameter's public name, used in messages.
+        value: scalar, vector or matrix.
+        size: the matrix dimension.
+        definite: require positive definite (else positive semi-definite).
+        diagonal_ok: accept scalars and vectors as diagonal shorthands.
+    """
+    kind = "positive definite" if definite else "positive semi-definite"
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got {value!r}") from exc
+    if diagonal_ok and a.ndim == 0:
+        a = float(a) * np.eye(size)
+    elif diagonal_ok and a.ndim == 1 and a.shape == (size,):
+        a = np.diag(a)
+    if a.shape != (size, size):
+        raise DimensionError(
+            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got shape {a.shape}"
+        )
+    _finite(name, a)
+    scale = max(1.0, float(np.max(np.abs(a))))
+    if not np.allclose(a, a.T, rtol=0.0, atol=1e-12 * scale):
+        raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got a non-symmetric matrix")
+    a = 0.5 * (a + a.T)
+    w = np.linalg.eigvalsh(a)
+    tol = 1e-12 * scale
+    if definite and w.min() <= tol:
+        raise ParameterError(
+            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(w, 9).tolist()}"
+        )
+    if not definite and w.min() < -tol:
+        raise ParameterError(
+            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(w, 9).tolist()}"
+        )
+    return readonly(a)
+
+
+def positive_scalar(name: str, value: Any) -> float:
+    """A finite number > 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a positive number; got {value!r}") from exc
+    if not math.isfinite(v) or v <= 0.0:
+        raise ParameterError(f"{name} must be a positive number; got {value!r}")
+    return v
+
+
+def nonnegative_scalar(name: str, value: Any) -> float:
+    """A finite number >= 0."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a non-negative number; got {value!r}") from exc
+    if not math.isfinite(v) or v < 0.0:
+        raise ParameterError(f"{name} must be a non-negative number; got {value!r}")
+    return v

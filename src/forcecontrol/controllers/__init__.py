@@ -1,0 +1,15 @@
+"""Controllers of the chapter. Each states its law and equation number in its docstring."""
+
+from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+from .compliance import JointSpacePD, OperationalSpacePD
+from .impedance import ImpedanceController
+
+__all__ = [
+    "Controller",
+    "Measurement",
+    "Reference",
+    "inverse_dynamics_torque",
+    "OperationalSpacePD",
+    "JointSpacePD",
+    "ImpedanceController",
+]

@@ -1,0 +1,186 @@
+"""What every controller shares: signals, the base class and the inverse-dynamics inner loop.
+
+The inner loop (9.30) is written once::
+
+    u = B(q) J⁻¹(q) (a − J̇(q, q̇) q̇) + n(q, q̇) [+ Jᵀ(q) h_e]
+
+Every inverse-dynamics scheme of the chapter differs only in the operational-space acceleration
+``a`` it asks for: impedance (9.28)/(9.31), inner position loop (9.39), inner velocity loop
+(9.45), parallel (9.48), hybrid (9.77).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from .._linalg import mtv, solve_into
+from .._validate import positive_scalar
+from ..errors import DimensionError, MeasurementError, ParameterError, SingularityError
+from ..robots.base import RobotModel
+
+__all__ = [
+    "Controller",
+    "Measurement",
+    "Reference",
+    "inverse_dynamics_torque",
+    "pack_reference",
+    "REFERENCE_FIELDS",
+]
+
+#: order of the blocks of a packed reference row (each block has m entries).
+REFERENCE_FIELDS = ("position", "velocity", "acceleration", "force", "force_rate", "force_accel")
+
+
+@dataclass(frozen=True, slots=True)
+class Measurement:
+    """What a controller reads at one sample.
+
+    Arrays are not copied (this is built once per control cycle); do not mutate them afterwards.
+
+    Attributes:
+        q: joint positions, (n,) [rad].
+        qd: joint velocities, (n,) [rad/s].
+        wrench: measured force the end-effector exerts on the environment, expressed in the
+            base frame, (m,) [N] (h_e of (9.1)).
+    """
+
+    q: np.ndarray
+    qd: np.ndarray
+    wrench: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class Reference:
+    """Operational-space references at one sample (base frame, SI units).
+
+    Attributes:
+        position: desired position x_d, (m,) [m].
+        velocity: ẋ_d, (m,) [m/s].
+        acceleration: ẍ_d, (m,) [m/s²].
+        force: desired contact force f_d (force on the environment), (m,) [N].
+        force_rate: ḟ_d, (m,) [N/s].
+        force_accel: f̈_d, (m,) [N/s²].
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    force: np.ndarray
+    force_rate: np.ndarray
+    force_accel: np.ndarray
+
+    @classmethod
+    def setpoint(cls, position, force=None) -> Reference:
+        """A constant reference: position x_d, zero derivatives, optional constant force f_d."""
+        x = np.asarray(position, dtype=np.float64)
+        z = np.zeros_like(x)
+        f = z if force is None else np.asarray(force, dtype=np.float64)
+        if f.shape != x.shape:
+            raise DimensionError(f"force must have shape {x.shape}; got shape {f.shape}")
+        return cls(x, z, z, f, z, z)
+
+
+def pack_reference(ref: Reference) -> np.ndarray:
+    """Flatten a :class:`Reference` into the row layout of :data:`REFERENCE_FIELDS`."""
+    return np.concatenate([np.asarray(getattr(ref, f), dtype=np.float64) for f in REFERENCE_FIELDS])
+
+
+@njit(cache=True)
+def inverse_dynamics_torque(B, n, J, Jdq, a, h, compensate_wrench):  # pragma: no cover - compiled
+    """The shared inner loop (9.30): ``u = B J⁻¹ (a − J̇q̇) + n [+ Jᵀ h]``.
+
+    Args:
+        B: inertia matrix, (n, n).
+        n: ``C q̇ + F q̇ + g``, (n,).
+        J: square Jacobian, (m, m) with m = n.
+        Jdq: ``J̇ q̇``, (m,).
+        a: requested operational-space acceleration, (m,).
+        h: measured end-effector wrench (base frame), (m,).
+        compensate_wrench: add ``Jᵀ h`` (schemes with force measurement).
+
+    Returns:
+        Joint torques u, (n,); all NaN when J is singular.
+    """
+    m = a.shape[0]
+    rhs = np.empty(m)
+    for i in range(m):
+        rhs[i] = a[i] - Jdq[i]
+    y = np.empty(m)
+    nj = B.shape[0]
+    u = np.empty(nj)
+    if not solve_into(J, rhs, y):
+        u[:] = np.nan
+        return u
+    for i in range(nj):
+        s = n[i]
+        for j in range(nj):
+            s += B[i, j] * y[j]
+        u[i] = s
+    if compensate_wrench:
+        jt = mtv(J, h)
+        for i in range(nj):
+            u[i] += jt[i]
+    return u
+
+
+class Controller(ABC):
+    """Base of every controller: gains checked once, explicit state, ``reset`` and ``step``.
+
+    A controller is usable outside the simulator: call ``step`` from your own fixed-rate loop
+    with a :class:`Measurement` and a :class:`Reference` and apply the returned torques for one
+    sample time.
+
+    Subclasses set ``kind`` (their branch in the compiled dispatcher), fill ``_params`` (a flat
+    float64 array, layout documented in the subclass) and ``state`` (integrators, may be empty).
+    """
+
+    #: id of this controller's branch in :func:`forcecontrol.controllers.dispatch.controller_step`.
+    kind: ClassVar[int] = 0
+    #: whether the controller reads the force measurement at all.
+    uses_force: ClassVar[bool] = True
+
+    def __init__(self, robot: RobotModel, sample_time: float = 1e-3) -> None:
+        if not isinstance(robot, RobotModel):
+            raise ParameterError(f"robot must implement RobotModel; got {type(robot).__name__}")
+        self.robot = robot
+        self.sample_time = positive_scalar("sample_time", sample_time)
+        self.state = np.zeros(0)
+        self._params = np.zeros(0)
+
+    @property
+    def m(self) -> int:
+        """Operational-space dimension."""
+        return int(self.robot.task_dim)
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """Reset the internal state (integrators) to its documented initial value."""
+        self.state[:] = 0.0
+
+    @abstractmethod
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques u, (n,) [N m], to hold for one sample time."""
+
+    def gains(self) -> dict[str, Any]:
+        """The controller's parameters as plain lists (for metadata and reports)."""
+        return {}
+
+    # -- shared helpers
+    def _check_output(self, t: float, u: np.ndarray, measurement: Measurement) -> np.ndarray:
+        if math.isfinite(float(u.sum())):
+            return u
+        for name in ("q", "qd", "wrench"):
+            v = np.asarray(getattr(measurement, name))
+            if not np.all(np.isfinite(v)):
+                raise MeasurementError(
+                    f"measurement.{name} is not finite at t = {t:.6g} s: {v.tolist()}"
+                )
+        raise SingularityError(
+            f"{type(self).__name__}: the Jacobian is singular at t = {t:.6g} s, "
+            f"q = {np.asarray(measurement.q).tolist()}; the inverse-dynamics law cannot be applied"
+        )

@@ -1,0 +1,155 @@
+"""Active compliance: PD control with gravity compensation (Sect. 9.2.2).
+
+Two controllers:
+
+* :class:`OperationalSpacePD`, the operational-space law (8.110)/(9.15) whose equilibrium in
+  contact is ``K_P x̃ = h_A`` (9.2)–(9.4), an active stiffness K_P (compliance K_P⁻¹);
+* :class:`JointSpacePD`, the joint-space law (8.51) whose equilibrium is ``K_P q̃ = Jᵀ h_e``
+  (9.24)–(9.26), a posture-dependent compliance ``J K_P⁻¹ Jᵀ``.
+
+For the position-only operational space of the planar arm the analytical and geometric
+Jacobians coincide, and (8.110) and (9.15) are the same law with the error in the base frame.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from .._linalg import mtv, mv
+from .._validate import as_gain_matrix, as_vector
+from ..robots.base import RobotModel
+from .base import Controller, Measurement, Reference
+
+__all__ = ["OperationalSpacePD", "JointSpacePD", "os_pd_torque", "joint_pd_torque"]
+
+
+@njit(cache=True)
+def os_pd_torque(x, xd, J, g, x_d, K_P, K_D):  # pragma: no cover - compiled
+    """(8.110): ``u = g(q) + Jᵀ(q) (K_P (x_d − x_e) − K_D J(q) q̇)``.
+
+    Args:
+        x: end-effector position x_e, (m,) [m]; xd: its velocity J q̇, (m,) [m/s].
+        J: Jacobian (m, n); g: gravity torques (n,) [N m]; x_d: desired position (m,) [m].
+        K_P: stiffness (m, m) [N/m]; K_D: damping (m, m) [N s/m].
+    """
+    m = x.shape[0]
+    w = np.empty(m)
+    e = x_d - x
+    kp = mv(K_P, e)
+    kd = mv(K_D, xd)
+    for i in range(m):
+        w[i] = kp[i] - kd[i]
+    return g + mtv(J, w)
+
+
+@njit(cache=True)
+def joint_pd_torque(q, qd, g, q_d, K_P, K_D):  # pragma: no cover - compiled
+    """(8.51): ``u = g(q) + K_P (q_d − q) − K_D q̇``; in contact its equilibrium is (9.24)."""
+    return g + mv(K_P, q_d - q) - mv(K_D, qd)
+
+
+@njit(cache=True)
+def os_pd_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of :func:`os_pd_torque`; ``p = [K_P (m²), K_D (m²)]``."""
+    m = x.shape[0]
+    mm = m * m
+    K_P = p[0:mm].reshape((m, m))
+    K_D = p[mm : 2 * mm].reshape((m, m))
+    return os_pd_torque(x, xd, J, g, ref[0:m], K_P, K_D)
+
+
+@njit(cache=True)
+def joint_pd_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of :func:`joint_pd_torque`; ``p = [K_P (n²), K_D (n²), q_d (n)]``."""
+    n = q.shape[0]
+    nn = n * n
+    K_P = p[0:nn].reshape((n, n))
+    K_D = p[nn : 2 * nn].reshape((n, n))
+    return joint_pd_torque(q, qd, g, p[2 * nn : 2 * nn + n], K_P, K_D)
+
+
+class OperationalSpacePD(Controller):
+    """Active compliance, operational-space PD with gravity compensation (8.110), (9.15).
+
+    Law: ``u = g(q) + Jᵀ(q) (K_P (x_d − x_e) − K_D J(q) q̇)``.
+    Equilibrium in contact (9.2)–(9.4): ``K_P (x_d − x_e) = h_A``; with an elastic environment
+    of stiffness K the contact force is (9.22) and the pose error (9.23).
+
+    Inputs: ``measurement.q, .qd`` (n,); ``reference.position`` x_d (m,) [m]. The force
+    measurement is not used. Output: torques (n,) [N m].
+
+    Args:
+        robot: the manipulator model.
+        stiffness: K_P, symmetric positive definite (m, m) [N/m] (scalar or diagonal allowed).
+        damping: K_D, symmetric positive definite (m, m) [N s/m].
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 1
+    uses_force: ClassVar[bool] = False
+
+    def __init__(self, robot: RobotModel, stiffness: Any, damping: Any, sample_time: float = 1e-3) -> None:
+        super().__init__(robot, sample_time)
+        m = self.m
+        self.stiffness = as_gain_matrix("stiffness", stiffness, m)
+        self.damping = as_gain_matrix("damping", damping, m)
+        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (8.110) for this sample."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        u = os_pd_torque(T.x, T.xd, T.J, T.g, reference.position, self.stiffness, self.damping)
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist()}
+
+
+class JointSpacePD(Controller):
+    """Joint-space PD with gravity compensation (8.51); in contact, equilibrium (9.24).
+
+    Law: ``u = g(q) + K_P (q_d − q) − K_D q̇``. At equilibrium ``K_P q̃ = Jᵀ h_e`` (9.24) and the
+    operational compliance is ``J K_P⁻¹ Jᵀ`` (9.26), which depends on the posture.
+
+    Inputs: ``measurement.q, .qd``; the joint set-point is a constructor argument (the
+    operational reference is not used). Output: torques (n,) [N m].
+
+    Args:
+        robot: the manipulator model.
+        stiffness: K_P, symmetric positive definite (n, n) [N m/rad].
+        damping: K_D, symmetric positive definite (n, n) [N m s/rad].
+        joint_setpoint: q_d, (n,) [rad].
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 2
+    uses_force: ClassVar[bool] = False
+
+    def __init__(
+        self, robot: RobotModel, stiffness: Any, damping: Any, joint_setpoint: Any, sample_time: float = 1e-3
+    ) -> None:
+        super().__init__(robot, sample_time)
+        n = int(robot.nq)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, n)
+        self.damping = as_gain_matrix("damping", damping, n)
+        self.joint_setpoint = as_vector("joint_setpoint", joint_setpoint, n)
+        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel(), self.joint_setpoint])
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (8.51) for this sample."""
+        g = self.robot.gravity(measurement.q)
+        u = joint_pd_torque(
+            np.asarray(measurement.q, dtype=np.float64), np.asarray(measurement.qd, dtype=np.float64),
+            g, self.joint_setpoint, self.stiffness, self.damping,
+        )
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "stiffness": self.stiffness.tolist(),
+            "damping": self.damping.tolist(),
+            "joint_setpoint": self.joint_setpoint.tolist(),
+        }

@@ -1,0 +1,128 @@
+"""Impedance control by inverse dynamics (Sect. 9.3).
+
+With the shared inner loop (9.30) the scheme only chooses the operational acceleration::
+
+    a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h_A]),      x̃ = x_d − x_e
+
+* without force measurement, (9.28): u = B J⁻¹(a − J̇q̇) + n, closed loop (9.29)
+  ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = M_d B_A⁻¹ h_A`` (coupled through B_A⁻¹);
+* with force measurement, (9.30)–(9.31): u = B J⁻¹(a − J̇q̇) + n + Jᵀ h_e, closed loop (9.32)
+  ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A``, a linear, decoupled impedance.
+
+(9.31) is used in its corrected form: its first term is ``M_d ẍ_d`` as in (9.28), not the
+printed ``M_d x̃̈`` (which would make the law circular); see the reference misprint list.
+For the position-only operational space of the planar arm, h_A = f_e and J_A = J.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from .._linalg import mv
+from .._validate import as_gain_matrix
+from ..robots.base import RobotModel
+from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+
+__all__ = ["ImpedanceController", "impedance_acceleration"]
+
+
+@njit(cache=True)
+def impedance_acceleration(x_tilde, x_tilde_dot, xdd_d, h_A, Md_inv, K_D, K_P, use_force):  # pragma: no cover
+    """(9.28)/(9.31): ``a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_A)`` (``− h_A`` only with force).
+
+    Args:
+        x_tilde: x_d − x_e (m,) [m]; x_tilde_dot: ẋ_d − ẋ_e (m,) [m/s]; xdd_d: ẍ_d (m,) [m/s²].
+        h_A: measured equivalent force (m,) [N]; Md_inv: M_d⁻¹ (m, m) [1/kg].
+        K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
+        use_force: subtract h_A (the law with force measurement).
+    """
+    w = mv(K_D, x_tilde_dot) + mv(K_P, x_tilde)
+    if use_force:
+        w = w - h_A
+    return xdd_d + mv(Md_inv, w)
+
+
+@njit(cache=True)
+def impedance_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter; ``p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), use_force]``."""
+    m = x.shape[0]
+    mm = m * m
+    Md_inv = p[0:mm].reshape((m, m))
+    K_D = p[mm : 2 * mm].reshape((m, m))
+    K_P = p[2 * mm : 3 * mm].reshape((m, m))
+    use_force = p[3 * mm] != 0.0
+    a = impedance_acceleration(
+        ref[0:m] - x, ref[m : 2 * m] - xd, ref[2 * m : 3 * m], h, Md_inv, K_D, K_P, use_force
+    )
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, use_force)
+
+
+class ImpedanceController(Controller):
+    """Impedance control, (9.28) without or (9.30)–(9.31) with force measurement.
+
+    Law: ``u = B(q) J⁻¹(q) (a − J̇ q̇) + n(q, q̇) [+ Jᵀ(q) h_e]`` with
+    ``a = ẍ_d + M_d⁻¹ (K_D (ẋ_d − ẋ_e) + K_P (x_d − x_e) [− h_A])``.
+    With force measurement the closed loop is the impedance (9.32)
+    ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A``.
+
+    Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` h_e (m,) [N] (only with
+    ``force_measurement``); ``reference.position/velocity/acceleration`` (m,).
+    Output: torques (n,) [N m].
+
+    Args:
+        robot: the manipulator model (square Jacobian).
+        inertia: M_d, symmetric positive definite (m, m) [kg] (scalar or diagonal allowed).
+        damping: K_D, symmetric positive definite (m, m) [N s/m].
+        stiffness: K_P, symmetric positive definite (m, m) [N/m].
+        force_measurement: use (9.30)–(9.31) (True) or (9.28) (False).
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 3
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        inertia: Any,
+        damping: Any,
+        stiffness: Any,
+        force_measurement: bool = True,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, sample_time)
+        m = self.m
+        self.inertia = as_gain_matrix("inertia", inertia, m)
+        self.damping = as_gain_matrix("damping", damping, m)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, m)
+        self.force_measurement = bool(force_measurement)
+        self._Md_inv = np.linalg.inv(self.inertia)
+        self._Md_inv.flags.writeable = False
+        self._params = np.concatenate(
+            [self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(), [float(self.force_measurement)]]
+        )
+
+    @property
+    def uses_force(self) -> bool:  # type: ignore[override]
+        return self.force_measurement
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.28) or (9.30)–(9.31) for this sample."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        h = measurement.wrench
+        a = impedance_acceleration(
+            reference.position - T.x, reference.velocity - T.xd, reference.acceleration, h,
+            self._Md_inv, self.damping, self.stiffness, self.force_measurement,
+        )
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, self.force_measurement)
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "inertia": self.inertia.tolist(),
+            "damping": self.damping.tolist(),
+            "stiffness": self.stiffness.tolist(),
+            "force_measurement": self.force_measurement,
+        }

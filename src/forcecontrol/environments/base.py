@@ -1,0 +1,60 @@
+"""The environment interface: the end-effector pose and twist in, the contact wrench out."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any, ClassVar
+
+import numpy as np
+
+__all__ = ["Environment"]
+
+
+class Environment(ABC):
+    """An environment that pushes back on the end-effector.
+
+    Convention of the chapter: the wrench returned is h_e, the force the end-effector exerts on
+    the environment, expressed in the base frame. The arm feels ``−h_e`` ((9.1): ``−Jᵀ h_e``).
+    """
+
+    #: id of this environment's branch in the compiled loop (0: not compiled).
+    kind: ClassVar[int] = 0
+    #: operational-space dimension the environment works in.
+    dim: int
+
+    @abstractmethod
+    def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
+        """h_e for the end-effector at x (m,) [m] moving at ẋ (m,) [m/s]; (m,) [N]."""
+
+    @abstractmethod
+    def max_stiffness(self) -> float:
+        """Largest stiffness the environment can show [N/m] (sets the integration step)."""
+
+    def packed(self) -> np.ndarray:
+        """Flat parameters for the compiled loop (layout documented by each subclass)."""
+        return np.zeros(0)
+
+    def acceleration(self, robot, q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joint accelerations of the arm in contact and the contact wrench, for torques u held.
+
+        The default is the elastic case: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)`` with ``h_e = wrench(x, ẋ)``.
+        Rigid environments override this with constrained dynamics (the reaction depends on u).
+
+        Returns:
+            q̈ (n,) [rad/s²] and h_e (m,) [N].
+        """
+        T = robot.terms(q, qd)
+        h = self.wrench(T.x, T.xd)
+        return np.linalg.solve(T.B, u - T.n - T.J.T @ h), h
+
+    def sampled_wrench(self, robot, q: np.ndarray, qd: np.ndarray, u_prev: np.ndarray) -> np.ndarray:
+        """The true contact wrench at a sample instant, given the torque held until then.
+
+        Elastic environments ignore ``u_prev``; a rigid one returns the reaction (9.87) under it.
+        """
+        T = robot.terms(q, qd)
+        return self.wrench(T.x, T.xd)
+
+    def describe(self) -> dict[str, Any]:
+        """Parameters as plain values (for metadata)."""
+        return {"type": type(self).__name__}

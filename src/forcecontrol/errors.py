@@ -1,0 +1,74 @@
+"""The library's error types.
+
+Every error raised on purpose by forcecontrol derives from :class:`ForceControlError`, and each
+subclass also derives from the matching built-in exception, so ``except ValueError`` keeps
+working for callers that do not know this package.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ForceControlError",
+    "DimensionError",
+    "ParameterError",
+    "ScenarioError",
+    "MeasurementError",
+    "SimulationDivergedError",
+    "WorkspaceError",
+    "FrameError",
+    "SingularityError",
+]
+
+
+class ForceControlError(Exception):
+    """Base class of every error raised by forcecontrol."""
+
+
+class DimensionError(ForceControlError, ValueError):
+    """An array has the wrong shape."""
+
+
+class ParameterError(ForceControlError, ValueError):
+    """A parameter has an impossible value (negative gain, indefinite matrix, Ts <= 0, ...)."""
+
+
+class WorkspaceError(ForceControlError, ValueError):
+    """A requested pose is outside the robot's workspace."""
+
+
+class FrameError(ForceControlError, ValueError):
+    """Quantities expressed in different frames were mixed."""
+
+
+class ScenarioError(ForceControlError, ValueError):
+    """A scenario file or dictionary is malformed.
+
+    The message names the file (when there is one), the key, what was expected and what was given.
+    """
+
+
+class MeasurementError(ForceControlError, ValueError):
+    """A measurement handed to a controller is not finite."""
+
+
+class SimulationDivergedError(ForceControlError, RuntimeError):
+    """A simulation stopped because its state diverged.
+
+    Attributes:
+        time: simulated time [s] at which the divergence was detected.
+        step: control-sample index at which it was detected.
+        cause: short machine-readable cause (``"non-finite state"``, ``"runaway"``,
+            ``"singular jacobian"``, ``"non-finite torque"``).
+        q: joint positions at detection [rad], when available.
+    """
+
+    def __init__(self, message: str, *, time: float, step: int, cause: str, q=None) -> None:
+        super().__init__(message)
+        self.time = time
+        self.step = step
+        self.cause = cause
+        self.q = q
+
+
+class SingularityError(ForceControlError, ArithmeticError):
+    """A control law met a singular Jacobian (or another singular matrix) it must invert."""

@@ -1,0 +1,171 @@
+"""References: set-points and straight-line paths with a trapezoidal velocity profile.
+
+A reference signal answers ``at(t)`` with a :class:`~forcecontrol.controllers.base.Reference`
+and ``sample(times)`` with the packed rows the compiled loop reads (same numbers).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from typing import Any
+
+import numpy as np
+
+from ._validate import as_vector, nonnegative_scalar, positive_scalar
+from .controllers.base import REFERENCE_FIELDS, Reference
+from .errors import DimensionError, ParameterError
+
+__all__ = ["ReferenceSignal", "Setpoint", "LinearPath", "trapezoidal_profile"]
+
+
+class ReferenceSignal(ABC):
+    """A reference as a function of time."""
+
+    dim: int
+
+    @abstractmethod
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """Packed reference rows, (len(times), 6 m), blocks as in ``REFERENCE_FIELDS``."""
+
+    def at(self, t: float) -> Reference:
+        """The reference at time t [s]."""
+        row = self.sample(np.array([float(t)]))[0]
+        m = self.dim
+        return Reference(*(row[i * m : (i + 1) * m] for i in range(len(REFERENCE_FIELDS))))
+
+    def describe(self) -> dict[str, Any]:
+        return {"type": type(self).__name__}
+
+
+def _force(force: Any, dim: int) -> np.ndarray:
+    if force is None:
+        return np.zeros(dim)
+    return as_vector("force", force, dim)
+
+
+class Setpoint(ReferenceSignal):
+    """A constant position x_d and a constant force f_d (zero derivatives), stepped at t = 0.
+
+    Args:
+        position: x_d, (m,) [m].
+        force: f_d, (m,) [N]; zero by default.
+    """
+
+    def __init__(self, position: Any, force: Any = None) -> None:
+        self.position = as_vector("position", position)
+        self.dim = int(self.position.shape[0])
+        self.force = _force(force, self.dim)
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        n = len(times)
+        m = self.dim
+        out = np.zeros((n, 6 * m))
+        out[:, 0:m] = self.position
+        out[:, 3 * m : 4 * m] = self.force
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        return {"type": "setpoint", "position": self.position.tolist(), "force": self.force.tolist()}
+
+
+def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Normalised trapezoidal velocity timing law s(t) in [0, 1] (Sect. 4.2.1 of the book).
+
+    Args:
+        t: times since the start [s]; values outside [0, duration] are clamped.
+        duration: t_f [s].
+        accel_time: t_c [s], 0 < t_c <= t_f / 2.
+
+    Returns:
+        s, ṡ, s̈ at each time.
+    """
+    tf, tc = duration, accel_time
+    sdd_c = 1.0 / (tc * (tf - tc))
+    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, tf)
+    s = np.empty_like(t)
+    sd = np.empty_like(t)
+    sdd = np.empty_like(t)
+    a = t < tc
+    c = (t >= tc) & (t <= tf - tc)
+    d = t > tf - tc
+    s[a] = 0.5 * sdd_c * t[a] ** 2
+    sd[a] = sdd_c * t[a]
+    sdd[a] = sdd_c
+    s[c] = sdd_c * tc * (t[c] - 0.5 * tc)
+    sd[c] = sdd_c * tc
+    sdd[c] = 0.0
+    r = tf - t[d]
+    s[d] = 1.0 - 0.5 * sdd_c * r**2
+    sd[d] = sdd_c * r
+    sdd[d] = -sdd_c
+    return s, sd, sdd
+
+
+class LinearPath(ReferenceSignal):
+    """A straight segment from ``start`` to ``end`` with a trapezoidal velocity profile.
+
+    Before ``start_time`` the reference rests at ``start``; after ``start_time + duration`` at
+    ``end``. Velocity and acceleration references are the exact derivatives.
+
+    Args:
+        start: p_i, (m,) [m]; end: p_f, (m,) [m].
+        duration: t_f [s].
+        accel_time: t_c [s], acceleration (and deceleration) time, 0 < t_c <= t_f/2;
+            t_f/5 by default.
+        start_time: when the motion starts [s].
+        force: constant f_d, (m,) [N].
+    """
+
+    def __init__(
+        self,
+        start: Any,
+        end: Any,
+        duration: float,
+        accel_time: float | None = None,
+        start_time: float = 0.0,
+        force: Any = None,
+    ) -> None:
+        self.start = as_vector("start", start)
+        self.dim = int(self.start.shape[0])
+        self.end = as_vector("end", end, self.dim)
+        self.duration = positive_scalar("duration", duration)
+        self.accel_time = self.duration / 5.0 if accel_time is None else positive_scalar("accel_time", accel_time)
+        if self.accel_time > 0.5 * self.duration + 1e-15:
+            raise ParameterError(
+                f"accel_time must be at most duration/2 = {0.5 * self.duration:.6g} s; got {self.accel_time:.6g} s"
+            )
+        self.start_time = nonnegative_scalar("start_time", start_time)
+        self.force = _force(force, self.dim)
+
+    @property
+    def cruise_speed(self) -> float:
+        """Speed along the path during the constant-velocity phase [m/s]."""
+        L = float(np.linalg.norm(self.end - self.start))
+        return L / (self.duration - self.accel_time)
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        times = np.asarray(times, dtype=np.float64)
+        if times.ndim != 1:
+            raise DimensionError(f"times must be a vector; got shape {times.shape}")
+        s, sd, sdd = trapezoidal_profile(times - self.start_time, self.duration, self.accel_time)
+        d = self.end - self.start
+        m = self.dim
+        out = np.zeros((len(times), 6 * m))
+        out[:, 0:m] = self.start + s[:, None] * d
+        out[:, m : 2 * m] = sd[:, None] * d
+        out[:, 2 * m : 3 * m] = sdd[:, None] * d
+        out[:, 3 * m : 4 * m] = self.force
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "type": "linear-path",
+            "start": self.start.tolist(),
+            "end": self.end.tolist(),
+            "duration": self.duration,
+            "accel_time": self.accel_time,
+            "start_time": self.start_time,
+            "force": self.force.tolist(),
+            "length": float(math.dist(self.start, self.end)),
+        }
