@@ -10,14 +10,18 @@ __version__ = "0.1.0"
 from .controllers import (  # noqa: E402
     Controller,
     ImpedanceController,
+    InnerPositionForceController,
+    InnerVelocityForceController,
     JointSpacePD,
     Measurement,
     OperationalSpacePD,
+    ParallelForcePositionController,
     Reference,
 )
 from .environments import ElasticPlane, Environment, LinearSpring  # noqa: E402
 from .errors import (  # noqa: E402
     DimensionError,
+    DriftWarning,
     ForceControlError,
     MeasurementError,
     ParameterError,
@@ -35,6 +39,9 @@ __all__ = [
     "__version__",
     "Controller",
     "ImpedanceController",
+    "InnerPositionForceController",
+    "InnerVelocityForceController",
+    "ParallelForcePositionController",
     "JointSpacePD",
     "OperationalSpacePD",
     "Measurement",
@@ -44,6 +51,7 @@ __all__ = [
     "LinearSpring",
     "ForceControlError",
     "DimensionError",
+    "DriftWarning",
     "ParameterError",
     "ScenarioError",
     "MeasurementError",

@@ -17,6 +17,7 @@ __all__ = [
     "WorkspaceError",
     "FrameError",
     "SingularityError",
+    "DriftWarning",
 ]
 
 
@@ -72,3 +73,11 @@ class SimulationDivergedError(ForceControlError, RuntimeError):
 
 class SingularityError(ForceControlError, ArithmeticError):
     """A control law met a singular Jacobian (or another singular matrix) it must invert."""
+
+
+class DriftWarning(UserWarning):
+    """A force reference the environment cannot balance (outside R(K), Sect. 9.4.3).
+
+    Direct force control reads such a component as a velocity reference and the end-effector
+    drifts along it; along axes where C_F is zero the component is ignored.
+    """

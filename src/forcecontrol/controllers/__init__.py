@@ -2,6 +2,12 @@
 
 from .base import Controller, Measurement, Reference, inverse_dynamics_torque
 from .compliance import JointSpacePD, OperationalSpacePD
+from .force import (
+    InnerPositionForceController,
+    InnerVelocityForceController,
+    ParallelForcePositionController,
+    check_force_reference,
+)
 from .impedance import ImpedanceController
 
 __all__ = [
@@ -12,4 +18,8 @@ __all__ = [
     "OperationalSpacePD",
     "JointSpacePD",
     "ImpedanceController",
+    "InnerPositionForceController",
+    "InnerVelocityForceController",
+    "ParallelForcePositionController",
+    "check_force_reference",
 ]

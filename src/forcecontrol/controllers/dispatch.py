@@ -13,11 +13,12 @@ from numba import njit
 
 from .compliance import joint_pd_packed, os_pd_packed
 from .impedance import impedance_packed
+from .force import inner_position_packed, inner_velocity_packed, parallel_packed
 
 __all__ = ["controller_step", "COMPILED_KINDS"]
 
 #: controller kinds the compiled loop knows.
-COMPILED_KINDS = frozenset({1, 2, 3})
+COMPILED_KINDS = frozenset({1, 2, 3, 4, 5, 6})
 
 
 @njit(cache=True)
@@ -29,6 +30,12 @@ def controller_step(kind, t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s): 
         return joint_pd_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
     if kind == 3:
         return impedance_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
+    if kind == 4:
+        return inner_position_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
+    if kind == 5:
+        return inner_velocity_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
+    if kind == 6:
+        return parallel_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
     u = np.empty(q.shape[0])
     u[:] = np.nan
     return u

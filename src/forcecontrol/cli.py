@@ -1,0 +1,182 @@
+"""The ``forcecontrol`` command: a thin layer over the public API.
+
+Commands: ``list``, ``run NAME|FILE``, ``show NAME``, ``schema`` (and the ones other modules
+register at the bottom of this file).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .errors import ForceControlError
+
+app = typer.Typer(
+    name="forcecontrol",
+    help="Force control of robot manipulators: the chapter's schemes, simulated, analysed and checked.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console(width=None if sys.stdout.isatty() else 132)
+err_console = Console(stderr=True)
+
+
+class Engine(str, Enum):
+    auto = "auto"
+    python = "python"
+    compiled = "compiled"
+
+
+class DataFormat(str, Enum):
+    none = "none"
+    csv = "csv"
+    parquet = "parquet"
+
+
+def _slug(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.]+", "-", s).strip("-").lower() or "case"
+
+
+def _fail(exc: Exception) -> None:
+    err_console.print(f"[bold red]error:[/] {exc}")
+    raise typer.Exit(code=2)
+
+
+@app.command("list")
+def list_command() -> None:
+    """List the built-in scenarios (the chapter's examples and problems)."""
+    from .scenarios import list_scenarios
+
+    table = Table(title="Built-in scenarios")
+    table.add_column("name", style="bold")
+    table.add_column("title")
+    for name, title in list_scenarios().items():
+        table.add_row(name, title)
+    console.print(table)
+
+
+@app.command("show")
+def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario name")]) -> None:
+    """Print a built-in scenario's TOML (a template for your own scenario files)."""
+    from .scenarios import scenario_source
+
+    try:
+        sys.stdout.write(scenario_source(scenario).read_text())
+    except ForceControlError as exc:
+        _fail(exc)
+
+
+@app.command("schema")
+def schema_command() -> None:
+    """Print the scenario file schema: every table, type and key."""
+    from .scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
+    from .scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
+
+    def dump(title: str, fields) -> None:
+        t = Table(title=title, title_justify="left")
+        t.add_column("key", style="bold")
+        t.add_column("kind")
+        t.add_column("required")
+        t.add_column("default")
+        t.add_column("meaning")
+        for k, f in fields.items():
+            t.add_row(k, f.kind, "yes" if f.required else "", "" if f.default is None else repr(f.default), f.doc)
+        console.print(t)
+
+    dump("top level", TOP_FIELDS)
+    dump("[robot]", ROBOT_FIELDS)
+    dump("[sensor]", SENSOR_FIELDS)
+    for label, reg in (("environment", ENVIRONMENTS), ("controller", CONTROLLERS), ("reference", REFERENCES)):
+        for name, spec in reg.items():
+            dump(f"[{label}] type = \"{name}\": {spec.doc}", spec.fields)
+
+
+@app.command("run")
+def run_command(
+    scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    out: Annotated[Path, typer.Option(help="folder for the figure and data files")] = Path("forcecontrol-out"),
+    figure: Annotated[bool, typer.Option(help="write the figure (PNG)")] = True,
+    data: Annotated[DataFormat, typer.Option(help="also write each case's log (+ JSON metadata)")] = DataFormat.none,
+    engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
+    check: Annotated[bool, typer.Option(help="exit with code 1 if an expected value is missed")] = False,
+) -> None:
+    """Simulate a scenario: summary table, figure like the chapter's, optional data files."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .scenarios import load_scenario, run_scenario
+
+    try:
+        scn = load_scenario(scenario)
+        if json_out:
+            run = run_scenario(scn, engine=engine.value)
+        else:
+            with Progress(
+                TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
+                TimeElapsedColumn(), console=err_console, transient=True,
+            ) as bar:
+                task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
+                run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
+    except ForceControlError as exc:
+        _fail(exc)
+        return
+    folder = out / _slug(scn.name)
+    if figure:
+        from .plotting import plot_run
+
+        run.files["figure"] = str(plot_run(run, folder / f"{_slug(scn.name)}.png"))
+    if data is not DataFormat.none:
+        for c in run.cases:
+            d, m = c.result.save(folder / f"{_slug(scn.name)}-{_slug(c.label)}", format=data.value)
+            run.files[f"data:{c.label}"] = str(d)
+            run.files[f"metadata:{c.label}"] = str(m)
+    if json_out:
+        sys.stdout.write(json.dumps(run.to_json(), indent=2) + "\n")
+    else:
+        _print_summary(run)
+    if check and not run.all_checks_pass:
+        raise typer.Exit(code=1)
+
+
+def _print_summary(run) -> None:
+    scn = run.scenario
+    console.print(f"[bold]{scn.title or scn.name}[/]")
+    t = Table(title="Settled values (mean of the last samples) and peak contact force", title_justify="left")
+    for col in ("case", "t_end [s]", "x [m]", "y [m]", "f_x [N]", "f_y [N]", "peak |f| [N]", "engine"):
+        t.add_column(col, justify="right" if col != "case" else "left")
+    for c in run.cases:
+        m = c.metrics
+        t.add_row(
+            c.label, f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", f"{m['fx']:.3f}", f"{m['fy']:.3f}",
+            f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine")),
+        )
+    console.print(t)
+    if any(c.checks for c in run.cases):
+        ct = Table(title="Against the book (or the closed form)", title_justify="left")
+        for col in ("case", "quantity", "simulated", "expected", "tolerance", "rel. error", ""):
+            ct.add_column(col, justify="left" if col in ("case", "quantity") else "right")
+        for c in run.cases:
+            for ch in c.checks:
+                ct.add_row(
+                    c.label, ch["metric"], f"{ch['value']:.6g}", f"{ch['expected']:.6g}", f"±{ch['tolerance']:.3g}",
+                    f"{100 * ch['relative_error']:+.3f} %", "[green]ok[/]" if ch["ok"] else "[red]MISSED[/]",
+                )
+        console.print(ct)
+    for k, v in run.files.items():
+        console.print(f"{k}: {v}")
+
+
+def main() -> None:  # pragma: no cover
+    app()
+
+
+# Commands contributed by other modules are registered below (one line each).

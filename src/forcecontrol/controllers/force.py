@@ -1,0 +1,549 @@
+"""Direct force control by inverse dynamics (Sect. 9.4): three schemes on one inner loop.
+
+Each scheme keeps the shared inner loop (9.30) ``u = B J⁻¹ (a − J̇q̇) + n + Jᵀ h_e`` and only
+chooses the operational acceleration ``a`` (for the position-only operational space J_A = J):
+
+* force control with inner position loop, Fig. 9.6, (9.39) with (9.41)/(9.43)::
+
+      a = M_d⁻¹ (−K_D ẋ_e + K_P (x_F − x_e)),      x_F = C_F (f_d − f_e)
+
+  closed loop (9.40) ``M_d ẍ_e + K_D ẋ_e + K_P x_e = K_P x_F``;
+* force control with inner velocity loop, Fig. 9.7, (9.45) (with the corrected ``J̇ q̇``, not
+  the printed ``J̈ q̇``) and (9.46)::
+
+      a = M_d⁻¹ (−K_D ẋ_e + K_P x_F),              x_F = K_F (f_d − f_e)
+
+  closed loop (9.47) ``M_d ẍ_e + K_D ẋ_e + K_P K_F K x_e = K_P K_F (K x_r + f_d)``;
+* parallel force/position control, Fig. 9.8, (9.48)::
+
+      a = M_d⁻¹ (−K_D ẋ_e + K_P (x̃ + x_F)),       x̃ = x_d − x_e,  x_F = C_F (f_d − f_e)
+
+  equilibrium (9.49) ``x_e = x_d + C_F (K (x_r − x_e) + f_d)``.
+
+C_F is diagonal (9.41). With the PI action (9.43) ``C_F = K_F + K_I ∫ (·) dζ`` the integral is
+an explicit state ξ [m] (one entry per axis), so that ``x_F = K_F (f_d − f_e) + ξ`` and, per
+sample, ``ξ ← ξ + Ts K_I (f_d − f_e)`` after x_F is computed (forward Euler, the same update in
+the Python ``step`` and in the compiled loop). Along an axis with zero C_F entries the force
+loop is open: ``x_F = 0`` there and the inner position loop takes x_e to 0 (the chapter's
+remark after (9.47)), the inner velocity loop takes ẋ_e to 0, the parallel scheme takes x_e to
+x_d (9.49).
+
+A force reference with components outside R(K) is read by these schemes as a velocity reference
+and makes the end-effector drift (Sect. 9.4.3); :func:`check_force_reference` reports it with a
+:class:`~forcecontrol.errors.DriftWarning`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numba import njit
+
+from .._linalg import mv
+from .._validate import as_gain_matrix, readonly
+from ..errors import DimensionError, DriftWarning, ParameterError
+from ..robots.base import RobotModel
+from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+
+__all__ = [
+    "InnerPositionForceController",
+    "InnerVelocityForceController",
+    "ParallelForcePositionController",
+    "force_reference",
+    "integrate_force_error",
+    "inner_position_acceleration",
+    "inner_velocity_acceleration",
+    "parallel_acceleration",
+    "check_force_reference",
+]
+
+
+# --------------------------------------------------------------------------- control laws
+
+
+@njit(cache=True)
+def force_reference(f_d, f_e, K_F, xi):  # pragma: no cover - compiled
+    """(9.41)/(9.43): ``x_F = K_F (f_d − f_e) + ξ`` with ξ the integral action ``K_I ∫ (f_d − f_e)``.
+
+    Args:
+        f_d: desired contact force (m,) [N]; f_e: measured contact force (m,) [N].
+        K_F: diagonal of the proportional force gain (m,) [m/N].
+        xi: integral action ξ (m,) [m] (zeros for a purely proportional C_F).
+
+    Returns:
+        x_F, (m,) [m].
+    """
+    m = f_d.shape[0]
+    x_F = np.empty(m)
+    for i in range(m):
+        x_F[i] = K_F[i] * (f_d[i] - f_e[i]) + xi[i]
+    return x_F
+
+
+@njit(cache=True)
+def integrate_force_error(xi, xi0, f_d, f_e, K_I, limit, Ts):  # pragma: no cover - compiled
+    """(9.43), integral part, one forward-Euler sample: ``ξ ← ξ + Ts K_I (f_d − f_e)`` in place.
+
+    With anti-windup, ξ is clamped to ``[ξ₀ − limit, ξ₀ + limit]`` (ξ₀ its value after ``reset``);
+    a non-positive limit entry means no clamping on that axis.
+
+    Args:
+        xi: integral action ξ (m,) [m], updated in place; xi0: its initial value (m,) [m].
+        f_d, f_e: desired and measured contact force (m,) [N].
+        K_I: diagonal of the integral force gain (m,) [m/(N s)].
+        limit: anti-windup bound (m,) [m]; Ts: sample time [s].
+    """
+    for i in range(xi.shape[0]):
+        v = xi[i] + Ts * K_I[i] * (f_d[i] - f_e[i])
+        if limit[i] > 0.0:
+            lo = xi0[i] - limit[i]
+            hi = xi0[i] + limit[i]
+            if v < lo:
+                v = lo
+            elif v > hi:
+                v = hi
+        xi[i] = v
+
+
+@njit(cache=True)
+def inner_position_acceleration(x_e, xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
+    """(9.39): ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x_F − x_e))``, so that ``y = J⁻¹ (a − J̇ q̇)``.
+
+    Args:
+        x_e: end-effector position (m,) [m]; xd_e: its velocity (m,) [m/s].
+        x_F: position reference from the force loop (m,) [m].
+        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
+    """
+    return mv(Md_inv, mv(K_P, x_F - x_e) - mv(K_D, xd_e))
+
+
+@njit(cache=True)
+def inner_velocity_acceleration(xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
+    """(9.45), with J̇ q̇ (misprint: ``J̈ q̇``): ``a = M_d⁻¹ (−K_D ẋ_e + K_P x_F)``.
+
+    Args:
+        xd_e: end-effector velocity (m,) [m/s]; x_F: ``K_F (f_d − f_e)`` (9.46), (m,) [m].
+        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
+    """
+    return mv(Md_inv, mv(K_P, x_F) - mv(K_D, xd_e))
+
+
+@njit(cache=True)
+def parallel_acceleration(x_d, x_e, xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
+    """(9.48): ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x̃ + x_F))`` with ``x̃ = x_d − x_e``.
+
+    Args:
+        x_d: desired position (m,) [m]; x_e, xd_e: end-effector position [m] and velocity [m/s].
+        x_F: ``C_F (f_d − f_e)`` (m,) [m].
+        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
+    """
+    return mv(Md_inv, mv(K_P, x_d - x_e + x_F) - mv(K_D, xd_e))
+
+
+# --------------------------------------------------------------------------- packed adapters
+#
+# Parameter layout shared by the three adapters (m = task dimension):
+#   p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F diagonal (m), K_I diagonal (m), anti-windup limit (m)]
+# State layout (PI schemes): s = [ξ (m), ξ₀ (m)]; the inner velocity loop has no state.
+
+
+@njit(cache=True)
+def _unpack(p, m):  # pragma: no cover - compiled
+    mm = m * m
+    Md_inv = p[0:mm].reshape((m, m))
+    K_D = p[mm : 2 * mm].reshape((m, m))
+    K_P = p[2 * mm : 3 * mm].reshape((m, m))
+    o = 3 * mm
+    return Md_inv, K_D, K_P, p[o : o + m], p[o + m : o + 2 * m], p[o + 2 * m : o + 3 * m]
+
+
+@njit(cache=True)
+def inner_position_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of (9.39)+(9.43) (controller kind 4); layout above, ``ref`` packed rows."""
+    m = x.shape[0]
+    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
+    f_d = ref[3 * m : 4 * m]
+    xi = s[0:m]
+    x_F = force_reference(f_d, h, K_F, xi)
+    integrate_force_error(xi, s[m : 2 * m], f_d, h, K_I, limit, dt)
+    a = inner_position_acceleration(x, xd, x_F, Md_inv, K_D, K_P)
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
+
+
+@njit(cache=True)
+def inner_velocity_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of (9.45)+(9.46) (controller kind 5); layout above, no state."""
+    m = x.shape[0]
+    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
+    x_F = force_reference(ref[3 * m : 4 * m], h, K_F, np.zeros(m))
+    a = inner_velocity_acceleration(xd, x_F, Md_inv, K_D, K_P)
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
+
+
+@njit(cache=True)
+def parallel_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of (9.48)+(9.43) (controller kind 6); layout above."""
+    m = x.shape[0]
+    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
+    f_d = ref[3 * m : 4 * m]
+    xi = s[0:m]
+    x_F = force_reference(f_d, h, K_F, xi)
+    integrate_force_error(xi, s[m : 2 * m], f_d, h, K_I, limit, dt)
+    a = parallel_acceleration(ref[0:m], x, xd, x_F, Md_inv, K_D, K_P)
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
+    """The diagonal of a diagonal, non-negative (m, m) gain given as scalar, (m,) or (m, m)."""
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be a non-negative scalar, ({m},) vector or diagonal ({m}, {m}) matrix [{unit}]; got {value!r}") from exc
+    if a.ndim == 0:
+        d = np.full(m, float(a))
+    elif a.shape == (m,):
+        d = a.copy()
+    elif a.shape == (m, m):
+        if np.any(a - np.diag(np.diag(a))):
+            raise ParameterError(
+                f"{name} must be diagonal (C_F is a diagonal matrix, (9.41)); got off-diagonal "
+                f"entries in {a.tolist()}"
+            )
+        d = np.diag(a).copy()
+    else:
+        raise DimensionError(
+            f"{name} must be a scalar, a ({m},) vector or a diagonal ({m}, {m}) matrix [{unit}]; "
+            f"got shape {a.shape}"
+        )
+    if not np.all(np.isfinite(d)):
+        raise ParameterError(f"{name} must be finite; got {d.tolist()}")
+    if np.any(d < 0.0):
+        raise ParameterError(f"{name} must be non-negative on every axis [{unit}]; got {d.tolist()}")
+    return readonly(d)
+
+
+def _limit(value: Any, m: int) -> np.ndarray:
+    """The anti-windup bound (m,) [m]; zeros (no clamping) for None."""
+    if value is None:
+        return np.zeros(m)
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim == 0:
+        a = np.full(m, float(a))
+    if a.shape != (m,):
+        raise DimensionError(f"integral_limit must be a scalar or have shape ({m},) [m]; got shape {a.shape}")
+    if not np.all(np.isfinite(a)) or np.any(a <= 0.0):
+        raise ParameterError(f"integral_limit must be positive and finite [m]; got {a.tolist()}")
+    return a.copy()
+
+
+def check_force_reference(
+    force: Any,
+    environment_stiffness: Any,
+    force_axes: Any,
+    *,
+    integral: bool = True,
+    tolerance: float = 1e-9,
+) -> bool:
+    """Warn when the force reference f_d is not consistent with the environment (Sect. 9.4.3).
+
+    A component of f_d outside R(K) cannot be balanced by the environment: along an axis where
+    the force loop acts (non-zero C_F) it is read as a velocity reference and the end-effector
+    drifts; along an axis where C_F is zero the scheme ignores it. Both are reported with a
+    :class:`~forcecontrol.errors.DriftWarning`.
+
+    Args:
+        force: f_d, (m,) [N].
+        environment_stiffness: K of (9.38), symmetric positive semi-definite (m, m) [N/m].
+        force_axes: (m,) booleans, True where C_F has a non-zero entry.
+        integral: the force loop has integral action or an integrating inner loop (all three
+            chapter schemes do along their force axes).
+        tolerance: relative size [–] below which a component counts as zero.
+
+    Returns:
+        True when f_d is consistent (no warning issued).
+    """
+    f = np.asarray(force, dtype=np.float64).reshape(-1)
+    m = f.shape[0]
+    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    axes = np.asarray(force_axes, dtype=bool).reshape(-1)
+    if axes.shape != (m,):
+        raise DimensionError(f"force_axes must have shape ({m},); got shape {axes.shape}")
+    scale = max(1.0, float(np.linalg.norm(f)))
+    P_range = K @ np.linalg.pinv(K, rcond=1e-12) if np.any(K) else np.zeros((m, m))
+    outside = f - P_range @ f
+    ok = True
+    acted = np.where(axes, outside, 0.0)
+    if np.linalg.norm(acted) > tolerance * scale:
+        ok = False
+        what = "drifts (the component acts as a velocity reference)" if integral else "is offset"
+        warnings.warn(
+            f"force reference f_d = {f.tolist()} N has components {np.round(acted, 9).tolist()} N "
+            f"outside the range of the environment stiffness K along force-controlled axes "
+            f"{np.flatnonzero(axes).tolist()}: the end-effector {what} there (Sect. 9.4.3); "
+            f"plan f_d inside R(K)",
+            DriftWarning,
+            stacklevel=2,
+        )
+    ignored = np.where(axes, 0.0, f)
+    if np.linalg.norm(ignored) > tolerance * scale:
+        ok = False
+        warnings.warn(
+            f"force reference f_d = {f.tolist()} N has components {np.round(ignored, 9).tolist()} N "
+            f"along axes {np.flatnonzero(~axes).tolist()} where C_F is zero: the scheme ignores "
+            f"them and that force is not controlled",
+            DriftWarning,
+            stacklevel=2,
+        )
+    return ok
+
+
+# --------------------------------------------------------------------------- classes
+
+
+class _DirectForceController(Controller):
+    """Shared parts: motion gains (M_d, K_D, K_P), diagonal C_F, integral state and checks."""
+
+    _has_integral: ClassVar[bool] = True
+    _default_start: ClassVar[str] = "tip"
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        inertia: Any,
+        damping: Any,
+        stiffness: Any,
+        force_gain: Any,
+        integral_gain: Any = 0.0,
+        *,
+        integral_limit: Any = None,
+        integrator_start: Literal["tip", "zero"] | None = None,
+        environment_stiffness: Any = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, sample_time)
+        m = self.m
+        self.inertia = as_gain_matrix("inertia", inertia, m)
+        self.damping = as_gain_matrix("damping", damping, m)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, m)
+        self.force_gain = _diagonal_gain("force_gain", force_gain, m, "m/N")
+        if self._has_integral:
+            self.integral_gain = _diagonal_gain("integral_gain", integral_gain, m, "m/(N s)")
+        else:
+            self.integral_gain = readonly(np.zeros(m))
+        if not np.any(self.force_gain) and not np.any(self.integral_gain):
+            raise ParameterError(
+                "force_gain and integral_gain are zero on every axis: C_F must act on at least one "
+                f"axis; got force_gain {self.force_gain.tolist()}, integral_gain {self.integral_gain.tolist()}"
+            )
+        self.integral_limit = readonly(_limit(integral_limit, m))
+        start = self._default_start if integrator_start is None else integrator_start
+        if start not in ("tip", "zero"):
+            raise ParameterError(f"integrator_start must be 'tip' or 'zero'; got {integrator_start!r}")
+        self.integrator_start = start
+        self.environment_stiffness = (
+            None if environment_stiffness is None
+            else as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+        )
+        self._Md_inv = readonly(np.linalg.inv(self.inertia))
+        self._params = np.concatenate([
+            self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
+            self.force_gain, self.integral_gain, self.integral_limit,
+        ])
+        self.state = np.zeros(2 * m if self._has_integral else 0)
+
+    @property
+    def force_axes(self) -> np.ndarray:
+        """(m,) booleans: axes where C_F acts (non-zero K_F or K_I)."""
+        return (self.force_gain != 0.0) | (self.integral_gain != 0.0)
+
+    @property
+    def integral_action(self) -> np.ndarray:
+        """The integral action ξ = K_I ∫ (f_d − f_e) [m] (plus its initial value), (m,)."""
+        return self.state[: self.m].copy() if self._has_integral else np.zeros(self.m)
+
+    def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """What x_F must equal at t = 0 for the chosen start (overridden by the parallel scheme)."""
+        return self.robot.forward_kinematics(measurement.q)
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """Reset the integral action ξ and check the force reference.
+
+        With ``integrator_start="tip"`` and a measurement, ξ₀ is chosen on every axis with
+        integral action so that x_F (inner position loop) or x̃ + x_F (parallel scheme) equals
+        the tip position at t = 0: the arm starts at rest and only the force step excites the loop.
+        With ``"zero"`` (or without a measurement) ξ₀ = 0. Axes without integral action keep ξ = 0
+        (there x_F = K_F (f_d − f_e), as the chapter has it).
+
+        Warns:
+            DriftWarning: the reference force has components the environment cannot balance
+                (needs ``environment_stiffness``) or along axes where C_F is zero.
+        """
+        m = self.m
+        self.state[:] = 0.0
+        if reference is not None:
+            f_d = np.asarray(reference.force, dtype=np.float64)
+            if self.environment_stiffness is not None:
+                check_force_reference(f_d, self.environment_stiffness, self.force_axes)
+            elif np.any(np.where(self.force_axes, 0.0, f_d)):
+                check_force_reference(f_d, np.eye(m), self.force_axes)
+        if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
+            return
+        f_d = np.asarray(reference.force, dtype=np.float64)
+        target = self._position_offset(measurement, reference)
+        xi0 = target - self.force_gain * (f_d - np.asarray(measurement.wrench, dtype=np.float64))
+        xi0 = np.where(self.integral_gain > 0.0, xi0, 0.0)
+        self.state[:m] = xi0
+        self.state[m:] = xi0
+
+    def gains(self) -> dict[str, Any]:
+        out = {
+            "inertia": self.inertia.tolist(),
+            "damping": self.damping.tolist(),
+            "stiffness": self.stiffness.tolist(),
+            "force_gain": self.force_gain.tolist(),
+        }
+        if self._has_integral:
+            out["integral_gain"] = self.integral_gain.tolist()
+            out["integral_limit"] = self.integral_limit.tolist()
+            out["integrator_start"] = self.integrator_start
+        return out
+
+    def _pi_force_reference(self, measurement: Measurement, reference: Reference) -> np.ndarray:
+        m = self.m
+        f_d = np.asarray(reference.force, dtype=np.float64)
+        h = np.asarray(measurement.wrench, dtype=np.float64)
+        xi = self.state[0:m]
+        x_F = force_reference(f_d, h, self.force_gain, xi)
+        integrate_force_error(xi, self.state[m : 2 * m], f_d, h, self.integral_gain, self.integral_limit, self.sample_time)
+        return x_F
+
+
+class InnerPositionForceController(_DirectForceController):
+    """Force control with inner position loop (Fig. 9.6): (9.39) with x_F = C_F (f_d − f_e) (9.41), (9.43).
+
+    Law: ``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h_e`` (9.30) with
+    ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x_F − x_e))`` (9.39),
+    ``x_F = K_F (f_d − f_e) + K_I ∫ (f_d − f_e) dζ`` (PI, (9.43)).
+    Closed loop per axis with the environment (9.38) (corrected (9.42), third order):
+    ``m s³ + k_D s² + k_P (1 + k_F k_x) s + k_P k_x k_I``; equilibrium f_e = f_d, (9.44).
+
+    Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` f_e (m,) [N];
+    ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m].
+    State: ``state = [ξ (m), ξ₀ (m)]`` [m], ξ the integral action.
+
+    Args:
+        robot: the manipulator model (square Jacobian).
+        inertia: M_d, symmetric positive definite (m, m) [kg] (scalar or diagonal allowed).
+        damping: K_D, symmetric positive definite (m, m) [N s/m].
+        stiffness: K_P, symmetric positive definite (m, m) [N/m].
+        force_gain: K_F, diagonal of C_F's proportional part, scalar, (m,) or diagonal (m, m) [m/N], >= 0.
+        integral_gain: K_I, diagonal of C_F's integral part, same forms [m/(N s)], >= 0.
+        integral_limit: anti-windup bound on ξ − ξ₀ [m], scalar or (m,); None = no clamping.
+        integrator_start: ``"tip"`` (default): ξ₀ makes x_F equal the tip position at t = 0;
+            ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0 along integral axes).
+        environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
+        sample_time: Ts [s].
+
+    Raises:
+        DimensionError: a gain has the wrong shape. ParameterError: negative, non-diagonal or
+        all-zero C_F, indefinite motion gains.
+    """
+
+    kind: ClassVar[int] = 4
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.30), (9.39), (9.43) for this sample; advances ξ by one sample."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        x_F = self._pi_force_reference(measurement, reference)
+        a = inner_position_acceleration(T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, np.asarray(measurement.wrench, dtype=np.float64), True)
+        return self._check_output(t, u, measurement)
+
+
+class InnerVelocityForceController(_DirectForceController):
+    """Force control with inner velocity loop (Fig. 9.7): (9.45) (J̇ q̇ corrected) with x_F = K_F (f_d − f_e) (9.46).
+
+    Law: ``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h_e`` (9.30) with
+    ``a = M_d⁻¹ (−K_D ẋ_e + K_P K_F (f_d − f_e))``.
+    Closed loop (9.47): ``M_d ẍ_e + K_D ẋ_e + K_P K_F K x_e = K_P K_F (K x_r + f_d)``, second order;
+    equilibrium f_e = f_d (9.44) with a purely proportional C_F (K_P and K_F enter as K_P K_F).
+
+    Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` f_e (m,) [N];
+    ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m]. No state.
+
+    Args:
+        robot: the manipulator model (square Jacobian).
+        inertia: M_d (m, m) [kg]; damping: K_D (m, m) [N s/m]; stiffness: K_P (m, m) [N/m].
+        force_gain: K_F = C_F, scalar, (m,) or diagonal (m, m) [m/N], >= 0, not all zero.
+        environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 5
+    _has_integral: ClassVar[bool] = False
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        inertia: Any,
+        damping: Any,
+        stiffness: Any,
+        force_gain: Any,
+        *,
+        environment_stiffness: Any = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(
+            robot, inertia, damping, stiffness, force_gain, 0.0,
+            environment_stiffness=environment_stiffness, sample_time=sample_time,
+        )
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.30), (9.45), (9.46) for this sample."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        h = np.asarray(measurement.wrench, dtype=np.float64)
+        x_F = force_reference(np.asarray(reference.force, dtype=np.float64), h, self.force_gain, np.zeros(self.m))
+        a = inner_velocity_acceleration(T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, True)
+        return self._check_output(t, u, measurement)
+
+
+class ParallelForcePositionController(_DirectForceController):
+    """Parallel force/position control (Fig. 9.8): (9.48) with x_F = C_F (f_d − f_e) (9.41), (9.43).
+
+    Law: ``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h_e`` (9.30) with
+    ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x̃ + x_F))``, ``x̃ = x_d − x_e`` (9.48),
+    ``x_F = K_F (f_d − f_e) + K_I ∫ (f_d − f_e) dζ``.
+    Equilibrium (9.49): ``x_e = x_d + C_F (K (x_r − x_e) + f_d)``: x_d is reached along axes
+    outside R(K); with integral action f_e = f_d along the force axes. Same characteristic
+    polynomial as the inner position loop.
+
+    Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` f_e (m,) [N];
+    ``reference.position`` x_d (m,) [m]; ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m].
+    State: ``state = [ξ (m), ξ₀ (m)]`` [m].
+
+    Args: as :class:`InnerPositionForceController`, except that ``integrator_start`` defaults to
+        ``"zero"`` (x_F is a correction about x_d; the x_d step drives the transient, Fig. 9.11);
+        ``"tip"`` chooses ξ₀ so that x_d + x_F equals the tip position at t = 0.
+    """
+
+    kind: ClassVar[int] = 6
+    _default_start: ClassVar[str] = "zero"
+
+    def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
+        return self.robot.forward_kinematics(measurement.q) - np.asarray(reference.position, dtype=np.float64)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.30), (9.48), (9.43) for this sample; advances ξ by one sample."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        x_F = self._pi_force_reference(measurement, reference)
+        a = parallel_acceleration(
+            np.asarray(reference.position, dtype=np.float64), T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness
+        )
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, np.asarray(measurement.wrench, dtype=np.float64), True)
+        return self._check_output(t, u, measurement)

@@ -1,0 +1,436 @@
+"""Loading, validating and running scenarios."""
+
+from __future__ import annotations
+
+import copy
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ForceControlError, ScenarioError
+from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
+from ..sensors import ForceSensor
+from ..simulation import SimulationResult, simulate
+from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, Field, check_table, check_value
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "Scenario",
+    "CaseSpec",
+    "CaseResult",
+    "ScenarioRun",
+    "load_scenario",
+    "list_scenarios",
+    "scenario_source",
+    "run_scenario",
+    "register_metric",
+    "register_analysis",
+    "METRICS",
+]
+
+TOP_FIELDS: dict[str, Field] = {
+    "name": Field("str", True, doc="scenario name"),
+    "title": Field("str", default="", doc="one-line title"),
+    "description": Field("str", default="", doc="what the scenario shows"),
+    "duration": Field("number", True, doc="simulated time [s]"),
+    "sample_time": Field("number", default=1e-3, doc="control period Ts [s]"),
+    "substeps": Field("int", doc="RK4 steps per sample (automatic by default)"),
+    "settle_window": Field("number", default=0.1, doc="window for settled values [s]"),
+    "tolerance": Field("number", default=0.005, doc="relative tolerance against expected values"),
+    "robot": Field("table", True),
+    "environment": Field("table", True),
+    "controller": Field("table", True),
+    "reference": Field("table", True),
+    "sensor": Field("table", default=None),
+    "figure": Field("table", default=None),
+    "expected": Field("table", default=None),
+    "case": Field("table", default=None),  # checked separately (array of tables)
+}
+
+ROBOT_FIELDS: dict[str, Field] = {
+    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r")),
+    "q0": Field("vector", doc="initial joint positions [rad]"),
+    "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),
+    "elbow": Field("str", default="up", choices=("up", "down")),
+    "qd0": Field("vector", doc="initial joint velocities [rad/s]"),
+    "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
+}
+
+SENSOR_FIELDS: dict[str, Field] = {
+    "noise_std": Field("gain", default=0.0, doc="noise standard deviation [N]"),
+    "bias": Field("gain", default=0.0, doc="constant bias [N]"),
+    "cutoff": Field("number", doc="first-order low-pass cut-off [Hz]"),
+    "seed": Field("int", default=0),
+}
+
+FIGURE_FIELDS: dict[str, Field] = {
+    "title": Field("str", default=""),
+    "signals": Field("strlist", default=["x", "fx"], doc="columns to plot against time"),
+    "t_max": Field("number", doc="time axis limit [s]"),
+}
+
+CASE_FIELDS = ("label", "expected")
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One case of a scenario: its label, full configuration and expected values."""
+
+    label: str
+    config: dict[str, Any]
+    expected: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: one or more cases sharing a figure."""
+
+    name: str
+    title: str
+    description: str
+    source: str
+    cases: tuple[CaseSpec, ...]
+    figure: dict[str, Any] | None
+    raw: dict[str, Any] = field(repr=False, default_factory=dict)
+
+
+@dataclass
+class CaseResult:
+    """A simulated case with its settled metrics, analysis and comparisons."""
+
+    label: str
+    result: SimulationResult
+    metrics: dict[str, float]
+    analysis: dict[str, Any]
+    checks: list[dict[str, Any]]
+
+
+@dataclass
+class ScenarioRun:
+    """The results of all cases of a scenario."""
+
+    scenario: Scenario
+    cases: list[CaseResult]
+    files: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def all_checks_pass(self) -> bool:
+        """True when every expected value is met within tolerance."""
+        return all(c["ok"] for case in self.cases for c in case.checks)
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...)."""
+        return {
+            "scenario": self.scenario.name,
+            "title": self.scenario.title,
+            "source": self.scenario.source,
+            "cases": [
+                {
+                    "label": c.label,
+                    "final": c.result.final(),
+                    "peak_contact_force_norm": c.result.peak_contact_force_norm(),
+                    "settled": c.metrics,
+                    "analysis": c.analysis,
+                    "checks": c.checks,
+                    "engine": c.result.metadata.get("engine"),
+                }
+                for c in self.cases
+            ],
+            "all_checks_pass": self.all_checks_pass,
+            "files": self.files,
+        }
+
+
+# ----------------------------------------------------------------------------- metrics & analysis
+
+#: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
+METRICS: dict[str, Callable[[SimulationResult, dict[str, Any], float], float]] = {}
+#: list of (predicate(parts), fn(parts) -> dict) giving analytic predictions for a case.
+_ANALYSES: list[tuple[Callable[[dict[str, Any]], bool], Callable[[dict[str, Any]], dict[str, Any]]]] = []
+
+
+def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], float], float]) -> None:
+    """Add a settled metric usable in ``expected`` tables."""
+    METRICS[name] = fn
+
+
+def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
+    """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
+    _ANALYSES.append((applies, fn))
+
+
+def _column_metric(col: str):
+    def fn(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
+        cols = res.columns()
+        sel = res.t >= res.t[-1] - window - 1e-12
+        return float(np.mean(cols[col][sel]))
+
+    return fn
+
+
+for _c in ("x", "y", "z", "vx", "vy", "fx", "fy", "fz"):
+    register_metric(_c, _column_metric(_c))
+
+
+def _penetration(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
+    env = parts["environment"]
+    if not hasattr(env, "penetration"):
+        raise ScenarioError("metric 'penetration' needs an elastic plane")
+    sel = res.t >= res.t[-1] - window - 1e-12
+    return float(np.mean([env.penetration(x) for x in res.x[sel]]))
+
+
+register_metric("penetration", _penetration)
+register_metric("contact_force_norm", lambda r, p, w: float(np.linalg.norm(r.settled("wrench", w))))
+register_metric("peak_contact_force_norm", lambda r, p, w: r.peak_contact_force_norm())
+
+# ----------------------------------------------------------------------------- loading
+
+
+def _builtin_dir() -> Path:
+    return Path(str(resources.files("forcecontrol.scenarios")))
+
+
+def list_scenarios() -> dict[str, str]:
+    """Built-in scenarios: name -> title."""
+    out = {}
+    for p in sorted(_builtin_dir().glob("*.toml")):
+        with p.open("rb") as f:
+            data = tomllib.load(f)
+        out[data.get("name", p.stem)] = data.get("title", "")
+    return out
+
+
+def scenario_source(name_or_path: str | Path) -> Path:
+    """The TOML file of a built-in scenario name or a path."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise ScenarioError(f"scenario file {str(p)!r} does not exist")
+        return p
+    builtin = _builtin_dir() / f"{name_or_path}.toml"
+    if builtin.exists():
+        return builtin
+    names = ", ".join(list_scenarios())
+    raise ScenarioError(f"unknown scenario {str(name_or_path)!r}; expected a built-in name ({names}) or a .toml file")
+
+
+def _set_dotted(where: str, cfg: dict[str, Any], key: str, value: Any) -> None:
+    parts = key.split(".")
+    node = cfg
+    for p in parts[:-1]:
+        if p not in node or not isinstance(node[p], dict):
+            raise ScenarioError(f"{where}: override '{key}' names no table '{p}'")
+        node = node[p]
+    node[parts[-1]] = value
+
+
+def _flatten(prefix: str, d: dict[str, Any], out: dict[str, Any]) -> None:
+    for k, v in d.items():
+        if isinstance(v, dict) and k not in ("expected",):
+            _flatten(f"{prefix}{k}.", v, out)
+        else:
+            out[prefix + k] = v
+
+
+def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
+    """Load and validate a scenario from a built-in name, a TOML path or a dict.
+
+    Every case is fully checked (keys, types, and by building its parts) before anything runs.
+
+    Raises:
+        ScenarioError: with the file, the key, what was expected and what was given.
+    """
+    if isinstance(source, dict):
+        data, where = copy.deepcopy(source), "<dict>"
+    else:
+        path = scenario_source(source)
+        where = str(path)
+        try:
+            with path.open("rb") as f:
+                data = tomllib.load(f)
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
+    cases_raw = data.pop("case", None)
+    top = check_table(where, data, TOP_FIELDS)
+    if cases_raw is None:
+        cases_raw = [{}]
+    if not isinstance(cases_raw, list) or not cases_raw:
+        raise ScenarioError(f"{where}: key 'case' must be a non-empty array of tables ([[case]]); got {cases_raw!r}")
+    base = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("name", "title", "description", "figure")}
+    cases = []
+    for i, c in enumerate(cases_raw):
+        cw = f"{where}: [[case]] #{i + 1}"
+        if not isinstance(c, dict):
+            raise ScenarioError(f"{cw}: must be a table; got {c!r}")
+        cfg = copy.deepcopy(base)
+        label = c.get("label", f"case {i + 1}")
+        if not isinstance(label, str):
+            raise ScenarioError(f"{cw}: key 'label' must be a string; got {label!r}")
+        flat: dict[str, Any] = {}
+        _flatten("", {k: v for k, v in c.items() if k not in CASE_FIELDS}, flat)
+        for k, v in flat.items():
+            _set_dotted(cw, cfg, k, v)
+        expected = dict(top["expected"] or {})
+        expected.update(c.get("expected", {}) or {})
+        spec = CaseSpec(label, cfg, expected)
+        build_case(spec, where=cw)  # validate now, before anything runs
+        cases.append(spec)
+    fig = top["figure"]
+    if fig is not None:
+        fig = check_table(f"{where}: [figure]", fig, FIGURE_FIELDS)
+    return Scenario(
+        name=top["name"], title=top["title"], description=top["description"], source=where,
+        cases=tuple(cases), figure=fig, raw=data,
+    )
+
+
+def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]):
+    tw = f"{where}: [{table_name}]"
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{tw}: must be a table; got {table!r}")
+    kind = table.get("type")
+    if kind not in registry:
+        raise ScenarioError(f"{tw}: key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
+    spec = registry[kind]
+    params = check_table(f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
+    try:
+        return spec.build(params, ctx)
+    except ScenarioError:
+        raise
+    except ForceControlError as exc:
+        raise ScenarioError(f"{tw} (type '{kind}'): {exc}") from exc
+
+
+def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
+    """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
+    cfg = case.config
+    rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
+    try:
+        if rt["model"] == "chapter-arm" and rt["parameters"]:
+            raise ScenarioError(f"{where}: [robot]: key 'parameters' needs model = 'planar-2r'")
+        params = PlanarTwoLinkParameters(**(rt["parameters"] or {}))
+        robot = PlanarTwoLink(params)
+    except TypeError as exc:
+        raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+    try:
+        if rt["q0"] is not None and rt["start_position"] is not None:
+            raise ScenarioError(f"{where}: [robot]: give q0 or start_position, not both")
+        if rt["q0"] is not None:
+            q0 = np.array(rt["q0"], dtype=float)
+            if q0.shape != (robot.nq,):
+                raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
+        elif rt["start_position"] is not None:
+            q0 = robot.inverse_kinematics(rt["start_position"], elbow=rt["elbow"])
+        else:
+            raise ScenarioError(f"{where}: [robot]: missing key 'q0' or 'start_position'")
+    except ScenarioError:
+        raise
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [robot]: {exc}") from exc
+    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
+    if Ts <= 0:
+        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
+    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
+    if duration <= 0:
+        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
+    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts}
+    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx)
+    ctx["environment"] = env
+    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
+    ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
+    st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
+    try:
+        sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
+        sensor.alpha(Ts)
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
+    for name, part in (("environment", env), ("reference", ref)):
+        if part.dim != robot.task_dim:
+            raise ScenarioError(
+                f"{where}: [{name}] must be {robot.task_dim}-dimensional like the robot's task space; got {part.dim}"
+            )
+    for key in case.expected:
+        if key not in METRICS and not key.startswith("analysis."):
+            raise ScenarioError(
+                f"{where}: [expected]: unknown metric '{key}'; expected one of {', '.join(sorted(METRICS))} "
+                "or 'analysis.<name>'"
+            )
+    substeps = cfg.get("substeps")
+    return {
+        "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor,
+        "q0": q0, "qd0": rt["qd0"], "duration": duration, "substeps": substeps,
+        "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
+    }
+
+
+def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
+    if isinstance(spec, dict):
+        want, tol = float(spec["value"]), float(spec.get("tol", rel_tol * abs(float(spec["value"]))))
+    else:
+        want, tol = float(spec), rel_tol * abs(float(spec))
+    tol = max(tol, 1e-12)
+    err = value - want
+    return {
+        "metric": name, "value": value, "expected": want, "tolerance": tol,
+        "relative_error": err / want if want else err, "ok": bool(abs(err) <= tol),
+    }
+
+
+def run_scenario(
+    scenario: Scenario | str | Path,
+    *,
+    engine: str = "auto",
+    progress: Callable[[int, int, str], None] | None = None,
+) -> ScenarioRun:
+    """Simulate every case of a scenario and compare with its expected values.
+
+    Args:
+        scenario: a loaded scenario, a built-in name or a TOML path.
+        engine: simulator engine (``"auto"``, ``"python"``, ``"compiled"``).
+        progress: called as ``progress(done, total, label)`` after each case.
+    """
+    scn = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    out = []
+    for i, case in enumerate(scn.cases):
+        parts = build_case(case, where=f"{scn.source}: [[case]] #{i + 1}")
+        res = simulate(
+            parts["robot"], parts["environment"], parts["controller"], parts["reference"],
+            q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"],
+            substeps=parts["substeps"], engine=engine, label=case.label,  # type: ignore[arg-type]
+            metadata={"scenario": scn.name, "source": scn.source},
+        )
+        window = parts["settle_window"]
+        metrics = {}
+        for name in ("x", "y", "fx", "fy"):
+            metrics[name] = METRICS[name](res, parts, window)
+        analysis: dict[str, Any] = {}
+        for applies, fn in _ANALYSES:
+            if applies(parts):
+                analysis.update(fn(parts))
+        checks = []
+        for key, spec in case.expected.items():
+            if key.startswith("analysis."):
+                sub = key.split(".", 1)[1]
+                if sub not in analysis:
+                    raise ScenarioError(f"{scn.source}: expected '{key}' but no analysis gives '{sub}' for this case")
+                value = float(analysis[sub])
+            else:
+                value = METRICS[key](res, parts, window)
+                metrics[key] = value
+            checks.append(_check(key, value, spec, parts["tolerance"]))
+        out.append(CaseResult(case.label, res, metrics, analysis, checks))
+        if progress is not None:
+            progress(i + 1, len(scn.cases), case.label)
+    return ScenarioRun(scn, out)

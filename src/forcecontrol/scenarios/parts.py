@@ -1,0 +1,200 @@
+"""Registrations of the foundation's parts: environments, controllers and references."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ..controllers import ImpedanceController, JointSpacePD, OperationalSpacePD
+from ..environments import ElasticPlane, LinearSpring
+from ..trajectories import LinearPath, Setpoint
+from .schema import Field, register_controller, register_environment, register_reference
+
+# ----------------------------------------------------------------------------- environments
+
+
+def _plane(p: dict[str, Any], ctx: dict[str, Any]) -> ElasticPlane:
+    if p["angle"] is not None:
+        if p["normal"] is not None:
+            from ..errors import ParameterError
+
+            raise ParameterError("give either normal or angle, not both")
+        return ElasticPlane.inclined(math.radians(p["angle"]), p["point"], p["stiffness"], p["damping"])
+    if p["normal"] is None:
+        from ..errors import ParameterError
+
+        raise ParameterError("normal (or angle) is required for an elastic plane")
+    return ElasticPlane(p["point"], p["normal"], p["stiffness"], p["damping"])
+
+
+register_environment(
+    "elastic-plane",
+    {
+        "point": Field("vector", True, doc="a point of the undeformed surface [m]"),
+        "normal": Field("vector", doc="outward normal, from the environment into free space"),
+        "angle": Field("number", doc="planar alternative to normal: the plane's angle to x0 [deg]"),
+        "stiffness": Field("number", True, doc="stiffness along the normal [N/m]"),
+        "damping": Field("number", default=0.0, doc="damping along the normal [N s/m]"),
+    },
+    _plane,
+    "one-sided frictionless elastic plane (line in 2-D)",
+)
+
+register_environment(
+    "linear-spring",
+    {
+        "stiffness": Field("gain", True, doc="K, symmetric PSD [N/m]"),
+        "rest_position": Field("vector", True, doc="x_r [m]"),
+        "damping": Field("gain", default=0.0, doc="D, symmetric PSD [N s/m]"),
+    },
+    lambda p, ctx: LinearSpring(p["stiffness"], p["rest_position"], p["damping"]),
+    "bilateral linear spring h = K (x − x_r) + D ẋ",
+)
+
+# ----------------------------------------------------------------------------- controllers
+
+register_controller(
+    "impedance",
+    {
+        "inertia": Field("gain", True, doc="M_d [kg]"),
+        "damping": Field("gain", True, doc="K_D [N s/m]"),
+        "stiffness": Field("gain", True, doc="K_P [N/m]"),
+        "force_measurement": Field("bool", default=True, doc="(9.30)-(9.31) if true, (9.28) if false"),
+    },
+    lambda p, ctx: ImpedanceController(
+        ctx["robot"], p["inertia"], p["damping"], p["stiffness"], p["force_measurement"], ctx["sample_time"]
+    ),
+    "impedance control by inverse dynamics (9.28) / (9.30)-(9.31)",
+)
+
+register_controller(
+    "operational-pd",
+    {
+        "stiffness": Field("gain", True, doc="K_P [N/m]"),
+        "damping": Field("gain", True, doc="K_D [N s/m]"),
+    },
+    lambda p, ctx: OperationalSpacePD(ctx["robot"], p["stiffness"], p["damping"], ctx["sample_time"]),
+    "active compliance: operational-space PD with gravity compensation (8.110)",
+)
+
+
+def _joint_pd(p: dict[str, Any], ctx: dict[str, Any]) -> JointSpacePD:
+    robot = ctx["robot"]
+    qd = p["joint_setpoint"]
+    if qd is None:
+        if p["setpoint_position"] is None:
+            from ..errors import ParameterError
+
+            raise ParameterError("joint_setpoint or setpoint_position is required for joint-pd")
+        qd = robot.inverse_kinematics(p["setpoint_position"], elbow=p["elbow"])
+    return JointSpacePD(robot, p["stiffness"], p["damping"], qd, ctx["sample_time"])
+
+
+register_controller(
+    "joint-pd",
+    {
+        "stiffness": Field("gain", True, doc="K_P [N m/rad]"),
+        "damping": Field("gain", True, doc="K_D [N m s/rad]"),
+        "joint_setpoint": Field("vector", doc="q_d [rad]"),
+        "setpoint_position": Field("vector", doc="alternative: tip position whose IK gives q_d [m]"),
+        "elbow": Field("str", default="up", choices=("up", "down")),
+    },
+    _joint_pd,
+    "joint-space PD with gravity compensation (8.51), equilibrium (9.24)",
+)
+
+# ----------------------------------------------------------------------------- references
+
+register_reference(
+    "setpoint",
+    {
+        "position": Field("vector", True, doc="x_d [m]"),
+        "force": Field("vector", doc="f_d [N]"),
+    },
+    lambda p, ctx: Setpoint(p["position"], p["force"]),
+    "constant x_d and f_d, stepped at t = 0",
+)
+
+register_reference(
+    "linear-path",
+    {
+        "start": Field("vector", True, doc="p_i [m]"),
+        "end": Field("vector", True, doc="p_f [m]"),
+        "duration": Field("number", True, doc="t_f [s]"),
+        "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
+        "start_time": Field("number", default=0.0, doc="[s]"),
+        "force": Field("vector", doc="constant f_d [N]"),
+    },
+    lambda p, ctx: LinearPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"], p["force"]),
+    "straight segment with a trapezoidal velocity profile",
+)
+
+# ----------------------------------------------------------------------------- analyses
+
+
+def _axis_stiffness(env: Any) -> Any:
+    import numpy as np
+
+    if hasattr(env, "stiffness_matrix"):
+        return np.diag(env.stiffness_matrix())
+    return None
+
+
+def _impedance_applies(parts: dict[str, Any]) -> bool:
+    ctl = parts["controller"]
+    return (
+        isinstance(ctl, ImpedanceController)
+        and ctl.force_measurement
+        and isinstance(parts["reference"], Setpoint)
+        and _axis_stiffness(parts["environment"]) is not None
+    )
+
+
+def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """ω_n, ζ and steady state per base axis (Example 9.2's formulas; axis-aligned contact)."""
+    import numpy as np
+
+    from ..analysis import impedance_axis
+
+    ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
+    k = _axis_stiffness(env)
+    rest = env.point if isinstance(env, ElasticPlane) else env.rest_position
+    out: dict[str, Any] = {}
+    for i, a in enumerate("xyz"[: ctl.m]):
+        ax = impedance_axis(
+            ctl.inertia[i, i], ctl.damping[i, i], ctl.stiffness[i, i], float(k[i]), ref.position[i], float(rest[i])
+        )
+        out[f"omega_n_{a}"] = ax.natural_frequency
+        out[f"zeta_{a}"] = ax.damping_ratio
+        out[f"steady_{a}"] = ax.position
+        out[f"steady_f{a}"] = ax.contact_force
+    del np
+    return out
+
+
+def _compliance_applies(parts: dict[str, Any]) -> bool:
+    return isinstance(parts["controller"], OperationalSpacePD) and isinstance(parts["reference"], Setpoint) and hasattr(
+        parts["environment"], "stiffness_matrix"
+    )
+
+
+def _compliance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """The equilibrium (9.22)–(9.23) (valid while the contact holds)."""
+    from ..analysis import compliance_equilibrium
+
+    ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
+    rest = env.point if isinstance(env, ElasticPlane) else env.rest_position
+    eq = compliance_equilibrium(ctl.stiffness, env.stiffness_matrix(), ref.position, rest)
+    out: dict[str, Any] = {}
+    for i, a in enumerate("xyz"[: ctl.m]):
+        out[f"steady_{a}"] = float(eq.position[i])
+        out[f"steady_f{a}"] = float(eq.contact_force[i])
+        out[f"pose_error_{a}"] = float(eq.pose_error[i])
+    return out
+
+
+def _register_analyses() -> None:
+    from .core import register_analysis
+
+    register_analysis(_impedance_applies, _impedance_analysis)
+    register_analysis(_compliance_applies, _compliance_analysis)
