@@ -81,6 +81,8 @@ def as_gain_matrix(
         a = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got {value!r}") from exc
+    if a.dtype == object or not np.all(np.isfinite(a)):
+        raise ParameterError(f"{name} must be finite; got {a.tolist()}")
     if diagonal_ok and a.ndim == 0:
         a = float(a) * np.eye(size)
     elif diagonal_ok and a.ndim == 1 and a.shape == (size,):

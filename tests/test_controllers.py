@@ -1,0 +1,142 @@
+"""Compliance and impedance laws against torques built by hand from the chapter's equations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.errors import DimensionError, MeasurementError, ParameterError, SingularityError
+
+ARM = fc.PlanarTwoLink()
+RNG = np.random.default_rng(7)
+
+
+def _random_state():
+    q = np.array([0.4, -1.3]) + 0.2 * RNG.standard_normal(2)
+    return q, RNG.standard_normal(2), 50 * RNG.standard_normal(2)
+
+
+def _random_reference():
+    return fc.Reference(*(RNG.standard_normal(2) for _ in range(6)))
+
+
+def test_operational_pd_torque_is_8_110():
+    """u = g + Jᵀ (K_P (x_d − x) − K_D J q̇), built by hand, at 1e-12."""
+    K_P = np.array([[3000.0, 200.0], [200.0, 1500.0]])
+    K_D = np.array([[400.0, 10.0], [10.0, 300.0]])
+    ctl = fc.OperationalSpacePD(ARM, K_P, K_D)
+    for _ in range(5):
+        q, qd, h = _random_state()
+        ref = _random_reference()
+        J = ARM.jacobian(q)
+        want = ARM.gravity(q) + J.T @ (K_P @ (ref.position - ARM.forward_kinematics(q)) - K_D @ J @ qd)
+        got = ctl.step(0.0, fc.Measurement(q, qd, h), ref)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
+
+
+def test_joint_pd_torque_is_8_51():
+    """u = g + K_P (q_d − q) − K_D q̇, built by hand."""
+    ctl = fc.JointSpacePD(ARM, [800.0, 500.0], [80.0, 50.0], [0.5, -1.0])
+    q, qd, h = _random_state()
+    want = ARM.gravity(q) + np.diag([800.0, 500.0]) @ ([0.5, -1.0] - q) - np.diag([80.0, 50.0]) @ qd
+    np.testing.assert_allclose(ctl.step(0.0, fc.Measurement(q, qd, h), _random_reference()), want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("force_measurement", [True, False])
+def test_impedance_torque_is_9_30_9_31_or_9_28(force_measurement):
+    """u = B J⁻¹ M_d⁻¹ (M_d ẍ_d + K_D x̃̇ + K_P x̃ − M_d J̇q̇ [− h]) + n [+ Jᵀ h], by hand.
+
+    This is (9.30)–(9.31) with the corrected first term M_d ẍ_d, or (9.28) without force.
+    """
+    M_d = np.array([[100.0, 5.0], [5.0, 80.0]])
+    K_D = np.diag([500.0, 450.0])
+    K_P = np.diag([2500.0, 2000.0])
+    ctl = fc.ImpedanceController(ARM, M_d, K_D, K_P, force_measurement=force_measurement)
+    for _ in range(5):
+        q, qd, h = _random_state()
+        ref = _random_reference()
+        J = ARM.jacobian(q)
+        x = ARM.forward_kinematics(q)
+        inner = M_d @ ref.acceleration + K_D @ (ref.velocity - J @ qd) + K_P @ (ref.position - x)
+        inner = inner - M_d @ ARM.jdot_qdot(q, qd) - (h if force_measurement else 0)
+        y = np.linalg.solve(J, np.linalg.solve(M_d, inner))
+        want = ARM.mass_matrix(q) @ y + ARM.nonlinear_effects(q, qd) + (J.T @ h if force_measurement else 0)
+        got = ctl.step(0.0, fc.Measurement(q, qd, h), ref)
+        np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-8)
+
+
+def test_impedance_closed_loop_is_the_linear_impedance_9_32():
+    """With exact inverse dynamics the arm obeys M_d x̃̈ + K_D x̃̇ + K_P x̃ = h (9.32) at any state."""
+    M_d, K_D, K_P = np.diag([100.0, 100.0]), np.diag([500.0, 500.0]), np.diag([2500.0, 2500.0])
+    ctl = fc.ImpedanceController(ARM, M_d, K_D, K_P)
+    q, qd, h = _random_state()
+    ref = _random_reference()
+    u = ctl.step(0.0, fc.Measurement(q, qd, h), ref)
+    qdd = np.linalg.solve(ARM.mass_matrix(q), u - ARM.nonlinear_effects(q, qd) - ARM.jacobian(q).T @ h)
+    xdd = ARM.jacobian(q) @ qdd + ARM.jdot_qdot(q, qd)
+    x, xd = ARM.forward_kinematics(q), ARM.jacobian(q) @ qd
+    lhs = M_d @ (ref.acceleration - xdd) + K_D @ (ref.velocity - xd) + K_P @ (ref.position - x)
+    np.testing.assert_allclose(lhs, h, atol=1e-8)
+
+
+def test_nan_measurement_is_reported_with_time_and_signal():
+    """A NaN in the force measurement raises MeasurementError naming the signal and the time."""
+    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    q, qd, _ = _random_state()
+    with pytest.raises(MeasurementError, match=r"measurement.wrench is not finite at t = 0.25 s"):
+        ctl.step(0.25, fc.Measurement(q, qd, np.array([np.nan, 0.0])), _random_reference())
+
+
+def test_singular_jacobian_raises_singularity_error():
+    """At the stretched-out singularity (q2 = 0) the inverse-dynamics law refuses with a clear error."""
+    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    with pytest.raises(SingularityError, match=r"Jacobian is singular at t = 1 s"):
+        ctl.step(1.0, fc.Measurement(np.array([0.3, 0.0]), np.zeros(2), np.zeros(2)), _random_reference())
+
+
+@pytest.mark.parametrize(
+    "build, exc, match",
+    [
+        (lambda: fc.ImpedanceController(ARM, np.ones((3, 3)), 500, 2500), DimensionError,
+         r"inertia must be a symmetric positive definite \(2, 2\) matrix; got shape \(3, 3\)"),
+        (lambda: fc.ImpedanceController(ARM, 100, [[500, 1], [0, 500]], 2500), ParameterError,
+         r"damping must be a symmetric positive definite \(2, 2\) matrix; got a non-symmetric matrix"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, [[1, 2], [2, 1]]), ParameterError,
+         r"stiffness must be a symmetric positive definite \(2, 2\) matrix; got eigenvalues \[-1.0, 3.0\]"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, -2500), ParameterError, "stiffness must be .*eigenvalues"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, 2500, sample_time=0.0), ParameterError,
+         "sample_time must be a positive number; got 0.0"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, 2500, sample_time=-1e-3), ParameterError,
+         "sample_time must be a positive number"),
+        (lambda: fc.OperationalSpacePD(ARM, [1.0, 2.0, 3.0], 1.0), DimensionError, r"stiffness .*got shape \(3,\)"),
+        (lambda: fc.OperationalSpacePD(ARM, 100.0, float("inf")), ParameterError, "damping must be finite"),
+        (lambda: fc.JointSpacePD(ARM, 1.0, 1.0, [0.0]), DimensionError, r"joint_setpoint must have shape \(2,\)"),
+        (lambda: fc.ImpedanceController(object(), 1, 1, 1), ParameterError, "robot must implement RobotModel"),
+    ],
+)
+def test_bad_gains_raise_clear_errors(build, exc, match):
+    """Non-square, non-symmetric, indefinite, negative or non-finite gains and Ts <= 0 are refused."""
+    with pytest.raises(exc, match=match):
+        build()
+
+
+def test_controller_works_in_a_users_own_loop():
+    """The same object steps in a hand-written loop (Euler plant) and holds the chapter's equilibrium."""
+    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e3)
+    q = ARM.inverse_kinematics([1.0, 0.0])
+    qd = np.zeros(2)
+    ref = fc.Reference.setpoint([1.1, 0.1])
+    for k in range(4000):
+        T = ARM.terms(q, qd)
+        h = env.wrench(T.x, T.xd)
+        u = ctl.step(k * 1e-3, fc.Measurement(q, qd, h), ref)
+        for _ in range(10):  # semi-implicit Euler at 0.1 ms, torque held
+            T = ARM.terms(q, qd)
+            qdd = np.linalg.solve(T.B, u - T.n - T.J.T @ env.wrench(T.x, T.xd))
+            qd = qd + 1e-4 * qdd
+            q = q + 1e-4 * qd
+    assert math.isclose(env.wrench(ARM.forward_kinematics(q), np.zeros(2))[0], 71.43, rel_tol=5e-3)

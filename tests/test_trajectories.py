@@ -1,0 +1,37 @@
+"""References: trapezoidal timing law and straight paths."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.errors import ParameterError
+from forcecontrol.trajectories import trapezoidal_profile
+
+
+def test_trapezoid_starts_ends_and_is_continuous():
+    """s(0) = 0, s(t_f) = 1, ṡ continuous, ṡ and s̈ are the derivatives of s (finite differences)."""
+    t = np.linspace(0, 1, 100001)
+    s, sd, sdd = trapezoidal_profile(t, 1.0, 0.2)
+    assert s[0] == 0 and s[-1] == pytest.approx(1.0, abs=1e-15)
+    np.testing.assert_allclose(np.gradient(s, t), sd, atol=1e-4)
+    assert sd.max() == pytest.approx(1 / (1 - 0.2))  # cruise speed L / (t_f − t_c)
+    assert np.abs(np.diff(sd)).max() < 1e-4
+
+
+def test_linear_path_follows_the_segment():
+    """Positions stay on the segment; velocity is along it; after t_f the reference rests at the end."""
+    p = fc.LinearPath([1.0, 0.0], [1.2, 0.2], 1.0, accel_time=0.25)
+    rows = p.sample(np.array([0.0, 0.5, 1.0, 2.0]))
+    np.testing.assert_allclose(rows[:, 0] - 1.0, rows[:, 1], atol=1e-15)
+    np.testing.assert_allclose(rows[-1, :2], [1.2, 0.2])
+    np.testing.assert_allclose(rows[1, 2:4], p.cruise_speed * np.array([1, 1]) / np.sqrt(2), rtol=1e-12)
+    ref = p.at(0.5)
+    np.testing.assert_allclose(ref.position, rows[1, :2])
+
+
+def test_bad_path_timing_is_refused():
+    """An acceleration time longer than half the duration is refused."""
+    with pytest.raises(ParameterError, match=r"accel_time must be at most duration/2 = 0.5 s; got 0.6 s"):
+        fc.LinearPath([0, 0], [1, 1], 1.0, accel_time=0.6)
