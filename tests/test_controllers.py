@@ -14,6 +14,19 @@ ARM = fc.PlanarTwoLink()
 RNG = np.random.default_rng(7)
 
 
+class GenericArm:
+    """The same arm behind the plain RobotModel protocol, so controllers take their generic path."""
+
+    nq = 2
+    task_dim = 2
+
+    def __getattr__(self, name):
+        return getattr(ARM, name)
+
+
+ROBOTS = pytest.mark.parametrize("robot", [ARM, GenericArm()], ids=["fused", "generic"])
+
+
 def _random_state():
     q = np.array([0.4, -1.3]) + 0.2 * RNG.standard_normal(2)
     return q, RNG.standard_normal(2), 50 * RNG.standard_normal(2)
@@ -23,11 +36,12 @@ def _random_reference():
     return fc.Reference(*(RNG.standard_normal(2) for _ in range(6)))
 
 
-def test_operational_pd_torque_is_8_110():
+@ROBOTS
+def test_operational_pd_torque_is_8_110(robot):
     """u = g + Jᵀ (K_P (x_d − x) − K_D J q̇), built by hand, at 1e-12."""
     K_P = np.array([[3000.0, 200.0], [200.0, 1500.0]])
     K_D = np.array([[400.0, 10.0], [10.0, 300.0]])
-    ctl = fc.OperationalSpacePD(ARM, K_P, K_D)
+    ctl = fc.OperationalSpacePD(robot, K_P, K_D)
     for _ in range(5):
         q, qd, h = _random_state()
         ref = _random_reference()
@@ -37,16 +51,18 @@ def test_operational_pd_torque_is_8_110():
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
 
 
-def test_joint_pd_torque_is_8_51():
+@ROBOTS
+def test_joint_pd_torque_is_8_51(robot):
     """u = g + K_P (q_d − q) − K_D q̇, built by hand."""
-    ctl = fc.JointSpacePD(ARM, [800.0, 500.0], [80.0, 50.0], [0.5, -1.0])
+    ctl = fc.JointSpacePD(robot, [800.0, 500.0], [80.0, 50.0], [0.5, -1.0])
     q, qd, h = _random_state()
     want = ARM.gravity(q) + np.diag([800.0, 500.0]) @ ([0.5, -1.0] - q) - np.diag([80.0, 50.0]) @ qd
     np.testing.assert_allclose(ctl.step(0.0, fc.Measurement(q, qd, h), _random_reference()), want, rtol=1e-12)
 
 
+@ROBOTS
 @pytest.mark.parametrize("force_measurement", [True, False])
-def test_impedance_torque_is_9_30_9_31_or_9_28(force_measurement):
+def test_impedance_torque_is_9_30_9_31_or_9_28(robot, force_measurement):
     """u = B J⁻¹ M_d⁻¹ (M_d ẍ_d + K_D x̃̇ + K_P x̃ − M_d J̇q̇ [− h]) + n [+ Jᵀ h], by hand.
 
     This is (9.30)–(9.31) with the corrected first term M_d ẍ_d, or (9.28) without force.
@@ -54,7 +70,7 @@ def test_impedance_torque_is_9_30_9_31_or_9_28(force_measurement):
     M_d = np.array([[100.0, 5.0], [5.0, 80.0]])
     K_D = np.diag([500.0, 450.0])
     K_P = np.diag([2500.0, 2000.0])
-    ctl = fc.ImpedanceController(ARM, M_d, K_D, K_P, force_measurement=force_measurement)
+    ctl = fc.ImpedanceController(robot, M_d, K_D, K_P, force_measurement=force_measurement)
     for _ in range(5):
         q, qd, h = _random_state()
         ref = _random_reference()
@@ -82,17 +98,19 @@ def test_impedance_closed_loop_is_the_linear_impedance_9_32():
     np.testing.assert_allclose(lhs, h, atol=1e-8)
 
 
-def test_nan_measurement_is_reported_with_time_and_signal():
+@ROBOTS
+def test_nan_measurement_is_reported_with_time_and_signal(robot):
     """A NaN in the force measurement raises MeasurementError naming the signal and the time."""
-    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    ctl = fc.ImpedanceController(robot, 100, 500, 2500)
     q, qd, _ = _random_state()
     with pytest.raises(MeasurementError, match=r"measurement.wrench is not finite at t = 0.25 s"):
         ctl.step(0.25, fc.Measurement(q, qd, np.array([np.nan, 0.0])), _random_reference())
 
 
-def test_singular_jacobian_raises_singularity_error():
+@ROBOTS
+def test_singular_jacobian_raises_singularity_error(robot):
     """At the stretched-out singularity (q2 = 0) the inverse-dynamics law refuses with a clear error."""
-    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    ctl = fc.ImpedanceController(robot, 100, 500, 2500)
     with pytest.raises(SingularityError, match=r"Jacobian is singular at t = 1 s"):
         ctl.step(1.0, fc.Measurement(np.array([0.3, 0.0]), np.zeros(2), np.zeros(2)), _random_reference())
 

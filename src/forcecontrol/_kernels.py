@@ -115,3 +115,30 @@ def run_planar_loop(
             if abs(qd[i]) > max_qd:
                 return RUNAWAY, k
     return OK, N
+
+
+@njit(cache=True)
+def planar_controller_step(kind, K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s):  # pragma: no cover
+    """One controller step for the chapter's arm in a single compiled call.
+
+    Computes the arm's terms and calls the same dispatcher (hence the same law functions) as the
+    compiled loop; used by ``Controller.step`` when the robot is the built-in arm.
+    """
+    n = q.shape[0]
+    m = 2
+    x = np.empty(m)
+    xd = np.empty(m)
+    J = np.empty((m, n))
+    Jdq = np.empty(m)
+    B = np.empty((n, n))
+    nv = np.empty(n)
+    g = np.empty(n)
+    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
+    ref = np.empty(6 * m)
+    ref[0:m] = x_d
+    ref[m : 2 * m] = v_d
+    ref[2 * m : 3 * m] = a_d
+    ref[3 * m : 4 * m] = f_d
+    ref[4 * m : 5 * m] = fd_d
+    ref[5 * m : 6 * m] = fdd_d
+    return controller_step(kind, t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)

@@ -24,6 +24,19 @@ from .._validate import positive_scalar
 from ..errors import DimensionError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
 
+def _f64(a: Any) -> np.ndarray:
+    """The array itself when already float64 and contiguous (no copy), else a converted copy."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous:
+        return a
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _compiled_kinds() -> frozenset[int]:
+    from .dispatch import COMPILED_KINDS
+
+    return COMPILED_KINDS
+
+
 __all__ = [
     "Controller",
     "Measurement",
@@ -152,6 +165,8 @@ class Controller(ABC):
         self.sample_time = positive_scalar("sample_time", sample_time)
         self.state = np.zeros(0)
         self._params = np.zeros(0)
+        # the built-in arm gets one fused compiled call per step (same law functions)
+        self._fused_K = getattr(robot, "_K", None) if type(robot).__name__ == "PlanarTwoLink" else None
 
     @property
     def m(self) -> int:
@@ -171,8 +186,26 @@ class Controller(ABC):
         return {}
 
     # -- shared helpers
+    def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
+        """Torques through the compiled dispatcher in one call, for the built-in arm.
+
+        Returns None when the robot is not the built-in arm or the kind is not compiled; the
+        subclass then runs its generic path (any :class:`RobotModel`).
+        """
+        if self._fused_K is None or self.kind not in _compiled_kinds():
+            return None
+        from .._kernels import planar_controller_step
+
+        r = reference
+        u = planar_controller_step(
+            self.kind, self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
+            _f64(measurement.wrench), _f64(r.position), _f64(r.velocity), _f64(r.acceleration), _f64(r.force),
+            _f64(r.force_rate), _f64(r.force_accel), self._params, self.state,
+        )
+        return self._check_output(t, u, measurement)
+
     def _check_output(self, t: float, u: np.ndarray, measurement: Measurement) -> np.ndarray:
-        if math.isfinite(float(u.sum())):
+        if math.isfinite(sum(u.tolist())):
             return u
         for name in ("q", "qd", "wrench"):
             v = np.asarray(getattr(measurement, name))

@@ -100,6 +100,9 @@ class OperationalSpacePD(Controller):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (8.110) for this sample."""
+        u = self._fused_step(t, measurement, reference)
+        if u is not None:
+            return u
         T = self.robot.terms(measurement.q, measurement.qd)
         u = os_pd_torque(T.x, T.xd, T.J, T.g, reference.position, self.stiffness, self.damping)
         return self._check_output(t, u, measurement)
@@ -140,6 +143,9 @@ class JointSpacePD(Controller):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (8.51) for this sample."""
+        u = self._fused_step(t, measurement, reference)
+        if u is not None:
+            return u
         g = self.robot.gravity(measurement.q)
         u = joint_pd_torque(
             np.asarray(measurement.q, dtype=np.float64), np.asarray(measurement.qd, dtype=np.float64),

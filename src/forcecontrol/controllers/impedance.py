@@ -110,6 +110,9 @@ class ImpedanceController(Controller):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.28) or (9.30)–(9.31) for this sample."""
+        u = self._fused_step(t, measurement, reference)
+        if u is not None:
+            return u
         T = self.robot.terms(measurement.q, measurement.qd)
         h = measurement.wrench
         a = impedance_acceleration(
