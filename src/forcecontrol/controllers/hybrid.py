@@ -1,0 +1,458 @@
+"""Hybrid force/motion control (Sect. 9.7): compliant (9.74)–(9.84) and rigid (9.87)–(9.95) environments.
+
+Both schemes are inverse-dynamics schemes and use the shared inner loop
+``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h`` (:func:`~forcecontrol.controllers.base.inverse_dynamics_torque`):
+
+* compliant environment, ``γ_e = B_e α + n_e + h_e`` with (9.77)
+  ``α = S_v α_ν + C′ S_f f_λ``: ``a = α`` and ``h = h_e`` (the measured wrench); the closed loop
+  is ``ν̇ = α_ν`` (9.78), ``λ̈ = f_λ`` (9.79);
+* rigid environment, (9.91) ``γ_e = B_e S_v α_ν + S_f f_λ + n_e + B_e Ṡ_v ν``:
+  ``a = S_v α_ν + Ṡ_v ν`` and ``h = S_f f_λ``; the closed loop is ``ν̇ = α_ν``, ``λ = f_λ``.
+
+(with ``u = Jᵀ γ_e``, ``B_e = J⁻ᵀ B J⁻¹`` and ``n_e = J⁻ᵀ n − B_e J̇ q̇``, ``Jᵀ γ_e`` is exactly the
+inner loop above.) All vectors are in the base frame; the selection matrices are constant
+(``Ṡ_v = Ṡ_f = O``, as the chapter assumes in Sect. 9.7.1).
+
+References: the controllers read the usual base-frame :class:`Reference` and map it on the task,
+``ν_d = S_v† ẋ_d``, ``ν̇_d = S_v† ẍ_d``, ``λ_d = S_f† f_d``, ``λ̇_d = S_f† ḟ_d``, ``λ̈_d = S_f† f̈_d``
+(and ``r_d = S_v† x_d`` for force/position control): a reference with components the natural
+constraints forbid is projected, only the artificial constraints are used.
+
+Integrators: the state holds ``∫(ν_d − ν)`` (and ``∫(λ_d − λ)`` for (9.94)), updated by forward
+Euler after each sample's law (the law at sample k uses the integral of the errors up to k − 1);
+``reset()`` zeroes them.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numba import njit
+
+from .._linalg import mv
+from .._validate import as_gain_matrix
+from ..errors import DimensionError, ParameterError
+from ..robots.base import RobotModel
+from ..task import SelectionMatrices, Task
+from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+
+__all__ = [
+    "HybridCompliantController",
+    "HybridRigidController",
+    "velocity_law",
+    "position_law",
+    "compliant_force_law",
+    "rigid_force_law",
+    "compliant_acceleration",
+    "rigid_acceleration",
+]
+
+
+# ------------------------------------------------------------------------------------- laws
+
+
+@njit(cache=True)
+def velocity_law(nu_dot_d, nu_d, nu, nu_error_integral, K_Pnu, K_Inu):  # pragma: no cover - compiled
+    """(9.80): ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫ (ν_d − ν) dς``.
+
+    Args:
+        nu_dot_d: ν̇_d (l,); nu_d: ν_d (l,); nu: ν = S_v† v_e (l,);
+        nu_error_integral: ∫(ν_d − ν) (l,); K_Pnu: K_Pν (l, l) [1/s]; K_Inu: K_Iν (l, l) [1/s²].
+    """
+    return nu_dot_d + mv(K_Pnu, nu_d - nu) + mv(K_Inu, nu_error_integral)
+
+
+@njit(cache=True)
+def position_law(r_dd_d, r_dot_d, nu, r_d, r, K_Dr, K_Pr):  # pragma: no cover - compiled
+    """(9.95): ``α_ν = r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r)``.
+
+    Args:
+        r_dd_d, r_dot_d, r_d: the desired constrained coordinates and derivatives (l,);
+        nu: ν = ṙ (l,); r: the coordinates ψ(q) (l,); K_Dr (l, l) [1/s]; K_Pr (l, l) [1/s²].
+    """
+    return r_dd_d + mv(K_Dr, r_dot_d - nu) + mv(K_Pr, r_d - r)
+
+
+@njit(cache=True)
+def compliant_force_law(lam_dd_d, lam_dot_d, lam_dot, lam_d, lam, K_Dlam, K_Plam):  # pragma: no cover
+    """(9.81): ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)``.
+
+    With a constant λ_d and λ̇ estimated through an estimated compliance this is (9.84),
+    ``f_λ = −K_Dλ λ̂̇ + K_Pλ (λ_d − λ)``.
+
+    Args:
+        lam_dd_d, lam_dot_d, lam_d: λ̈_d, λ̇_d, λ_d (k,); lam_dot: λ̇ (k,) from (9.82);
+        lam: λ = S_f† h_e (k,) (9.54); K_Dlam (k, k) [1/s]; K_Plam (k, k) [1/s²].
+    """
+    return lam_dd_d + mv(K_Dlam, lam_dot_d - lam_dot) + mv(K_Plam, lam_d - lam)
+
+
+@njit(cache=True)
+def rigid_force_law(lam_d, lam, lam_error_integral, K_Plam, K_Ilam):  # pragma: no cover - compiled
+    """(9.92)–(9.94): ``f_λ = λ_d + K_Pλ (λ_d − λ) + K_Iλ ∫ (λ_d − λ) dς``.
+
+    ``K_Pλ = K_Iλ = O`` is (9.92) (feedforward), ``K_Iλ = O`` is (9.93), ``K_Pλ = O`` is (9.94).
+
+    Args:
+        lam_d: λ_d (k,); lam: λ = S_f† h_e (k,); lam_error_integral: ∫(λ_d − λ) (k,);
+        K_Plam (k, k) [-]; K_Ilam (k, k) [1/s].
+    """
+    return lam_d + mv(K_Plam, lam_d - lam) + mv(K_Ilam, lam_error_integral)
+
+
+@njit(cache=True)
+def compliant_acceleration(S_v, alpha_nu, CpS_f, f_lam):  # pragma: no cover - compiled
+    """(9.77): ``α = S_v α_ν + C′ S_f f_λ`` (``Ĉ′ S_f f_λ`` with an estimated compliance).
+
+    Args:
+        S_v: (d, l); alpha_nu: α_ν (l,); CpS_f: C′ S_f (d, k) [m/N]; f_lam: f_λ (k,) [N/s²].
+    """
+    return mv(S_v, alpha_nu) + mv(CpS_f, f_lam)
+
+
+@njit(cache=True)
+def rigid_acceleration(S_v, alpha_nu, S_v_dot, nu):  # pragma: no cover - compiled
+    """The motion part of (9.91): ``a = S_v α_ν + Ṡ_v ν`` (B_e times this enters γ_e)."""
+    return mv(S_v, alpha_nu) + mv(S_v_dot, nu)
+
+
+# ------------------------------------------------------------------------------ packed adapters
+
+
+@njit(cache=True)
+def _block(p, start, rows, cols):  # pragma: no cover - compiled
+    return p[start : start + rows * cols].reshape((rows, cols)), start + rows * cols
+
+
+@njit(cache=True)
+def hybrid_compliant_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of the compliant scheme; updates the integral in ``s`` (l,).
+
+    ``p = [d, k, S_v (d l), S_v† (l d), S_f† (k d), C′ S_f (d k), L̂ (k d), K_Pν (l²), K_Iν (l²),
+    K_Dλ (k²), K_Pλ (k²)]`` with ``l = d − k`` and ``L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ`` (λ̇ = L̂ v_e, (9.82)).
+    """
+    d = int(p[0])
+    k = int(p[1])
+    l = d - k
+    i = 2
+    S_v, i = _block(p, i, d, l)
+    S_v_pinv, i = _block(p, i, l, d)
+    S_f_pinv, i = _block(p, i, k, d)
+    CpS_f, i = _block(p, i, d, k)
+    L_hat, i = _block(p, i, k, d)
+    K_Pnu, i = _block(p, i, l, l)
+    K_Inu, i = _block(p, i, l, l)
+    K_Dlam, i = _block(p, i, k, k)
+    K_Plam, i = _block(p, i, k, k)
+    nu = mv(S_v_pinv, xd)
+    nu_d = mv(S_v_pinv, ref[d : 2 * d])
+    alpha_nu = velocity_law(mv(S_v_pinv, ref[2 * d : 3 * d]), nu_d, nu, s[0:l], K_Pnu, K_Inu)
+    f_lam = compliant_force_law(
+        mv(S_f_pinv, ref[5 * d : 6 * d]), mv(S_f_pinv, ref[4 * d : 5 * d]), mv(L_hat, xd),
+        mv(S_f_pinv, ref[3 * d : 4 * d]), mv(S_f_pinv, h), K_Dlam, K_Plam,
+    )
+    a = compliant_acceleration(S_v, alpha_nu, CpS_f, f_lam)
+    for j in range(l):
+        s[j] += dt * (nu_d[j] - nu[j])
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
+
+
+@njit(cache=True)
+def hybrid_rigid_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
+    """Packed adapter of the rigid scheme; updates ``s = [∫(ν_d − ν) (l), ∫(λ_d − λ) (k)]``.
+
+    ``p = [d, k, position_mode, S_v (d l), S_v† (l d), S_f (d k), S_f† (k d), K_1 (l²), K_2 (l²),
+    K_Pλ (k²), K_Iλ (k²)]``; velocity mode: ``K_1 = K_Pν, K_2 = K_Iν`` (9.80); position mode:
+    ``K_1 = K_Dr, K_2 = K_Pr`` (9.95) with ``r = S_v† x``.
+    """
+    d = int(p[0])
+    k = int(p[1])
+    position_mode = p[2] != 0.0
+    l = d - k
+    i = 3
+    S_v, i = _block(p, i, d, l)
+    S_v_pinv, i = _block(p, i, l, d)
+    S_f, i = _block(p, i, d, k)
+    S_f_pinv, i = _block(p, i, k, d)
+    K_1, i = _block(p, i, l, l)
+    K_2, i = _block(p, i, l, l)
+    K_Plam, i = _block(p, i, k, k)
+    K_Ilam, i = _block(p, i, k, k)
+    nu = mv(S_v_pinv, xd)
+    nu_d = mv(S_v_pinv, ref[d : 2 * d])
+    nu_dot_d = mv(S_v_pinv, ref[2 * d : 3 * d])
+    if position_mode:
+        alpha_nu = position_law(nu_dot_d, nu_d, nu, mv(S_v_pinv, ref[0:d]), mv(S_v_pinv, x), K_1, K_2)
+    else:
+        alpha_nu = velocity_law(nu_dot_d, nu_d, nu, s[0:l], K_1, K_2)
+    lam_d = mv(S_f_pinv, ref[3 * d : 4 * d])
+    lam = mv(S_f_pinv, h)
+    f_lam = rigid_force_law(lam_d, lam, s[l : l + k], K_Plam, K_Ilam)
+    a = rigid_acceleration(S_v, alpha_nu, np.zeros((d, l)), nu)
+    for j in range(l):
+        s[j] += dt * (nu_d[j] - nu[j])
+    for j in range(k):
+        s[l + j] += dt * (lam_d[j] - lam[j])
+    return inverse_dynamics_torque(B, nv, J, Jdq, a, mv(S_f, f_lam), True)
+
+
+# ------------------------------------------------------------------------------------ classes
+
+
+def _selection(selection: Any, m: int) -> SelectionMatrices:
+    if isinstance(selection, Task):
+        if selection.frame.moving:
+            raise ParameterError(
+                "selection must have a fixed constraint frame for hybrid control (Ṡ_v = Ṡ_f = O); "
+                f"got the moving frame of task {selection.name!r}"
+            )
+        selection = selection.selection("base")
+    if not isinstance(selection, SelectionMatrices):
+        raise ParameterError(f"selection must be a SelectionMatrices or a Task; got {type(selection).__name__}")
+    if selection.dim != m:
+        raise DimensionError(
+            f"selection must act on the robot's {m}-dimensional operational space; got {selection.dim}-dimensional"
+        )
+    return selection
+
+
+class HybridCompliantController(Controller):
+    """Hybrid force/velocity control on a compliant environment, (9.77) with (9.80)–(9.82).
+
+    Law: ``u = B J⁻¹ (α − J̇ q̇) + n + Jᵀ h_e`` with ``α = S_v α_ν + Ĉ′ S_f f_λ`` (9.77),
+    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` (9.80),
+    ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)`` (9.81),
+    ``ν = S_v† J q̇`` (9.60), ``λ = S_f† h_e`` (9.54), ``λ̇ = S_f† K̂′ J q̇ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ J q̇``
+    (9.82), ``Ĉ′ = (I − P_v) Ĉ`` (9.72). With ``Ĉ = C`` the closed loop is ``ν̇ = α_ν`` (9.78),
+    ``λ̈ = f_λ`` (9.79); with ``Ĉ ≠ C`` it is ``λ̈ = L_f f_λ``, ``λ̂̇ = L_f⁻¹ λ̇`` (9.83) and, for
+    a constant λ_d, (9.84): still decoupled, still settling to λ_d.
+
+    Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` h_e (d,) [N], base frame;
+    ``reference.velocity/.acceleration`` (ẋ_d, ẍ_d) and ``reference.force/.force_rate/
+    .force_accel`` (f_d, ḟ_d, f̈_d), base frame, mapped to ν_d, λ_d by S_v†, S_f†.
+    Output: torques (n,) [N m]. State: ``∫(ν_d − ν)``, (d − m,).
+
+    Args:
+        robot: the manipulator (square Jacobian).
+        selection: the task (a :class:`~forcecontrol.task.Task` with a fixed frame, or base-frame
+            :class:`~forcecontrol.task.SelectionMatrices`).
+        compliance: the environment's compliance C as the controller knows it (Ĉ), symmetric
+            positive definite (d, d) [m/N], base frame; a scalar c means c I.
+        velocity_gain: K_Pν, SPD (d − m, d − m) [1/s].
+        velocity_integral_gain: K_Iν, SPD (d − m, d − m) [1/s²].
+        force_gain: K_Pλ, SPD (m, m) [1/s²].
+        force_rate_gain: K_Dλ, SPD (m, m) [1/s].
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 7
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        selection: SelectionMatrices | Task,
+        compliance: Any,
+        velocity_gain: Any,
+        velocity_integral_gain: Any,
+        force_gain: Any,
+        force_rate_gain: Any,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, sample_time)
+        sel = _selection(selection, self.m)
+        self.selection = sel
+        d, k = sel.dim, sel.m
+        l = d - k
+        self.compliance = as_gain_matrix("compliance", compliance, d)
+        self.velocity_gain = as_gain_matrix("velocity_gain", velocity_gain, l)
+        self.velocity_integral_gain = as_gain_matrix("velocity_integral_gain", velocity_integral_gain, l)
+        self.force_gain = as_gain_matrix("force_gain", force_gain, k)
+        self.force_rate_gain = as_gain_matrix("force_rate_gain", force_rate_gain, k)
+        S_f = sel.force_selection
+        self._CpS_f = np.ascontiguousarray(sel.compliance(self.compliance) @ S_f)
+        self._L_hat = np.ascontiguousarray(np.linalg.solve(S_f.T @ self.compliance @ S_f, S_f.T))
+        self._S_v = np.ascontiguousarray(sel.velocity_selection)
+        self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
+        self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
+        self.state = np.zeros(l)
+        self._params = np.concatenate([
+            [float(d), float(k)], self._S_v.ravel(), self._S_v_pinv.ravel(), self._S_f_pinv.ravel(),
+            self._CpS_f.ravel(), self._L_hat.ravel(), self.velocity_gain.ravel(),
+            self.velocity_integral_gain.ravel(), self.force_rate_gain.ravel(), self.force_gain.ravel(),
+        ])
+
+    def force_coordinates(self, wrench: Any) -> np.ndarray:
+        """λ = S_f† h_e (9.54)."""
+        return self.selection.force_coordinates(wrench)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.77), (9.80), (9.81) for this sample; advances the velocity integral."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        h = np.asarray(measurement.wrench, dtype=np.float64)
+        Pv, Pf = self._S_v_pinv, self._S_f_pinv
+        nu = Pv @ T.xd
+        nu_d = Pv @ reference.velocity
+        alpha_nu = velocity_law(Pv @ reference.acceleration, nu_d, nu, self.state, self.velocity_gain, self.velocity_integral_gain)
+        f_lam = compliant_force_law(
+            Pf @ reference.force_accel, Pf @ reference.force_rate, self._L_hat @ T.xd,
+            Pf @ reference.force, Pf @ h, self.force_rate_gain, self.force_gain,
+        )
+        a = compliant_acceleration(self._S_v, alpha_nu, self._CpS_f, f_lam)
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, True)
+        u = self._check_output(t, u, measurement)
+        self.state += self.sample_time * (nu_d - nu)
+        return u
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "S_f": self.selection.force_selection.tolist(),
+            "S_v": self.selection.velocity_selection.tolist(),
+            "compliance": self.compliance.tolist(),
+            "velocity_gain": self.velocity_gain.tolist(),
+            "velocity_integral_gain": self.velocity_integral_gain.tolist(),
+            "force_gain": self.force_gain.tolist(),
+            "force_rate_gain": self.force_rate_gain.tolist(),
+        }
+
+
+ForceLaw = Literal["feedforward", "proportional", "integral"]
+
+
+class HybridRigidController(Controller):
+    """Hybrid force/velocity (or force/position) control on a rigid environment, (9.91)–(9.95).
+
+    Law: ``u = Jᵀ γ_e`` with (9.91) ``γ_e = B_e (S_v α_ν + Ṡ_v ν) + S_f f_λ + n_e``, i.e.
+    ``u = B J⁻¹ (S_v α_ν + Ṡ_v ν − J̇ q̇) + n + Jᵀ S_f f_λ`` (Ṡ_v = O for a fixed task frame);
+    the closed loop is ``ν̇ = α_ν``, ``λ = f_λ``. Force laws: ``"feedforward"`` (9.92)
+    ``f_λ = λ_d``; ``"proportional"`` (9.93) ``f_λ = λ_d + K_Pλ (λ_d − λ)``; ``"integral"`` (9.94)
+    ``f_λ = λ_d + K_Iλ ∫(λ_d − λ)``, with ``λ = S_f† h_e`` (9.54). Motion: ``"velocity"`` (9.80)
+    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)``; ``"position"`` (9.95)
+    ``α_ν = r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r)`` with ``r = ψ(q) = S_v† x_e`` (a valid choice of
+    (9.61) for a constant S_v, e.g. a plane: then ``ṙ = ν``) and ``r_d = S_v† x_d``.
+
+    Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` h_e (d,) [N] (the reaction),
+    ``reference.position/.velocity/.acceleration`` and ``reference.force`` (f_d), base frame.
+    Output: torques (n,) [N m]. State: ``[∫(ν_d − ν) (d − m), ∫(λ_d − λ) (m)]``.
+
+    Args:
+        robot: the manipulator (square Jacobian).
+        selection: task or base-frame selection matrices (fixed frame).
+        motion: ``"velocity"`` (9.80) or ``"position"`` (9.95).
+        velocity_gain: K_Pν (velocity) or K_Dr (position), SPD (d − m, d − m) [1/s].
+        velocity_integral_gain: K_Iν, SPD [1/s²] (velocity mode only).
+        position_gain: K_Pr, SPD [1/s²] (position mode only).
+        force_law: ``"feedforward"``, ``"proportional"`` or ``"integral"``.
+        force_gain: K_Pλ, SPD (m, m) [-] (proportional law only).
+        force_integral_gain: K_Iλ, SPD (m, m) [1/s] (integral law only).
+        sample_time: Ts [s].
+    """
+
+    kind: ClassVar[int] = 8
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        selection: SelectionMatrices | Task,
+        *,
+        motion: Literal["velocity", "position"] = "velocity",
+        velocity_gain: Any,
+        velocity_integral_gain: Any = None,
+        position_gain: Any = None,
+        force_law: ForceLaw = "integral",
+        force_gain: Any = None,
+        force_integral_gain: Any = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, sample_time)
+        sel = _selection(selection, self.m)
+        self.selection = sel
+        d, k = sel.dim, sel.m
+        l = d - k
+        if motion not in ("velocity", "position"):
+            raise ParameterError(f"motion must be 'velocity' or 'position'; got {motion!r}")
+        if force_law not in ("feedforward", "proportional", "integral"):
+            raise ParameterError(f"force_law must be 'feedforward', 'proportional' or 'integral'; got {force_law!r}")
+        self.motion = motion
+        self.force_law = force_law
+        self.velocity_gain = as_gain_matrix("velocity_gain", velocity_gain, l)
+        if motion == "velocity":
+            if velocity_integral_gain is None:
+                raise ParameterError("velocity_integral_gain must be given for motion='velocity' (K_Iν of (9.80)); got None")
+            if position_gain is not None:
+                raise ParameterError("position_gain applies to motion='position' only (K_Pr of (9.95)); got a value with motion='velocity'")
+            self.second_gain = as_gain_matrix("velocity_integral_gain", velocity_integral_gain, l)
+        else:
+            if position_gain is None:
+                raise ParameterError("position_gain must be given for motion='position' (K_Pr of (9.95)); got None")
+            if velocity_integral_gain is not None:
+                raise ParameterError("velocity_integral_gain applies to motion='velocity' only; got a value with motion='position'")
+            self.second_gain = as_gain_matrix("position_gain", position_gain, l)
+        zero = np.zeros((k, k))
+        self.force_gain = zero
+        self.force_integral_gain = zero
+        if force_law == "proportional":
+            if force_gain is None:
+                raise ParameterError("force_gain must be given for force_law='proportional' (K_Pλ of (9.93)); got None")
+            self.force_gain = as_gain_matrix("force_gain", force_gain, k)
+        elif force_gain is not None:
+            raise ParameterError(f"force_gain applies to force_law='proportional' only; got a value with force_law={force_law!r}")
+        if force_law == "integral":
+            if force_integral_gain is None:
+                raise ParameterError("force_integral_gain must be given for force_law='integral' (K_Iλ of (9.94)); got None")
+            self.force_integral_gain = as_gain_matrix("force_integral_gain", force_integral_gain, k)
+        elif force_integral_gain is not None:
+            raise ParameterError(f"force_integral_gain applies to force_law='integral' only; got a value with force_law={force_law!r}")
+        self._S_v = np.ascontiguousarray(sel.velocity_selection)
+        self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
+        self._S_f = np.ascontiguousarray(sel.force_selection)
+        self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
+        self._S_v_dot = np.zeros((d, l))
+        self.state = np.zeros(l + k)
+        self._params = np.concatenate([
+            [float(d), float(k), float(motion == "position")], self._S_v.ravel(), self._S_v_pinv.ravel(),
+            self._S_f.ravel(), self._S_f_pinv.ravel(), self.velocity_gain.ravel(), self.second_gain.ravel(),
+            self.force_gain.ravel(), self.force_integral_gain.ravel(),
+        ])
+
+    def force_coordinates(self, wrench: Any) -> np.ndarray:
+        """λ = S_f† h_e (9.54)."""
+        return self.selection.force_coordinates(wrench)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.91) with the chosen force and motion laws; advances the integrals."""
+        T = self.robot.terms(measurement.q, measurement.qd)
+        h = np.asarray(measurement.wrench, dtype=np.float64)
+        Pv, Pf = self._S_v_pinv, self._S_f_pinv
+        l = Pv.shape[0]
+        nu = Pv @ T.xd
+        nu_d = Pv @ reference.velocity
+        nu_dot_d = Pv @ reference.acceleration
+        if self.motion == "position":
+            alpha_nu = position_law(nu_dot_d, nu_d, nu, Pv @ reference.position, Pv @ T.x, self.velocity_gain, self.second_gain)
+        else:
+            alpha_nu = velocity_law(nu_dot_d, nu_d, nu, self.state[:l], self.velocity_gain, self.second_gain)
+        lam_d = Pf @ reference.force
+        lam = Pf @ h
+        f_lam = rigid_force_law(lam_d, lam, self.state[l:], self.force_gain, self.force_integral_gain)
+        a = rigid_acceleration(self._S_v, alpha_nu, self._S_v_dot, nu)
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, self._S_f @ f_lam, True)
+        u = self._check_output(t, u, measurement)
+        self.state[:l] += self.sample_time * (nu_d - nu)
+        self.state[l:] += self.sample_time * (lam_d - lam)
+        return u
+
+    def gains(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "S_f": self.selection.force_selection.tolist(),
+            "S_v": self.selection.velocity_selection.tolist(),
+            "motion": self.motion,
+            "force_law": self.force_law,
+            "velocity_gain": self.velocity_gain.tolist(),
+        }
+        out["velocity_integral_gain" if self.motion == "velocity" else "position_gain"] = self.second_gain.tolist()
+        if self.force_law == "proportional":
+            out["force_gain"] = self.force_gain.tolist()
+        if self.force_law == "integral":
+            out["force_integral_gain"] = self.force_integral_gain.tolist()
+        return out
