@@ -9,6 +9,8 @@ __version__ = "0.1.0"
 
 from .controllers import (  # noqa: E402
     Controller,
+    HybridCompliantController,
+    HybridRigidController,
     ImpedanceController,
     InnerPositionForceController,
     InnerVelocityForceController,
@@ -19,6 +21,7 @@ from .controllers import (  # noqa: E402
     Reference,
 )
 from .environments import ElasticPlane, Environment, LinearSpring  # noqa: E402
+from .environments import PlaneConstraint, RigidEnvironment  # noqa: E402
 from .errors import (  # noqa: E402
     DimensionError,
     DriftWarning,
@@ -34,6 +37,7 @@ from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotMo
 from .sensors import ForceSensor  # noqa: E402
 from .simulation import SimulationResult, simulate  # noqa: E402
 from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
+from .task import SelectionMatrices, Task  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -68,4 +72,10 @@ __all__ = [
     "ReferenceSignal",
     "Setpoint",
     "LinearPath",
+    "HybridCompliantController",
+    "HybridRigidController",
+    "RigidEnvironment",
+    "PlaneConstraint",
+    "Task",
+    "SelectionMatrices",
 ]

@@ -8,6 +8,7 @@ from .force import (
     ParallelForcePositionController,
     check_force_reference,
 )
+from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
 
 __all__ = [
@@ -22,4 +23,6 @@ __all__ = [
     "InnerVelocityForceController",
     "ParallelForcePositionController",
     "check_force_reference",
+    "HybridCompliantController",
+    "HybridRigidController",
 ]

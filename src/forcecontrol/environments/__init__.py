@@ -2,5 +2,23 @@
 
 from .base import Environment
 from .elastic import ElasticPlane, LinearSpring
+from .rigid import (
+    CircleConstraint,
+    HolonomicConstraint,
+    JointConstraint,
+    OperationalConstraint,
+    PlaneConstraint,
+    RigidEnvironment,
+)
 
-__all__ = ["Environment", "ElasticPlane", "LinearSpring"]
+__all__ = [
+    "Environment",
+    "ElasticPlane",
+    "LinearSpring",
+    "RigidEnvironment",
+    "HolonomicConstraint",
+    "OperationalConstraint",
+    "PlaneConstraint",
+    "CircleConstraint",
+    "JointConstraint",
+]
