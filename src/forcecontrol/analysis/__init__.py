@@ -1,6 +1,14 @@
 """Analysis: where the loop settles and how it moves (equilibria, poles, ω_n, ζ)."""
 
 from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
+from .force import (
+    ForceGains,
+    ForceLoopAxis,
+    design_force_gains,
+    force_loop_axes,
+    operational_mass,
+    sampled_stability_limit,
+)
 from .impedance import AxisDynamics, impedance_axis
 
 __all__ = [
@@ -9,4 +17,10 @@ __all__ = [
     "joint_space_compliance",
     "AxisDynamics",
     "impedance_axis",
+    "ForceLoopAxis",
+    "ForceGains",
+    "force_loop_axes",
+    "design_force_gains",
+    "sampled_stability_limit",
+    "operational_mass",
 ]

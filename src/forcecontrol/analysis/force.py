@@ -1,0 +1,517 @@
+"""Direct force control on an elastic environment: linearised loops, poles, sampling, gain design.
+
+Per axis, with M_d, K_D, K_P, C_F and K diagonal (the chapter's assumption for (9.42)–(9.49))
+and the shared inner loop cancelling the arm's dynamics, each scheme is a small linear system.
+States ``[x, ẋ, ξ]`` (ξ, the integral action of (9.43) [m], only with K_I > 0), inputs
+``[f_d, x_d, x_r]``, outputs ``[f_e, x]`` with ``f_e = k (x − x_r)`` (9.38):
+
+* inner position loop (9.40)–(9.43)::
+
+      m ẍ = −k_D ẋ + k_P (k_F (f_d − f_e) + ξ − x),      ξ̇ = k_I (f_d − f_e)
+
+  characteristic polynomial (corrected (9.42), misprint 7)
+  ``m s³ + k_D s² + k_P (1 + k_F k) s + k_P k k_I``; f_e/f_d has the zero ``−k_I/k_F``;
+* inner velocity loop (9.45)–(9.47): ``m ẍ = −k_D ẋ + k_P k_F (f_d − f_e)``,
+  polynomial ``m s² + k_D s + k_P k_F k``;
+* parallel (9.48): ``m ẍ = −k_D ẋ + k_P (x_d − x + k_F (f_d − f_e) + ξ)``, same polynomial as
+  the inner position loop.
+
+Poles, zeros and damping come from python-control (``control.poles``, ``control.zeros``,
+``control.damp``). The sampled-data model (:meth:`ForceLoopAxis.sampled`) follows the simulator:
+the controller reads x, ẋ and f_e at t_k, computes x_F with ξ_k, then ξ_{k+1} = ξ_k + Ts k_I
+(f_d − f_k) (forward Euler); the torque is held, so with exact inverse dynamics the axis is a
+double integrator ``ẍ = a_k`` over the sample; if the arm's operational mass ``m_x`` along the
+axis is given, the contact force's change within the sample (not compensated, since the law
+adds ``Jᵀ h_e(t_k)``) enters as ``ẍ = a_k + (f_k − k (x − x_r)) / m_x``. The plant is
+discretised exactly with ``control.sample_system(..., method="zoh")``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, replace
+from typing import Any, Literal
+
+import control
+import numpy as np
+
+from .._validate import nonnegative_scalar, positive_scalar
+from ..errors import DimensionError, DriftWarning, ParameterError
+
+__all__ = [
+    "SCHEMES",
+    "ForceLoopAxis",
+    "ForceGains",
+    "force_loop_axes",
+    "design_force_gains",
+    "sampled_stability_limit",
+    "operational_mass",
+]
+
+Scheme = Literal["inner-position", "inner-velocity", "parallel"]
+#: the three schemes of Sect. 9.4, by name.
+SCHEMES: tuple[str, ...] = ("inner-position", "inner-velocity", "parallel")
+
+_INPUTS = ["f_d", "x_d", "x_r"]
+_OUTPUTS = ["f_e", "x"]
+
+
+def _scheme(value: Any) -> str:
+    if value not in SCHEMES:
+        raise ParameterError(f"scheme must be one of {list(SCHEMES)}; got {value!r}")
+    return str(value)
+
+
+@dataclass(frozen=True)
+class ForceLoopAxis:
+    """The linearised closed loop of one operational axis under direct force control.
+
+    Attributes:
+        scheme: ``"inner-position"`` (Fig. 9.6), ``"inner-velocity"`` (Fig. 9.7) or
+            ``"parallel"`` (Fig. 9.8).
+        inertia: m_d [kg], > 0; damping: k_D [N s/m], >= 0; stiffness: k_P [N/m], > 0.
+        force_gain: k_F [m/N], >= 0; integral_gain: k_I [m/(N s)], >= 0 (ignored by the
+            inner velocity loop, whose C_F is purely proportional (9.46)).
+        environment_stiffness: k along the axis [N/m], >= 0 (0: free axis).
+    """
+
+    scheme: str
+    inertia: float
+    damping: float
+    stiffness: float
+    force_gain: float
+    integral_gain: float = 0.0
+    environment_stiffness: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "scheme", _scheme(self.scheme))
+        object.__setattr__(self, "inertia", positive_scalar("inertia", self.inertia))
+        object.__setattr__(self, "damping", nonnegative_scalar("damping", self.damping))
+        object.__setattr__(self, "stiffness", positive_scalar("stiffness", self.stiffness))
+        object.__setattr__(self, "force_gain", nonnegative_scalar("force_gain", self.force_gain))
+        object.__setattr__(self, "integral_gain", nonnegative_scalar("integral_gain", self.integral_gain))
+        object.__setattr__(
+            self, "environment_stiffness", nonnegative_scalar("environment_stiffness", self.environment_stiffness)
+        )
+        if self.scheme == "inner-velocity" and self.integral_gain != 0.0:
+            raise ParameterError(
+                "integral_gain must be 0 for the inner velocity loop (C_F = K_F, (9.46)); "
+                f"got {self.integral_gain!r}"
+            )
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def has_integral(self) -> bool:
+        """Whether ξ is a state (PI action (9.43) with k_I > 0)."""
+        return self.scheme != "inner-velocity" and self.integral_gain > 0.0
+
+    @property
+    def states(self) -> list[str]:
+        """State names: ``["x", "xdot"]`` plus ``"xi"`` with integral action."""
+        return ["x", "xdot", "xi"] if self.has_integral else ["x", "xdot"]
+
+    def with_environment_stiffness(self, environment_stiffness: float) -> ForceLoopAxis:
+        """The same axis in contact with another environment stiffness k [N/m]."""
+        return replace(self, environment_stiffness=environment_stiffness)
+
+    def _law(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The control law as affine maps: ``a = Gz z + Gw w``, ``ξ̇ = Hz z + Hw w``.
+
+        z = states, w = [f_d, x_d, x_r]; f_e = k (x − x_r) is substituted.
+        """
+        m, kd, kp = self.inertia, self.damping, self.stiffness
+        kf, ki, k = self.force_gain, self.integral_gain, self.environment_stiffness
+        nz = len(self.states)
+        Gz, Gw = np.zeros(nz), np.zeros(3)
+        Hz, Hw = np.zeros(nz), np.zeros(3)
+        # force error e = f_d − k x + k x_r
+        ez, ew = np.zeros(nz), np.array([1.0, 0.0, k])
+        ez[0] = -k
+        if self.scheme == "inner-velocity":
+            Gz = kp * kf * ez
+            Gw = kp * kf * ew
+        else:
+            # x_F = k_F e + ξ; inner position: k_P (x_F − x); parallel: k_P (x_d − x + x_F)
+            Gz = kp * kf * ez
+            Gw = kp * kf * ew
+            Gz[0] -= kp
+            if self.scheme == "parallel":
+                Gw[1] += kp
+            if self.has_integral:
+                Gz[2] += kp
+                Hz = ki * ez
+                Hw = ki * ew
+        Gz[1] -= kd
+        return Gz / m, Gw / m, Hz, Hw
+
+    def state_space(self) -> control.StateSpace:
+        """The continuous closed loop: states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x]."""
+        Gz, Gw, Hz, Hw = self._law()
+        nz = len(self.states)
+        A = np.zeros((nz, nz))
+        B = np.zeros((nz, 3))
+        A[0, 1] = 1.0
+        A[1], B[1] = Gz, Gw
+        if self.has_integral:
+            A[2], B[2] = Hz, Hw
+        k = self.environment_stiffness
+        C = np.zeros((2, nz))
+        D = np.zeros((2, 3))
+        C[0, 0], D[0, 2] = k, -k
+        C[1, 0] = 1.0
+        return control.ss(A, B, C, D, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states, name=self.scheme)
+
+    def force_transfer_function(self) -> control.TransferFunction:
+        """f_e(s)/f_d(s), e.g. ``k k_P (k_F s + k_I) / (m s³ + k_D s² + k_P (1 + k_F k) s + k_P k k_I)``."""
+        return _clean_tf(control.ss2tf(self.state_space()[0, 0]))
+
+    def position_transfer_function(self) -> control.TransferFunction:
+        """x(s)/x_d(s) (meaningful for the parallel scheme, zero for the others)."""
+        return _clean_tf(control.ss2tf(self.state_space()[1, 1]))
+
+    def characteristic_polynomial(self) -> np.ndarray:
+        """Coefficients of the closed-loop characteristic polynomial, highest power first, monic × m_d.
+
+        Inner position and parallel with PI: ``[m, k_D, k_P (1 + k_F k), k_P k k_I]``; inner velocity:
+        ``[m, k_D, k_P k_F k]`` (9.47).
+        """
+        A = self.state_space().A
+        return self.inertia * np.real(np.poly(A))
+
+    def poles(self) -> np.ndarray:
+        """Closed-loop poles [rad/s] (``control.poles``), sorted by real part then imaginary part."""
+        p = control.poles(self.state_space())
+        return np.array(sorted(p, key=lambda z: (round(z.real, 12), z.imag)))
+
+    def zeros(self) -> np.ndarray:
+        """Zeros of f_e/f_d [rad/s] (``control.zeros``): ``−k_I / k_F`` with PI and k_F > 0."""
+        return np.asarray(control.zeros(self.state_space()[0, 0]))
+
+    def damping_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ω_n [rad/s], ζ, poles)`` of the closed loop (``control.damp``, without printing)."""
+        wn, zeta, p = control.damp(self.state_space(), doprint=False)
+        return np.asarray(wn), np.asarray(zeta), np.asarray(p)
+
+    def is_stable(self) -> bool:
+        """All continuous poles strictly in the left half-plane."""
+        return bool(np.all(np.real(self.poles()) < 0.0))
+
+    # ------------------------------------------------------------------ steady state
+    def equilibrium(self, force: float, position: float = 0.0, rest_position: float = 0.0) -> tuple[float, float]:
+        """Steady ``(x_e, f_e)`` for constant f_d, x_d, x_r: (9.44) or (9.49).
+
+        With integral action (or the inner velocity loop) and k > 0: ``f_e = f_d``,
+        ``x_e = x_r + f_d / k`` (9.44). Parallel with purely proportional C_F: (9.49) solved,
+        ``x_e = (x_d + k_F (k x_r + f_d)) / (1 + k_F k)``. Inner position with proportional C_F:
+        ``x_e = k_F (k x_r + f_d) / (1 + k_F k)`` from (9.42).
+
+        Warns:
+            DriftWarning: f_d ≠ 0 on a free axis (k = 0) where the force loop acts: no
+                equilibrium, x_e drifts (Sect. 9.4.3); returns (nan, 0).
+        """
+        k, kf, ki = self.environment_stiffness, self.force_gain, self.integral_gain
+        acts = kf > 0.0 or ki > 0.0
+        integrating = self.scheme == "inner-velocity" or ki > 0.0
+        if k == 0.0 and acts and integrating and force != 0.0:
+            warnings.warn(
+                f"force reference f_d = {force!r} N on a free axis (environment_stiffness = 0): the "
+                f"{self.scheme} scheme reads it as a velocity reference and the end-effector drifts "
+                "(Sect. 9.4.3)",
+                DriftWarning,
+                stacklevel=2,
+            )
+            return math.nan, 0.0
+        if k > 0.0 and acts and integrating:
+            return rest_position + force / k, force
+        if self.scheme == "parallel":
+            x = (position + kf * (k * rest_position + force)) / (1.0 + kf * k)
+        elif self.scheme == "inner-position":
+            x = kf * (k * rest_position + force) / (1.0 + kf * k)
+        else:  # inner velocity with k_F = 0: any position is an equilibrium
+            return math.nan, 0.0
+        return x, k * (x - rest_position)
+
+    # ------------------------------------------------------------------ responses
+    def response(
+        self,
+        t: Any,
+        force: Any,
+        position: Any = 0.0,
+        rest_position: float = 0.0,
+        initial_state: Any = None,
+    ) -> control.TimeResponseData:
+        """Linear response (``control.forced_response``) to f_d(t), x_d(t) from an initial state.
+
+        Args:
+            t: times (N,) [s]; force: f_d, scalar or (N,) [N]; position: x_d, scalar or (N,) [m].
+            rest_position: x_r [m].
+            initial_state: ``[x, ẋ, ξ]`` (ξ only with integral action); default: at rest at x_r
+                with ξ₀ = x_r (inner position) or 0 (parallel).
+        """
+        t = np.asarray(t, dtype=np.float64)
+        U = np.vstack([
+            np.broadcast_to(np.asarray(force, dtype=np.float64), t.shape),
+            np.broadcast_to(np.asarray(position, dtype=np.float64), t.shape),
+            np.full(t.shape, float(rest_position)),
+        ])
+        if initial_state is None:
+            x0 = [rest_position, 0.0] + ([rest_position if self.scheme == "inner-position" else 0.0] if self.has_integral else [])
+        else:
+            x0 = np.asarray(initial_state, dtype=np.float64).reshape(-1)
+            if x0.shape != (len(self.states),):
+                raise DimensionError(
+                    f"initial_state must have shape ({len(self.states)},) (states {self.states}); got shape {x0.shape}"
+                )
+        return control.forced_response(self.state_space(), T=t, U=U, X0=x0)
+
+    # ------------------------------------------------------------------ sampled data
+    def sampled(self, sample_time: float, arm_inertia: float | None = None) -> control.StateSpace:
+        """The sampled-data closed loop as the simulator runs it (discrete, ``dt = sample_time``).
+
+        Plant over one sample (zero-order hold on a and on the compensated force f_k), states
+        ``[x, ẋ]``: ``ẍ = a`` (exact inverse dynamics), or ``ẍ = a + (f_k − k (x − x_r)) / m_x``
+        when ``arm_inertia`` m_x [kg] is given (the contact force's change within the sample acts
+        on the arm's operational mass). Discretised with ``control.sample_system(..., "zoh")``.
+        Controller at t_k: ``a_k`` from x_k, ẋ_k, f_k = k (x_k − x_r) and ξ_k; then
+        ``ξ_{k+1} = ξ_k + Ts k_I (f_d − f_k)``.
+
+        Returns:
+            Discrete state space, states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x].
+        """
+        Ts = positive_scalar("sample_time", sample_time)
+        k = self.environment_stiffness
+        # continuous plant: states [x, v]; inputs [a, f_hold, x_r]
+        Ap = np.array([[0.0, 1.0], [0.0, 0.0]])
+        Bp = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        if arm_inertia is not None:
+            mx = positive_scalar("arm_inertia", arm_inertia)
+            Ap[1, 0] = -k / mx
+            Bp[1, 1] = 1.0 / mx
+            Bp[1, 2] = k / mx
+        plant = control.ss(Ap, Bp, np.eye(2), np.zeros((2, 3)))
+        pd = control.sample_system(plant, Ts, method="zoh")
+        Ad, Bd = np.asarray(pd.A), np.asarray(pd.B)
+        Gz, Gw, Hz, Hw = self._law()
+        nz = len(self.states)
+        # a_k = Gz z + Gw w ; f_k = k x − k x_r
+        Fz = np.zeros(nz)
+        Fz[0] = k
+        Fw = np.array([0.0, 0.0, -k])
+        A = np.zeros((nz, nz))
+        B = np.zeros((nz, 3))
+        Ez = np.zeros((2, nz))
+        Ez[0, 0] = Ez[1, 1] = 1.0
+        A[:2] = Ad @ Ez + np.outer(Bd[:, 0], Gz) + np.outer(Bd[:, 1], Fz)
+        B[:2] = np.outer(Bd[:, 0], Gw) + np.outer(Bd[:, 1], Fw) + np.outer(Bd[:, 2], [0.0, 0.0, 1.0])
+        if self.has_integral:
+            A[2] = Hz * Ts
+            A[2, 2] += 1.0
+            B[2] = Hw * Ts
+        C = np.zeros((2, nz))
+        D = np.zeros((2, 3))
+        C[0, 0], D[0, 2] = k, -k
+        C[1, 0] = 1.0
+        return control.ss(A, B, C, D, Ts, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
+                          name=f"{self.scheme}-sampled")
+
+    def spectral_radius(self, sample_time: float, arm_inertia: float | None = None) -> float:
+        """Largest |pole| of :meth:`sampled` (< 1: the sampled loop is stable)."""
+        return float(np.max(np.abs(control.poles(self.sampled(sample_time, arm_inertia)))))
+
+
+def _clean_tf(tf: control.TransferFunction) -> control.TransferFunction:
+    """Zero the round-off numerator coefficients left by ``ss2tf`` (leading ones fake huge zeros)."""
+    num = np.atleast_1d(np.asarray(tf.num[0][0], dtype=np.float64))
+    den = np.atleast_1d(np.asarray(tf.den[0][0], dtype=np.float64))
+    scale = max(float(np.max(np.abs(num))), 1e-300)
+    num = np.where(np.abs(num) <= 1e-12 * scale, 0.0, num)
+    while num.size > 1 and num[0] == 0.0:
+        num = num[1:]
+    return control.tf(num, den, inputs=tf.input_labels, outputs=tf.output_labels)
+
+
+def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLoopAxis]:
+    """The per-axis linearised loops of a direct force controller on an environment of stiffness K.
+
+    Args:
+        controller: an :class:`~forcecontrol.controllers.force.InnerPositionForceController`,
+            :class:`~forcecontrol.controllers.force.InnerVelocityForceController` or
+            :class:`~forcecontrol.controllers.force.ParallelForcePositionController` with diagonal
+            M_d, K_D, K_P.
+        environment_stiffness: K, diagonal (m, m) [N/m] (scalar or (m,) allowed), in the base frame.
+
+    Raises:
+        ParameterError: a matrix is not diagonal (the axes do not decouple) or the controller is
+            not a direct force controller.
+    """
+    from ..controllers.force import (
+        InnerPositionForceController,
+        InnerVelocityForceController,
+        ParallelForcePositionController,
+    )
+
+    names = {
+        InnerPositionForceController: "inner-position",
+        InnerVelocityForceController: "inner-velocity",
+        ParallelForcePositionController: "parallel",
+    }
+    scheme = names.get(type(controller))
+    if scheme is None:
+        raise ParameterError(
+            "controller must be an InnerPositionForceController, InnerVelocityForceController or "
+            f"ParallelForcePositionController; got {type(controller).__name__}"
+        )
+    m = controller.m
+    K = np.asarray(environment_stiffness, dtype=np.float64)
+    if K.ndim == 0:
+        K = float(K) * np.eye(m)
+    elif K.shape == (m,):
+        K = np.diag(K)
+    if K.shape != (m, m):
+        raise DimensionError(f"environment_stiffness must be a scalar, ({m},) or ({m}, {m}); got shape {K.shape}")
+    for name, M in (("inertia", controller.inertia), ("damping", controller.damping),
+                    ("stiffness", controller.stiffness), ("environment_stiffness", K)):
+        if np.any(np.abs(M - np.diag(np.diag(M))) > 1e-12 * max(1.0, float(np.max(np.abs(M))))):
+            raise ParameterError(
+                f"{name} must be diagonal for a per-axis analysis (axes parallel to the base frame, "
+                f"Sect. 9.4); got {np.asarray(M).tolist()}"
+            )
+    return [
+        ForceLoopAxis(
+            scheme, float(controller.inertia[i, i]), float(controller.damping[i, i]),
+            float(controller.stiffness[i, i]), float(controller.force_gain[i]),
+            float(controller.integral_gain[i]), float(K[i, i]),
+        )
+        for i in range(m)
+    ]
+
+
+@dataclass(frozen=True)
+class ForceGains:
+    """Gains of one axis from :func:`design_force_gains`.
+
+    Attributes:
+        damping: k_D [N s/m]; force_gain: k_F [m/N]; integral_gain: k_I [m/(N s)] (0 for the
+            inner velocity loop).
+    """
+
+    damping: float
+    force_gain: float
+    integral_gain: float = 0.0
+
+
+def design_force_gains(
+    scheme: str,
+    inertia: float,
+    stiffness: float,
+    environment_stiffness: float,
+    natural_frequency: float,
+    damping_ratio: float,
+    real_pole: float | None = None,
+) -> ForceGains:
+    """Gains placing the continuous poles at ω_n, ζ (and −p) for a given environment stiffness.
+
+    * inner velocity loop: ``m s² + k_D s + k_P k_F k = m (s² + 2 ζ ω_n s + ω_n²)``, so
+      ``k_D = 2 ζ ω_n m``, ``k_F = m ω_n² / (k_P k)``;
+    * inner position / parallel (PI): ``m s³ + k_D s² + k_P (1 + k_F k) s + k_P k k_I
+      = m (s² + 2 ζ ω_n s + ω_n²)(s + p)``, so ``k_D = m (2 ζ ω_n + p)``,
+      ``k_F = (m (ω_n² + 2 ζ ω_n p) / k_P − 1) / k``, ``k_I = m ω_n² p / (k_P k)``.
+
+    Args:
+        scheme: ``"inner-position"``, ``"inner-velocity"`` or ``"parallel"``.
+        inertia: m_d [kg]; stiffness: k_P [N/m] (kept: it sets the position loop).
+        environment_stiffness: k [N/m], > 0.
+        natural_frequency: ω_n [rad/s], > 0; damping_ratio: ζ, > 0.
+        real_pole: p [rad/s], > 0, the third pole −p (PI schemes only, required there).
+
+    Raises:
+        ParameterError: impossible request (e.g. it needs k_F < 0: the position loop is already
+            faster than requested; lower stiffness or raise ω_n).
+    """
+    scheme = _scheme(scheme)
+    m = positive_scalar("inertia", inertia)
+    kp = positive_scalar("stiffness", stiffness)
+    k = positive_scalar("environment_stiffness", environment_stiffness)
+    wn = positive_scalar("natural_frequency", natural_frequency)
+    zeta = positive_scalar("damping_ratio", damping_ratio)
+    if scheme == "inner-velocity":
+        if real_pole is not None:
+            raise ParameterError(f"real_pole must be None for the inner velocity loop (second order); got {real_pole!r}")
+        return ForceGains(2.0 * zeta * wn * m, m * wn * wn / (kp * k), 0.0)
+    if real_pole is None:
+        raise ParameterError(f"real_pole must be given for the {scheme} scheme (third order); got None")
+    p = positive_scalar("real_pole", real_pole)
+    kf = (m * (wn * wn + 2.0 * zeta * wn * p) / kp - 1.0) / k
+    if kf < 0.0:
+        raise ParameterError(
+            f"cannot place the poles with stiffness k_P = {kp:.6g} N/m: it needs force_gain "
+            f"k_F = {kf:.6g} m/N < 0; expected m (ω_n² + 2 ζ ω_n p) >= k_P"
+        )
+    return ForceGains(m * (2.0 * zeta * wn + p), kf, m * wn * wn * p / (kp * k))
+
+
+def sampled_stability_limit(
+    axis: ForceLoopAxis,
+    sample_time: float,
+    *,
+    arm_inertia: float | None = None,
+    low: float = 1.0,
+    high: float = 1e12,
+    rtol: float = 1e-6,
+) -> float:
+    """The largest environment stiffness k [N/m] for which the sampled loop stays stable.
+
+    Scans k on a logarithmic grid from ``low`` for the first k whose sampled loop
+    (:meth:`ForceLoopAxis.sampled`) has a pole on or outside the unit circle, then bisects.
+
+    Args:
+        axis: the loop (its own environment_stiffness is ignored).
+        sample_time: Ts [s].
+        arm_inertia: the arm's operational mass along the axis m_x [kg] (see :func:`operational_mass`);
+            None: exact inverse dynamics, a double integrator.
+        low, high: search range [N/m]; rtol: relative tolerance of the result.
+
+    Returns:
+        The limit [N/m]; ``inf`` when stable up to ``high``.
+
+    Raises:
+        ParameterError: the loop is already unstable at ``low``.
+    """
+    low = positive_scalar("low", low)
+    high = positive_scalar("high", high)
+
+    def stable(k: float) -> bool:
+        return axis.with_environment_stiffness(k).spectral_radius(sample_time, arm_inertia) < 1.0
+
+    if not stable(low):
+        raise ParameterError(f"the sampled loop is unstable already at low = {low:.6g} N/m; expected a stable start")
+    grid = np.geomspace(low, high, int(math.ceil(math.log10(high / low) * 20)) + 1)
+    a = low
+    for k in grid[1:]:
+        if not stable(float(k)):
+            b = float(k)
+            break
+        a = float(k)
+    else:
+        return math.inf
+    while b - a > rtol * a:
+        c = math.sqrt(a * b)
+        if stable(c):
+            a = c
+        else:
+            b = c
+    return a
+
+
+def operational_mass(robot: Any, q: Any, direction: Any) -> float:
+    """The arm's mass seen by a force along a unit direction ν at q: ``1 / (νᵀ J B⁻¹ Jᵀ ν)`` [kg].
+
+    This is what an uncompensated change of the contact force accelerates within one sample.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    nu = np.asarray(direction, dtype=np.float64)
+    nu = nu / np.linalg.norm(nu)
+    J = robot.jacobian(q)
+    B = robot.mass_matrix(q)
+    return float(1.0 / (nu @ J @ np.linalg.solve(B, J.T) @ nu))
