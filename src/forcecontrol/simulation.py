@@ -132,7 +132,7 @@ class SimulationResult:
         """Write the log (CSV or Parquet) and its metadata (JSON beside it).
 
         Args:
-            path: file stem or name; the suffix is replaced by the format's.
+            path: file stem (dots allowed) or a name ending in .csv/.parquet/.json, which is replaced.
             format: ``"csv"`` or ``"parquet"`` (needs pyarrow).
 
         Returns:
@@ -141,8 +141,9 @@ class SimulationResult:
         if format not in ("csv", "parquet"):
             raise ParameterError(f"format must be 'csv' or 'parquet'; got {format!r}")
         path = Path(path)
-        data = path.with_suffix("." + format)
-        meta = path.with_suffix(".json")
+        stem = path.with_suffix("") if path.suffix in (".csv", ".parquet", ".json") else path
+        data = stem.parent / f"{stem.name}.{format}"
+        meta = stem.parent / f"{stem.name}.json"
         data.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns()
         if format == "csv":

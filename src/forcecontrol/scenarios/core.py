@@ -262,14 +262,15 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
             raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
     cases_raw = data.pop("case", None)
     top = check_table(where, data, TOP_FIELDS)
-    if cases_raw is None:
+    single = cases_raw is None
+    if single:
         cases_raw = [{}]
     if not isinstance(cases_raw, list) or not cases_raw:
         raise ScenarioError(f"{where}: key 'case' must be a non-empty array of tables ([[case]]); got {cases_raw!r}")
     base = {k: copy.deepcopy(v) for k, v in data.items() if k not in ("name", "title", "description", "figure")}
     cases = []
     for i, c in enumerate(cases_raw):
-        cw = f"{where}: [[case]] #{i + 1}"
+        cw = where if single else f"{where}: [[case]] #{i + 1}"
         if not isinstance(c, dict):
             raise ScenarioError(f"{cw}: must be a table; got {c!r}")
         cfg = copy.deepcopy(base)

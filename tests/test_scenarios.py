@@ -1,0 +1,99 @@
+"""Scenario files: the schema rejects bad input before simulating; built-ins load and run."""
+
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+
+from forcecontrol.errors import ScenarioError
+from forcecontrol.scenarios import list_scenarios, load_scenario, run_scenario
+
+GOOD = textwrap.dedent(
+    """
+    name = "mine"
+    duration = 0.2
+    [robot]
+    start_position = [1.0, 0.0]
+    [environment]
+    type = "elastic-plane"
+    point = [1.0, 0.0]
+    normal = [-1.0, 0.0]
+    stiffness = 1000.0
+    [controller]
+    type = "impedance"
+    inertia = 100.0
+    damping = 500.0
+    stiffness = 2500.0
+    [reference]
+    type = "setpoint"
+    position = [1.1, 0.1]
+    """
+)
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "scn.toml"
+    p.write_text(text)
+    return p
+
+
+def test_a_good_file_loads_and_runs(tmp_path):
+    """A minimal user scenario file loads, runs and reports its final state."""
+    run = run_scenario(_write(tmp_path, GOOD))
+    assert run.cases[0].result.t[-1] == pytest.approx(0.2) and run.cases[0].result.wrench[-1, 0] > 0
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda s: s.replace('inertia = 100.0', 'inertai = 100.0'),
+         r"scn.toml: \[controller\] \(type 'impedance'\): unknown key 'inertai'; expected one of: damping, "),
+        (lambda s: s.replace('stiffness = 2500.0', 'stiffness = "stiff"'),
+         r"\[controller\] \(type 'impedance'\): key 'stiffness' must be a number, a list of numbers .*got 'stiff' \(str\)"),
+        (lambda s: s.replace('stiffness = 2500.0', 'stiffness = [[1.0, 2.0], [2.0, 1.0]]'),
+         r"\[controller\] \(type 'impedance'\): stiffness must be a symmetric positive definite \(2, 2\) matrix; got eigen"),
+        (lambda s: s.replace('inertia = 100.0', 'inertia = [1.0, 2.0, 3.0]'),
+         r"inertia must be a symmetric positive definite \(2, 2\) matrix; got shape \(3,\)"),
+        (lambda s: s.replace('stiffness = 1000.0', 'stiffness = -1000.0'),
+         r"\[environment\] \(type 'elastic-plane'\): stiffness must be a non-negative number; got -1000.0"),
+        (lambda s: s.replace('type = "impedance"', 'type = "magic"'),
+         r"\[controller\]: key 'type' must be one of .*impedance.*; got 'magic'"),
+        (lambda s: s.replace('duration = 0.2', 'duration = -1.0'), r"key 'duration' must be a positive number \[s\]; got -1.0"),
+        (lambda s: s.replace('duration = 0.2', 'duration = 0.2\nsample_time = 0.0'),
+         r"key 'sample_time' must be a positive number \[s\]; got 0.0"),
+        (lambda s: s.replace('duration = 0.2', ''), r"missing key 'duration'"),
+        (lambda s: s.replace('start_position = [1.0, 0.0]', 'start_position = [5.0, 0.0]'),
+         r"\[robot\]: position \[5.0, 0.0\] is outside the workspace"),
+        (lambda s: s.replace('start_position = [1.0, 0.0]', 'q0 = [1.0]'), r"\[robot\]: key 'q0' must have 2 entries; got 1"),
+        (lambda s: s + '\n[sensor]\ncutoff = 900.0\n', r"\[sensor\]: cutoff must be below the Nyquist frequency"),
+        (lambda s: s + '\ncolour = "red"\n', r"unknown key 'colour'"),
+        (lambda s: s.replace('position = [1.1, 0.1]', 'position = [1.1, 0.1, 0.0]'),
+         r"\[reference\] must be 2-dimensional like the robot's task space; got 3"),
+        (lambda s: s + '\n[[case]]\nlabel = "a"\ncontroler.stiffness = 1.0\n', r"override 'controler.stiffness' names no table"),
+        (lambda s: s + '\n[expected]\nwobble = 1.0\n', r"unknown metric 'wobble'"),
+        (lambda s: s.replace('[robot]', '[robot\n'), r"not valid TOML"),
+    ],
+)
+def test_malformed_files_are_rejected_with_file_key_expected_and_given(tmp_path, edit, match):
+    """Each malformed file raises ScenarioError naming the file, the key, the expectation and the value."""
+    with pytest.raises(ScenarioError, match=match):
+        load_scenario(_write(tmp_path, edit(GOOD)))
+
+
+def test_unknown_scenario_name_lists_the_built_ins():
+    """An unknown name says which built-ins exist."""
+    with pytest.raises(ScenarioError, match=r"unknown scenario 'example-9.99'; expected a built-in name \(.*example-9.2"):
+        load_scenario("example-9.99")
+
+
+def test_built_ins_include_examples_9_1_and_9_2():
+    """`forcecontrol list` shows the chapter's Examples 9.1 and 9.2."""
+    names = list_scenarios()
+    assert {"example-9.1", "example-9.2"} <= set(names)
+
+
+@pytest.mark.parametrize("name", sorted(list_scenarios()))
+def test_every_built_in_scenario_validates(name):
+    """Every shipped scenario passes its own schema (all cases built before running)."""
+    assert load_scenario(name).cases
