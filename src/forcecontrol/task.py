@@ -38,7 +38,7 @@ from typing import Any, Literal
 import numpy as np
 import scipy.linalg
 
-from ._validate import as_gain_matrix, as_matrix, as_vector, readonly
+from ._validate import as_matrix, as_vector, readonly
 from .errors import DimensionError, FrameError, ParameterError
 
 __all__ = [
@@ -74,6 +74,35 @@ SYMBOLS = {
 _TOL = 1e-9
 
 
+def _weight(name: str, value: Any, d: int) -> np.ndarray:
+    """A symmetric positive definite (d, d) weight; a scalar or a vector means a diagonal.
+
+    Definiteness is checked relative to the largest eigenvalue (``λ_min > 1e-14 λ_max``), so that
+    weights transformed by a change of units (entries spanning many decades) are accepted.
+    """
+    what = f"{name} must be a symmetric positive definite ({d}, {d}) matrix"
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{what}; got {value!r}") from exc
+    if a.ndim == 0:
+        a = float(a) * np.eye(d)
+    elif a.shape == (d,):
+        a = np.diag(a)
+    if a.shape != (d, d):
+        raise DimensionError(f"{what}; got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"{what}; got non-finite entries {a.tolist()}")
+    scale = float(np.abs(a).max()) if a.size else 1.0
+    if not np.allclose(a, a.T, rtol=1e-12, atol=1e-14 * scale):
+        raise ParameterError(f"{what}; got a non-symmetric matrix")
+    a = 0.5 * (a + a.T)
+    w = np.linalg.eigvalsh(a)
+    if w.max() <= 0.0 or w.min() <= 1e-14 * w.max():
+        raise ParameterError(f"{what}; got eigenvalues {np.array2string(w, precision=6)}")
+    return a
+
+
 def _space_dim(name: str, d: int) -> None:
     if d < 1:
         raise DimensionError(f"{name} must have at least one row; got {d}")
@@ -99,7 +128,7 @@ def weighted_pseudo_inverse(selection: Any, weight: Any = None, *, name: str = "
     """
     S = as_matrix(name, selection)
     d, k = S.shape
-    W = np.eye(d) if weight is None else as_gain_matrix("weight", weight, d)
+    W = np.eye(d) if weight is None else _weight("weight", weight, d)
     _full_column_rank(name, S)
     G = S.T @ W @ S
     return np.linalg.solve(G, S.T @ W)
@@ -171,7 +200,7 @@ def partial_stiffness(force_selection: Any, compliance: Any) -> np.ndarray:
         compliance: C, symmetric positive definite (d, d) [m/N, rad/(N m)].
     """
     S_f = as_matrix("force_selection", force_selection)
-    C = as_gain_matrix("compliance", compliance, S_f.shape[0])
+    C = _weight("compliance", compliance, S_f.shape[0])
     _full_column_rank("force_selection", S_f)
     return S_f @ np.linalg.solve(S_f.T @ C @ S_f, S_f.T)
 
@@ -184,7 +213,7 @@ def partial_compliance(velocity_selection: Any, compliance: Any, velocity_weight
     """
     S_v = as_matrix("velocity_selection", velocity_selection)
     d = S_v.shape[0]
-    C = as_gain_matrix("compliance", compliance, d)
+    C = _weight("compliance", compliance, d)
     P_v = S_v @ weighted_pseudo_inverse(S_v, velocity_weight, name="velocity_selection")
     return (np.eye(d) - P_v) @ C
 
@@ -280,8 +309,8 @@ class SelectionMatrices:
                 "force_selection and velocity_selection must be reciprocal, S_fᵀ S_v = O (9.58); "
                 f"got max |S_fᵀ S_v| = {float(np.abs(cross).max()):.6g}"
             )
-        W_f = np.eye(d) if force_weight is None else np.array(as_gain_matrix("force_weight", force_weight, d))
-        W_v = np.eye(d) if velocity_weight is None else np.array(as_gain_matrix("velocity_weight", velocity_weight, d))
+        W_f = np.eye(d) if force_weight is None else _weight("force_weight", force_weight, d)
+        W_v = np.eye(d) if velocity_weight is None else _weight("velocity_weight", velocity_weight, d)
         pf = np.linalg.solve(S_f.T @ W_f @ S_f, S_f.T @ W_f)
         pv = np.linalg.solve(S_v.T @ W_v @ S_v, S_v.T @ W_v)
         for key, val in (
@@ -326,7 +355,7 @@ class SelectionMatrices:
 
     def compliance(self, compliance: Any) -> np.ndarray:
         """C′ = (I − P_v) C (9.72) for the compliance C (d, d), with this object's P_v."""
-        C = as_gain_matrix("compliance", compliance, self.dim)
+        C = _weight("compliance", compliance, self.dim)
         return (np.eye(self.dim) - self.velocity_projector) @ C
 
     def check_references(self, force: Any = None, velocity: Any = None, *, atol: float = 1e-9) -> None:
