@@ -24,6 +24,7 @@ from .._validate import positive_scalar
 from ..errors import DimensionError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
 
+
 def _f64(a: Any) -> np.ndarray:
     """The array itself when already float64 and contiguous (no copy), else a converted copy."""
     if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous:

@@ -24,7 +24,15 @@ from .core import (
     run_scenario,
     scenario_source,
 )
-from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, Field, register_controller, register_environment, register_reference
+from .schema import (
+    CONTROLLERS,
+    ENVIRONMENTS,
+    REFERENCES,
+    Field,
+    register_controller,
+    register_environment,
+    register_reference,
+)
 
 __all__ = [
     "Scenario",
