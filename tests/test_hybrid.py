@@ -1,0 +1,234 @@
+"""Hybrid force/motion controllers (Sect. 9.7): laws against hand-built torques, estimated compliance, bad inputs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from forcecontrol import CHAPTER_ARM, ElasticPlane, LinearPath, Measurement, Reference, Setpoint, simulate
+from forcecontrol.controllers.hybrid import (
+    HybridCompliantController,
+    HybridRigidController,
+    hybrid_compliant_packed,
+    hybrid_rigid_packed,
+)
+from forcecontrol.errors import DimensionError, ParameterError
+from forcecontrol.task import SelectionMatrices, inclined_plane, sliding_on_plane, turning_crank
+
+R2 = 1.0 / math.sqrt(2.0)
+K_ENV = 5e3
+
+
+@pytest.fixture(scope="module")
+def task():
+    """The π/4 plane of Example 9.4."""
+    return inclined_plane()
+
+
+@pytest.fixture(scope="module")
+def state():
+    """A moving state near the plane and a wrench on it."""
+    q = CHAPTER_ARM.inverse_kinematics([1.05, 0.04]) + np.array([0.0, 0.0])
+    qd = np.array([0.3, -0.2])
+    h = np.array([20.0, -25.0])
+    return q, qd, h
+
+
+def _reference(seed: int = 0) -> Reference:
+    rng = np.random.default_rng(seed)
+    return Reference(*(rng.normal(size=2) for _ in range(6)))
+
+
+def _compliant(task, compliance=1 / K_ENV):
+    return HybridCompliantController(CHAPTER_ARM, task, compliance, 100.0, 2500.0, 2500.0, 100.0)
+
+
+def test_compliant_law_matches_hand_built_torque(task, state):
+    """u = B J⁻¹(α − J̇q̇) + n + Jᵀh_e with α = S_v α_ν + C′ S_f f_λ (9.77), (9.80)–(9.82), built by hand, agrees to 1e-12."""
+    q, qd, h = state
+    ctrl = _compliant(task)
+    ctrl.state[:] = [0.01]
+    ref = _reference()
+    u = ctrl.step(0.0, Measurement(q, qd, h), ref)
+    T = CHAPTER_ARM.terms(q, qd)
+    S_f, S_v = np.array([[-R2], [R2]]), np.array([[R2], [R2]])
+    S_f_p, S_v_p = S_f.T, S_v.T  # identity weights, unit columns
+    C = np.eye(2) / K_ENV
+    Cp = (np.eye(2) - S_v @ S_v_p) @ C
+    nu = S_v_p @ T.xd
+    alpha_nu = S_v_p @ ref.acceleration + 100.0 * (S_v_p @ ref.velocity - nu) + 2500.0 * 0.01
+    lam = S_f_p @ h
+    lam_dot = np.linalg.solve(S_f.T @ C @ S_f, S_f.T) @ T.xd
+    f_lam = S_f_p @ ref.force_accel + 100.0 * (S_f_p @ ref.force_rate - lam_dot) + 2500.0 * (S_f_p @ ref.force - lam)
+    alpha = S_v @ alpha_nu + Cp @ S_f @ f_lam
+    expected = T.B @ np.linalg.solve(T.J, alpha - T.Jdq) + T.n + T.J.T @ h
+    np.testing.assert_allclose(u, expected, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(ctrl.state, 0.01 + 1e-3 * (S_v_p @ ref.velocity - nu), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("law", "kw", "motion", "mk"),
+    [
+        ("integral", {"force_integral_gain": 80.0}, "velocity", {"velocity_integral_gain": 900.0}),
+        ("proportional", {"force_gain": 0.5}, "position", {"position_gain": 900.0}),
+        ("feedforward", {}, "velocity", {"velocity_integral_gain": 900.0}),
+    ],
+)
+def test_rigid_law_matches_hand_built_torque(task, state, law, kw, motion, mk):
+    """u = B J⁻¹(S_v α_ν − J̇q̇) + n + Jᵀ S_f f_λ (9.91) with (9.92)/(9.93)/(9.94) and (9.80)/(9.95), built by hand, agrees to 1e-12."""
+    q, qd, h = state
+    ctrl = HybridRigidController(CHAPTER_ARM, task, motion=motion, velocity_gain=60.0, force_law=law, **kw, **mk)
+    ctrl.state[:] = [0.02, -0.3]
+    ref = _reference(1)
+    u = ctrl.step(0.0, Measurement(q, qd, h), ref)
+    T = CHAPTER_ARM.terms(q, qd)
+    S_f, S_v = np.array([[-R2], [R2]]), np.array([[R2], [R2]])
+    nu = S_v.T @ T.xd
+    if motion == "velocity":
+        alpha_nu = S_v.T @ ref.acceleration + 60.0 * (S_v.T @ ref.velocity - nu) + 900.0 * 0.02
+    else:
+        alpha_nu = S_v.T @ ref.acceleration + 60.0 * (S_v.T @ ref.velocity - nu) + 900.0 * (S_v.T @ (ref.position - T.x))
+    lam_d, lam = S_f.T @ ref.force, S_f.T @ h
+    f_lam = lam_d + kw.get("force_gain", 0.0) * (lam_d - lam) + kw.get("force_integral_gain", 0.0) * (-0.3)
+    expected = T.B @ np.linalg.solve(T.J, S_v @ alpha_nu - T.Jdq) + T.n + T.J.T @ (S_f @ f_lam)
+    np.testing.assert_allclose(u, expected, rtol=1e-12, atol=1e-9)
+
+
+def test_packed_adapters_agree_with_step(task, state):
+    """The packed adapters (for the compiled dispatcher) give the same torques and state as step()."""
+    q, qd, h = state
+    ref = _reference(2)
+    row = np.concatenate([ref.position, ref.velocity, ref.acceleration, ref.force, ref.force_rate, ref.force_accel])
+    T = CHAPTER_ARM.terms(q, qd)
+    for ctrl, fn in (
+        (_compliant(task), hybrid_compliant_packed),
+        (HybridRigidController(CHAPTER_ARM, task, velocity_gain=60.0, velocity_integral_gain=900.0,
+                               force_integral_gain=80.0), hybrid_rigid_packed),
+        (HybridRigidController(CHAPTER_ARM, task, motion="position", velocity_gain=60.0, position_gain=900.0,
+                               force_law="proportional", force_gain=0.5), hybrid_rigid_packed),
+    ):
+        s = ctrl.state.copy() + 0.1
+        ctrl.state[:] = s
+        u = ctrl.step(0.0, Measurement(q, qd, h), ref)
+        s2 = s.copy()
+        u2 = fn(0.0, 1e-3, q, qd, T.x, T.xd, T.J, T.Jdq, T.B, T.n, T.g, h, row, ctrl._params, s2)
+        np.testing.assert_allclose(u2, u, rtol=1e-12)
+        np.testing.assert_allclose(s2, ctrl.state, rtol=1e-12)
+
+
+def test_reset_zeroes_integrators(task, state):
+    """reset() returns the integral state to zero."""
+    q, qd, h = state
+    ctrl = _compliant(task)
+    ctrl.step(0.0, Measurement(q, qd, h), _reference())
+    assert np.any(ctrl.state != 0)
+    ctrl.reset()
+    np.testing.assert_array_equal(ctrl.state, 0.0)
+
+
+def _force_run(compliance):
+    env = ElasticPlane.inclined(math.pi / 4, [1.0, 0.0], K_ENV)
+    sel = inclined_plane().selection("base")
+    ref = Setpoint([1.0, 0.0], force=sel.wrench([-50.0]))
+    ctrl = HybridCompliantController(CHAPTER_ARM, inclined_plane(), compliance, 100.0, 2500.0, 2500.0, 100.0)
+    res = simulate(CHAPTER_ARM, env, ctrl, ref, q0=CHAPTER_ARM.inverse_kinematics([1.0, 0.0]), duration=1.0)
+    return res, (res.wrench @ sel.force_pinv.T).ravel()
+
+
+def test_estimated_compliance_gives_the_predicted_force_dynamics():
+    """With Ĉ = 2C, λ̈ = L_f f_λ (L_f = 2) and λ̂̇ = λ̇/2 (9.83): (9.84) is λ̈ + K_Dλ λ̇ + 2K_Pλ λ = 2K_Pλ λ_d, ζ = 1/√2, overshoot 4.32 %."""
+    res, lam = _force_run(2.0 / K_ENV)
+    zeta = 100.0 / (2.0 * math.sqrt(2.0 * 2500.0))
+    overshoot = 50.0 * math.exp(-math.pi * zeta / math.sqrt(1 - zeta**2))
+    assert -lam.min() - 50.0 == pytest.approx(overshoot, abs=0.05)
+    assert lam[-1] == pytest.approx(-50.0, rel=1e-4)
+
+
+def test_exact_compliance_gives_critically_damped_force():
+    """With Ĉ = C the force loop is λ̈ + 100 λ̇ + 2500 λ = 2500 λ_d (9.79), (9.81): no overshoot, 1 % band reached by 6.64/50 s."""
+    res, lam = _force_run(1.0 / K_ENV)
+    assert -lam.min() - 50.0 < 0.005
+    outside = np.abs(lam + 50.0) > 0.5
+    t_settle = res.t[np.where(outside)[0].max() + 1]
+    assert t_settle == pytest.approx(6.638 / 50.0, abs=0.005)
+
+
+# --------------------------------------------------------------------------- bad inputs
+
+
+def test_selection_of_wrong_dimension_raises():
+    """A 6-D task on the planar arm is rejected."""
+    with pytest.raises(DimensionError, match=r"selection must act on the robot's 2-dimensional operational space; got 6-dimensional"):
+        _compliant(sliding_on_plane())
+
+
+def test_moving_frame_task_raises():
+    """The hybrid controllers assume a fixed task frame; a moving one is refused."""
+    with pytest.raises(ParameterError, match=r"selection must have a fixed constraint frame.*turning-crank"):
+        HybridCompliantController(CHAPTER_ARM, turning_crank(), 1e-3, 1, 1, 1, 1)
+
+
+def test_selection_of_wrong_type_raises():
+    """The selection must be a Task or SelectionMatrices."""
+    with pytest.raises(ParameterError, match=r"selection must be a SelectionMatrices or a Task; got ndarray"):
+        _compliant(np.eye(2))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"compliance": -1e-4}, r"compliance must be a symmetric positive definite \(2, 2\) matrix"),
+        ({"velocity_gain": 0.0}, r"velocity_gain must be a symmetric positive definite \(1, 1\) matrix"),
+        ({"force_gain": [[1.0, 0.0]]}, r"force_gain must be a symmetric positive definite \(1, 1\) matrix; got shape \(1, 2\)"),
+    ],
+)
+def test_bad_compliant_gains_raise(task, kwargs, match):
+    """Gains and compliance are checked once, with the parameter named."""
+    args = {"compliance": 1e-4, "velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_gain": 1.0, "force_rate_gain": 1.0}
+    args.update(kwargs)
+    with pytest.raises((ParameterError, DimensionError), match=match):
+        HybridCompliantController(CHAPTER_ARM, task, **args)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"force_law": "pid"}, r"force_law must be 'feedforward', 'proportional' or 'integral'; got 'pid'"),
+        ({"motion": "torque"}, r"motion must be 'velocity' or 'position'; got 'torque'"),
+        ({"force_law": "proportional"}, r"force_gain must be given for force_law='proportional'"),
+        ({"force_integral_gain": None}, r"force_integral_gain must be given for force_law='integral'"),
+        ({"force_gain": 1.0}, r"force_gain applies to force_law='proportional' only"),
+        ({"velocity_integral_gain": None}, r"velocity_integral_gain must be given for motion='velocity'"),
+        ({"motion": "position"}, r"position_gain must be given for motion='position'"),
+        ({"position_gain": 3.0}, r"position_gain applies to motion='position' only"),
+    ],
+)
+def test_bad_rigid_options_raise(task, kwargs, match):
+    """Unknown laws and missing or misplaced gains are refused with the valid choices named."""
+    args = {"velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_integral_gain": 1.0}
+    args.update(kwargs)
+    with pytest.raises(ParameterError, match=match):
+        HybridRigidController(CHAPTER_ARM, task, **args)
+
+
+def test_custom_selection_matrices_are_accepted():
+    """Base-frame SelectionMatrices with non-unit columns give the same torques as the task (λ, ν are rescaled consistently)."""
+    task = inclined_plane()
+    sel = task.selection("base")
+    scaled = SelectionMatrices(2.0 * sel.force_selection, 3.0 * sel.velocity_selection)
+    q, qd, h = CHAPTER_ARM.inverse_kinematics([1.05, 0.04]), np.array([0.3, -0.2]), np.array([20.0, -25.0])
+    ref = Reference(np.zeros(2), np.array([0.1, 0.1]), np.zeros(2), sel.wrench([-50.0]), np.zeros(2), np.zeros(2))
+    u1 = _compliant(task).step(0.0, Measurement(q, qd, h), ref)
+    u2 = _compliant(scaled).step(0.0, Measurement(q, qd, h), ref)
+    np.testing.assert_allclose(u1, u2, rtol=1e-10)
+
+
+def test_path_reference_runs_in_python_loop(task):
+    """The hybrid controllers run in simulate() (Python loop) with a LinearPath reference and record their gains."""
+    env = ElasticPlane.inclined(math.pi / 4, [1.0, 0.0], K_ENV)
+    ref = LinearPath([1.0, 0.0], [1.1, 0.1], 0.5, force=task.selection("base").wrench([-10.0]))
+    res = simulate(CHAPTER_ARM, env, _compliant(task), ref, q0=CHAPTER_ARM.inverse_kinematics([1.0, 0.0]), duration=0.05)
+    assert res.metadata["controller"]["type"] == "HybridCompliantController"
+    np.testing.assert_allclose(res.metadata["controller"]["S_f"], [[-R2], [R2]])
