@@ -190,7 +190,8 @@ class ForceLoopAxis:
 
     def damping_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ω_n [rad/s], ζ, poles)`` of the closed loop (``control.damp``, without printing)."""
-        wn, zeta, p = control.damp(self.state_space(), doprint=False)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a pole at 0 (free axis) has ζ = nan
+            wn, zeta, p = control.damp(self.state_space(), doprint=False)
         return np.asarray(wn), np.asarray(zeta), np.asarray(p)
 
     def is_stable(self) -> bool:

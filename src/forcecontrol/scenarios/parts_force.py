@@ -1,0 +1,152 @@
+"""Registrations of the direct force control schemes (Sect. 9.4) and their analysis.
+
+Controller types: ``inner-position`` (Fig. 9.6, (9.39) + PI (9.43)), ``inner-velocity``
+(Fig. 9.7, (9.45)–(9.46)) and ``parallel`` (Fig. 9.8, (9.48) + PI). The environment's stiffness
+matrix is handed to the controller so that a force reference outside R(K) is reported with a
+:class:`~forcecontrol.errors.DriftWarning` when the case starts.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..controllers.force import (
+    InnerPositionForceController,
+    InnerVelocityForceController,
+    ParallelForcePositionController,
+)
+from ..trajectories import Setpoint
+from .schema import Field, register_controller
+
+_MOTION = {
+    "inertia": Field("gain", True, doc="M_d [kg]"),
+    "damping": Field("gain", True, doc="K_D [N s/m]"),
+    "stiffness": Field("gain", True, doc="K_P [N/m]"),
+    "force_gain": Field("gain", True, doc="K_F, diagonal of C_F [m/N]"),
+}
+_PI = {
+    **_MOTION,
+    "integral_gain": Field("gain", default=0.0, doc="K_I, diagonal of C_F's integral action [m/(N s)]"),
+    "integral_limit": Field("gain", doc="anti-windup bound on the integral action [m]"),
+}
+
+
+def _env_stiffness(ctx: dict[str, Any]) -> Any:
+    env = ctx.get("environment")
+    return env.stiffness_matrix() if env is not None and hasattr(env, "stiffness_matrix") else None
+
+
+def _pi_builder(cls):
+    def build(p: dict[str, Any], ctx: dict[str, Any]):
+        return cls(
+            ctx["robot"], p["inertia"], p["damping"], p["stiffness"], p["force_gain"], p["integral_gain"],
+            integral_limit=p["integral_limit"], integrator_start=p["integrator_start"],
+            environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"],
+        )
+
+    return build
+
+
+register_controller(
+    "inner-position",
+    {**_PI, "integrator_start": Field("str", default="tip", choices=("tip", "zero"),
+                                      doc="'tip': x_F(0) = tip position; 'zero': ξ₀ = 0")},
+    _pi_builder(InnerPositionForceController),
+    "force control with inner position loop (9.39), PI C_F (9.43)",
+)
+
+register_controller(
+    "inner-velocity",
+    dict(_MOTION),
+    lambda p, ctx: InnerVelocityForceController(
+        ctx["robot"], p["inertia"], p["damping"], p["stiffness"], p["force_gain"],
+        environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"],
+    ),
+    "force control with inner velocity loop (9.45)-(9.46)",
+)
+
+register_controller(
+    "parallel",
+    {**_PI, "integrator_start": Field("str", default="zero", choices=("tip", "zero"),
+                                      doc="'zero': ξ₀ = 0; 'tip': x_d + x_F(0) = tip position")},
+    _pi_builder(ParallelForcePositionController),
+    "parallel force/position control (9.48), PI C_F (9.43)",
+)
+
+_FORCE_TYPES = (InnerPositionForceController, InnerVelocityForceController, ParallelForcePositionController)
+
+
+def _force_applies(parts: dict[str, Any]) -> bool:
+    env = parts["environment"]
+    if not (isinstance(parts["controller"], _FORCE_TYPES) and hasattr(env, "stiffness_matrix")):
+        return False
+    K = env.stiffness_matrix()
+    ctl = parts["controller"]
+    diag = all(
+        np.allclose(M, np.diag(np.diag(M)))
+        for M in (K, ctl.inertia, ctl.damping, ctl.stiffness)
+    )
+    return diag
+
+
+def force_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """Per base axis: poles, zero, ω_n, ζ, equilibrium (9.44)/(9.49), sampled stability limit.
+
+    Keys (``a`` = x, y, ...): ``pole_re_a``, ``pole_im_a`` (the complex pair, imaginary part
+    positive), ``real_pole_a`` (the third pole of the PI schemes), ``zero_a`` (of f_e/f_d),
+    ``omega_n_a``, ``zeta_a`` (of the complex pair, or of the slowest pole), ``steady_a``,
+    ``steady_fa``, ``spectral_radius_a`` (sampled loop at Ts) and ``stability_limit_a`` (largest
+    environment stiffness [N/m] keeping the sampled loop stable, with the arm's operational mass
+    at q0 along the axis); only axes in contact (k > 0) get the last two.
+    """
+    import math
+
+    from ..analysis.force import force_loop_axes, operational_mass, sampled_stability_limit
+
+    ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
+    K = env.stiffness_matrix()
+    rest = env.point if hasattr(env, "point") else env.rest_position
+    axes = force_loop_axes(ctl, K)
+    out: dict[str, Any] = {}
+    Ts = ctl.sample_time
+    import warnings
+
+    for i, (a, ax) in enumerate(zip("xyz", axes)):
+        poles = ax.poles()
+        cplx = [p for p in poles if p.imag > 1e-9]
+        real = [p.real for p in poles if abs(p.imag) <= 1e-9]
+        if cplx:
+            out[f"pole_re_{a}"] = float(cplx[0].real)
+            out[f"pole_im_{a}"] = float(cplx[0].imag)
+        if real and ax.has_integral:
+            out[f"real_pole_{a}"] = float(max(real))
+        z = ax.zeros()
+        if z.size == 1 and ax.force_gain > 0 and ax.environment_stiffness > 0:
+            out[f"zero_{a}"] = float(np.real(z[0]))
+        wn, zeta, p = ax.damping_table()
+        j = int(np.argmax(np.abs(np.imag(p)))) if np.any(np.abs(np.imag(p)) > 1e-9) else int(np.argmin(wn))
+        if wn[j] > 0.0:
+            out[f"omega_n_{a}"] = float(wn[j])
+            out[f"zeta_{a}"] = float(zeta[j])
+        if isinstance(ref, Setpoint):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the controller's reset reports drift once
+                x, f = ax.equilibrium(float(ref.force[i]), float(ref.position[i]), float(rest[i]))
+            if not math.isnan(x):
+                out[f"steady_{a}"] = x
+                out[f"steady_f{a}"] = f
+        if ax.environment_stiffness > 0:
+            nu = np.zeros(ctl.m)
+            nu[i] = 1.0
+            mx = operational_mass(robot, parts["q0"], nu)
+            out[f"spectral_radius_{a}"] = ax.spectral_radius(Ts, mx)
+            out[f"stability_limit_{a}"] = sampled_stability_limit(ax, Ts, arm_inertia=mx)
+    return out
+
+
+def _register_analyses() -> None:
+    from .core import register_analysis
+
+    register_analysis(_force_applies, force_analysis)
