@@ -37,7 +37,7 @@ def _controller(scheme: str) -> fc.Controller:
     return fc.ParallelForcePositionController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _run(scheme: str, k_x: float) -> tuple[fc.SimulationResult, np.ndarray]:
     """The simulated case and the controller's state after the run (ξ, ξ₀)."""
     ctl = _controller(scheme)

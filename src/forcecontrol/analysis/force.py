@@ -33,7 +33,7 @@ import warnings
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
-import control
+import control  # type: ignore[import-untyped]
 import numpy as np
 
 from .._validate import nonnegative_scalar, positive_scalar
@@ -257,7 +257,8 @@ class ForceLoopAxis:
             np.full(t.shape, float(rest_position)),
         ])
         if initial_state is None:
-            x0 = [rest_position, 0.0] + ([rest_position if self.scheme == "inner-position" else 0.0] if self.has_integral else [])
+            xi0 = [rest_position if self.scheme == "inner-position" else 0.0] if self.has_integral else []
+            x0 = np.array([rest_position, 0.0, *xi0])
         else:
             x0 = np.asarray(initial_state, dtype=np.float64).reshape(-1)
             if x0.shape != (len(self.states),):
@@ -352,7 +353,7 @@ def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLo
         ParallelForcePositionController,
     )
 
-    names = {
+    names: dict[type, str] = {
         InnerPositionForceController: "inner-position",
         InnerVelocityForceController: "inner-velocity",
         ParallelForcePositionController: "parallel",

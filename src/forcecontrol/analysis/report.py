@@ -60,7 +60,8 @@ def analyze_scenario(source: str | Path | dict[str, Any]) -> dict[str, Any]:
             if sub in analysis:
                 checks.append(_check(key, float(analysis[sub]), spec, parts["tolerance"]))
             else:
-                checks.append({"metric": key, "value": None, "expected": _plain(spec if not isinstance(spec, dict) else spec["value"]),
+                want = spec["value"] if isinstance(spec, dict) else spec
+                checks.append({"metric": key, "value": None, "expected": _plain(want),
                                "tolerance": None, "relative_error": None, "ok": False})
         cases.append({
             "label": case.label,

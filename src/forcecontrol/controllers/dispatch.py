@@ -12,8 +12,8 @@ import numpy as np
 from numba import njit
 
 from .compliance import joint_pd_packed, os_pd_packed
-from .impedance import impedance_packed
 from .force import inner_position_packed, inner_velocity_packed, parallel_packed
+from .impedance import impedance_packed
 
 __all__ = ["controller_step", "COMPILED_KINDS"]
 

@@ -203,7 +203,9 @@ def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
     try:
         a = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a non-negative scalar, ({m},) vector or diagonal ({m}, {m}) matrix [{unit}]; got {value!r}") from exc
+        raise ParameterError(
+            f"{name} must be a non-negative scalar, ({m},) vector or diagonal ({m}, {m}) matrix [{unit}]; got {value!r}"
+        ) from exc
     if a.ndim == 0:
         d = np.full(m, float(a))
     elif a.shape == (m,):
