@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -74,3 +75,14 @@ def test_scenario_with_a_bad_force_gain_names_the_key():
     data["controller"] = {**data["controller"], "force_gain": [-0.001, 0.0]}
     with pytest.raises(ScenarioError, match=r"\[controller\] \(type 'inner-position'\): force_gain must be non-negative"):
         load_scenario(data)
+
+
+def test_analyze_figures_writes_one_figure_per_scheme(tmp_path):
+    """`analyze example-9.3 --figures` writes three PNGs (like Figs. 9.9–9.11) with the linearised force overlaid."""
+    res = runner.invoke(app, ["analyze", "example-9.3", "--json", "--figures", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    files = json.loads(res.stdout)["files"]
+    assert len(files) == 3
+    for name, f in zip(("innerposition", "innervelocity", "parallel"), files):
+        assert name in f and (tmp_path / "example-9.3").exists()
+        assert Path(f).stat().st_size > 10_000

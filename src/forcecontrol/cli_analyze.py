@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -19,8 +20,16 @@ def analyze_command(
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected analysis value is missed")] = False,
+    figures: Annotated[
+        bool, typer.Option(help="also simulate and write one figure per controller type with the linearised model")
+    ] = False,
+    out: Annotated[Path, typer.Option(help="folder for the figures")] = Path("forcecontrol-out"),
 ) -> None:
-    """Analyse a scenario without simulating: poles, ω_n, ζ, equilibria, sampled stability limit."""
+    """Analyse a scenario without simulating: poles, ω_n, ζ, equilibria, sampled stability limit.
+
+    With ``--figures`` the scenario is also simulated and one figure per controller type is
+    written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid.
+    """
     from rich.console import Console
     from rich.table import Table
 
@@ -30,6 +39,11 @@ def analyze_command(
         from .analysis.report import analyze_scenario
 
         report = analyze_scenario(scenario)
+        if figures:
+            from .analysis.report import plot_scheme_figures
+
+            folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
+            report["files"] = [str(p) for p in plot_scheme_figures(scenario, folder)]
     except ForceControlError as exc:
         Console(stderr=True).print(f"[bold red]error:[/] {exc}")
         raise typer.Exit(code=2) from None
@@ -54,5 +68,7 @@ def analyze_command(
             if not case["analysis"]:
                 t.add_row("(no analysis applies to this case)", "", "", "", "")
             console.print(t)
+        for f in report.get("files", []):
+            console.print(f"figure: {f}")
     if check and not report["all_checks_pass"]:
         raise typer.Exit(code=1)

@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["analyze_scenario"]
+__all__ = ["analyze_scenario", "plot_scheme_figures"]
 
 
 def _plain(v: Any) -> Any:
@@ -77,3 +77,98 @@ def analyze_scenario(source: str | Path | dict[str, Any]) -> dict[str, Any]:
         "cases": cases,
         "all_checks_pass": all(c["ok"] for case in cases for c in case["checks"]),
     }
+
+
+_BOOK_FIGURES = {
+    "InnerPositionForceController": "Fig. 9.9: force control with inner position loop",
+    "InnerVelocityForceController": "Fig. 9.10: force control with inner velocity loop",
+    "ParallelForcePositionController": "Fig. 9.11: parallel force/position control",
+}
+
+
+def _linear_overlay(parts: dict[str, Any], t: Any) -> tuple[int, Any] | None:
+    """The linearised f_e(t) along the contact axis for a direct force control case, or None."""
+    import numpy as np
+
+    from ..controllers.base import Measurement
+    from ..controllers.force import (
+        InnerPositionForceController,
+        InnerVelocityForceController,
+        ParallelForcePositionController,
+    )
+    from ..errors import ForceControlError
+    from ..trajectories import Setpoint
+    from .force import force_loop_axes
+
+    ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
+    if not isinstance(ctl, (InnerPositionForceController, InnerVelocityForceController, ParallelForcePositionController)):
+        return None
+    if not isinstance(ref, Setpoint) or not hasattr(env, "stiffness_matrix"):
+        return None
+    K = env.stiffness_matrix()
+    try:
+        axes = force_loop_axes(ctl, K)
+    except ForceControlError:
+        return None
+    i = int(np.argmax(np.diag(K)))
+    q0 = np.asarray(parts["q0"], dtype=float)
+    qd0 = np.zeros(robot.nq) if parts["qd0"] is None else np.asarray(parts["qd0"], dtype=float)
+    x0 = robot.forward_kinematics(q0)
+    ctl.reset(Measurement(q0, qd0, env.wrench(x0, robot.jacobian(q0) @ qd0)), ref.at(0.0))
+    ax = axes[i]
+    rest = env.point if hasattr(env, "point") else env.rest_position
+    state = [x0[i], float((robot.jacobian(q0) @ qd0)[i])] + ([ctl.state[ctl.m + i]] if ax.has_integral else [])
+    resp = ax.response(t, float(ref.force[i]), float(ref.position[i]), float(rest[i]), initial_state=state)
+    return i, np.asarray(resp.outputs[0])
+
+
+def plot_scheme_figures(source: str | Path | dict[str, Any], folder: str | Path, *, engine: str = "auto") -> list[Path]:
+    """Simulate a scenario and write one figure per controller type (like Figs. 9.9–9.11).
+
+    Each figure shows x and f_x (the scenario's ``[figure]`` signals) of the cases that share a
+    controller type, with the linearised model's contact force (:class:`ForceLoopAxis`, started
+    from the simulation's initial state and integrator) overlaid in red.
+
+    Args:
+        source: a built-in scenario name, a TOML path or a scenario dict.
+        folder: where the PNG files go (created).
+        engine: simulator engine.
+
+    Returns:
+        The written files, one per controller type, in order of first appearance.
+    """
+    import warnings
+
+    from ..plotting import SIGNAL_LABELS, plot_results
+    from ..scenarios.core import build_case, load_scenario, run_scenario
+
+    scn = load_scenario(source)
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        run = run_scenario(scn, engine=engine)
+    groups: dict[str, list[int]] = {}
+    for i, case in enumerate(run.cases):
+        groups.setdefault(case.result.metadata["controller"]["type"], []).append(i)
+    fig = scn.figure or {}
+    signals = list(fig.get("signals") or ["x", "fx"])
+    folder = Path(folder)
+    written = []
+    for kind, idx in groups.items():
+        overlays: dict[str, list[tuple[Any, Any, str]]] = {}
+        for i in idx:
+            parts = build_case(scn.cases[i], where=f"{scn.source}: [[case]] #{i + 1}")
+            r = run.cases[i].result
+            lin = _linear_overlay(parts, r.t)
+            if lin is not None:
+                axis, f = lin
+                sig = "f" + "xyz"[axis]
+                if sig in SIGNAL_LABELS and sig in signals:
+                    overlays.setdefault(sig, []).append((r.t, f, f"linearised, {run.cases[i].label}"))
+        title = _BOOK_FIGURES.get(kind, kind)
+        stem = "".join(ch if ch.isalnum() else "-" for ch in f"{scn.name}-{kind}").strip("-").lower()
+        path = plot_results(
+            [run.cases[i].result for i in idx], signals, title=f"{scn.name}: {title}",
+            t_max=fig.get("t_max"), overlays=overlays, path=folder / f"{stem}.png",
+        )
+        written.append(Path(path))
+    return written
