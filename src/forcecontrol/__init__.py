@@ -7,6 +7,10 @@ constrained motion and hybrid force/motion control, with a sampled-data simulato
 
 __version__ = "0.1.0"
 
+from . import _numba_cache  # noqa: E402  (must precede every @njit(cache=True) module)
+
+_numba_cache.configure()
+
 from .controllers import (  # noqa: E402
     Controller,
     HybridCompliantController,
