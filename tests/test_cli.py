@@ -56,3 +56,12 @@ def test_schema_lists_every_registered_type():
     """`schema` documents the tables and each registered type's keys."""
     out = runner.invoke(app, ["schema"]).stdout
     assert 'type = "impedance"' in out and 'type = "elastic-plane"' in out and "start_position" in out
+
+
+def test_example_9_3_writes_one_figure_per_scheme(tmp_path):
+    """`run example-9.3` writes Figs. 9.9, 9.10 and 9.11 as three files, each with its scheme's cases."""
+    res = runner.invoke(app, ["run", "example-9.3", "--json", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    files = json.loads(res.stdout)["files"]
+    names = sorted(v.rsplit("/", 1)[1] for k, v in files.items() if k.startswith("figure"))
+    assert names == ["example-9.3-fig-9.10.png", "example-9.3-fig-9.11.png", "example-9.3-fig-9.9.png"]

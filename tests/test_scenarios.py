@@ -73,6 +73,10 @@ def test_a_good_file_loads_and_runs(tmp_path):
         (lambda s: s + '\n[[case]]\nlabel = "a"\ncontroler.stiffness = 1.0\n', r"override 'controler.stiffness' names no table"),
         (lambda s: s + '\n[expected]\nwobble = 1.0\n', r"unknown metric 'wobble'"),
         (lambda s: s.replace('[robot]', '[robot\n'), r"not valid TOML"),
+        (lambda s: s + '\n[figure]\ncases = ["nope"]\n', r"\[figure\]: key 'cases' names no case 'nope'"),
+        (lambda s: s + '\n[[figure]]\nname = "a"\n[[figure]]\nsignals = ["x"]\n',
+         r"\[\[figure\]\] #2: missing key 'name' \(several figures need distinct file names\)"),
+        (lambda s: s + '\n[figure]\nsignals = "x"\n', r"\[figure\]: key 'signals' must be a non-empty list of strings"),
     ],
 )
 def test_malformed_files_are_rejected_with_file_key_expected_and_given(tmp_path, edit, match):

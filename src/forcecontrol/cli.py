@@ -131,9 +131,12 @@ def run_command(
         return
     folder = out / _slug(scn.name)
     if figure:
-        from .plotting import plot_run
+        from .plotting import plot_run_figures
 
-        run.files["figure"] = str(plot_run(run, folder / f"{_slug(scn.name)}.png"))
+        paths = plot_run_figures(run, folder, _slug(scn.name))
+        run.files["figure"] = str(paths[0])
+        for p in paths[1:]:
+            run.files[f"figure:{p.stem}"] = str(p)
     if data is not DataFormat.none:
         for c in run.cases:
             d, m = c.result.save(folder / f"{_slug(scn.name)}-{_slug(c.label)}", format=data.value)

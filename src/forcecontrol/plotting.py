@@ -11,7 +11,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .scenarios.core import ScenarioRun
     from .simulation import SimulationResult
 
-__all__ = ["plot_results", "plot_run", "SIGNAL_LABELS"]
+__all__ = ["plot_results", "plot_run", "plot_run_figures", "SIGNAL_LABELS"]
 
 #: axis labels of the plottable columns.
 SIGNAL_LABELS: dict[str, str] = {
@@ -91,10 +91,25 @@ def plot_results(
 
 
 def plot_run(run: ScenarioRun, path: str | Path | None = None) -> Any:
-    """The scenario's figure: its ``[figure]`` signals for every case."""
-    fig = run.scenario.figure or {}
+    """The scenario's first figure: its ``[figure]`` signals for its cases (all by default)."""
+    figs = run.scenario.figures or ({},)
+    return _plot_figure(run, figs[0], path)
+
+
+def plot_run_figures(run: ScenarioRun, folder: str | Path, stem: str) -> list[Path]:
+    """Every figure of the scenario as ``folder/stem[-name].png``; returns the paths."""
+    figs = run.scenario.figures or ({},)
+    out = []
+    for fig in figs:
+        name = f"{stem}-{fig['name']}" if fig.get("name") else stem
+        out.append(_plot_figure(run, fig, Path(folder) / f"{name}.png"))
+    return out
+
+
+def _plot_figure(run: ScenarioRun, fig: dict[str, Any], path: str | Path | None) -> Any:
     signals = list(fig.get("signals") or ["x", "fx"])
+    wanted = fig.get("cases")
+    results = [c.result for c in run.cases if not wanted or c.label in wanted]
     return plot_results(
-        [c.result for c in run.cases], signals,
-        title=fig.get("title") or run.scenario.title, t_max=fig.get("t_max"), path=path,
+        results, signals, title=fig.get("title") or run.scenario.title, t_max=fig.get("t_max"), path=path,
     )

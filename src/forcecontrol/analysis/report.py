@@ -42,23 +42,20 @@ def analyze_scenario(source: str | Path | dict[str, Any]) -> dict[str, Any]:
     Raises:
         ScenarioError: the scenario cannot be loaded or built.
     """
-    from ..scenarios.core import _ANALYSES, _check, build_case, load_scenario
+    from ..scenarios.core import build_case, case_analysis, check_expected, load_scenario
 
     scn = load_scenario(source)
     cases = []
     for i, case in enumerate(scn.cases):
         parts = build_case(case, where=f"{scn.source}: [[case]] #{i + 1}")
-        analysis: dict[str, Any] = {}
-        for applies, fn in _ANALYSES:
-            if applies(parts):
-                analysis.update(fn(parts))
+        analysis = case_analysis(parts)
         checks = []
         for key, spec in case.expected.items():
             if not key.startswith("analysis."):
                 continue
             sub = key.split(".", 1)[1]
             if sub in analysis:
-                checks.append(_check(key, float(analysis[sub]), spec, parts["tolerance"]))
+                checks.append(check_expected(key, float(analysis[sub]), spec, parts["tolerance"]))
             else:
                 want = spec["value"] if isinstance(spec, dict) else spec
                 checks.append({"metric": key, "value": None, "expected": _plain(want),

@@ -34,6 +34,8 @@ __all__ = [
     "run_scenario",
     "register_metric",
     "register_analysis",
+    "case_analysis",
+    "check_expected",
     "METRICS",
 ]
 
@@ -51,7 +53,7 @@ TOP_FIELDS: dict[str, Field] = {
     "controller": Field("table", True),
     "reference": Field("table", True),
     "sensor": Field("table", default=None),
-    "figure": Field("table", default=None),
+    "figure": Field("table", default=None),  # a table or an array of tables, checked below
     "expected": Field("table", default=None),
     "case": Field("table", default=None),  # checked separately (array of tables)
 }
@@ -73,6 +75,8 @@ SENSOR_FIELDS: dict[str, Field] = {
 }
 
 FIGURE_FIELDS: dict[str, Field] = {
+    "name": Field("str", default="", doc="suffix of the figure's file name (several figures)"),
+    "cases": Field("strlist", doc="labels of the cases drawn (all by default)"),
     "title": Field("str", default=""),
     "signals": Field("strlist", default=["x", "fx"], doc="columns to plot against time"),
     "t_max": Field("number", doc="time axis limit [s]"),
@@ -92,7 +96,7 @@ class CaseSpec:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A validated scenario: one or more cases sharing a figure."""
+    """A validated scenario: one or more cases, drawn in one or more figures."""
 
     name: str
     title: str
@@ -100,6 +104,7 @@ class Scenario:
     source: str
     cases: tuple[CaseSpec, ...]
     figure: dict[str, Any] | None
+    figures: tuple[dict[str, Any], ...] = ()
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
 
 
@@ -166,6 +171,25 @@ def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], f
 def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
     """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
     _ANALYSES.append((applies, fn))
+
+
+def case_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """Every registered analytic prediction that applies to a built case (see :func:`build_case`)."""
+    out: dict[str, Any] = {}
+    for applies, fn in _ANALYSES:
+        if applies(parts):
+            out.update(fn(parts))
+    return out
+
+
+def check_expected(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
+    """Compare a value with an expected ``spec`` (a number, or ``{value, tol}``).
+
+    Returns:
+        ``{"metric", "value", "expected", "tolerance", "relative_error", "ok"}``; the tolerance
+        is ``tol`` when given, else ``rel_tol · |expected|``.
+    """
+    return _check(name, value, spec, rel_tol)
 
 
 def _column_metric(col: str):
@@ -261,6 +285,7 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         except tomllib.TOMLDecodeError as exc:
             raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
     cases_raw = data.pop("case", None)
+    figures_raw = data.pop("figure", None)
     top = check_table(where, data, TOP_FIELDS)
     single = cases_raw is None
     if single:
@@ -286,13 +311,32 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         spec = CaseSpec(label, cfg, expected)
         build_case(spec, where=cw)  # validate now, before anything runs
         cases.append(spec)
-    fig = top["figure"]
-    if fig is not None:
-        fig = check_table(f"{where}: [figure]", fig, FIGURE_FIELDS)
+    figures = _check_figures(where, figures_raw, [c.label for c in cases])
     return Scenario(
         name=top["name"], title=top["title"], description=top["description"], source=where,
-        cases=tuple(cases), figure=fig, raw=data,
+        cases=tuple(cases), figure=figures[0] if figures else None, figures=tuple(figures), raw=data,
     )
+
+
+def _check_figures(where: str, raw: Any, labels: list[str]) -> list[dict[str, Any]]:
+    """``[figure]`` (one) or ``[[figure]]`` (several), each checked; case filters must name cases."""
+    if raw is None:
+        return []
+    items = raw if isinstance(raw, list) else [raw]
+    out = []
+    for i, item in enumerate(items):
+        fw = f"{where}: [figure]" if not isinstance(raw, list) else f"{where}: [[figure]] #{i + 1}"
+        fig = check_table(fw, item, FIGURE_FIELDS)
+        for lab in fig["cases"] or []:
+            if lab not in labels:
+                raise ScenarioError(f"{fw}: key 'cases' names no case {lab!r}; expected labels among {labels}")
+        if isinstance(raw, list) and len(items) > 1 and not fig["name"]:
+            raise ScenarioError(f"{fw}: missing key 'name' (several figures need distinct file names)")
+        out.append(fig)
+    names = [f["name"] for f in out]
+    if len(set(names)) != len(names):
+        raise ScenarioError(f"{where}: [[figure]] names must be distinct; got {names}")
+    return out
 
 
 def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]):
@@ -416,10 +460,7 @@ def run_scenario(
         metrics = {}
         for name in ("x", "y", "fx", "fy"):
             metrics[name] = METRICS[name](res, parts, window)
-        analysis: dict[str, Any] = {}
-        for applies, fn in _ANALYSES:
-            if applies(parts):
-                analysis.update(fn(parts))
+        analysis = case_analysis(parts)
         checks = []
         for key, spec in case.expected.items():
             if key.startswith("analysis."):
