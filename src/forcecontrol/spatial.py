@@ -34,6 +34,7 @@ __all__ = [
     "euler_xyz_to_rotation",
     "rotation_to_euler_xyz",
     "euler_xyz_T",
+    "euler_xyz_T_inv",
     "euler_xyz_T_dot",
     "rotation_vector",
     "rotvec_to_rotation",
@@ -98,6 +99,13 @@ def euler_xyz_T(phi: Any) -> np.ndarray:
     c1, s1 = math.cos(phi[0]), math.sin(phi[0])
     c2, s2 = math.cos(phi[1]), math.sin(phi[1])
     return np.array([[1.0, 0.0, s2], [0.0, c1, -s1 * c2], [0.0, s1, c1 * c2]])
+
+
+def euler_xyz_T_inv(phi: Any) -> np.ndarray:
+    """T⁻¹(φ) for XYZ angles in closed form, (3, 3); undefined at ``cos φ₂ = 0``."""
+    c1, s1 = math.cos(phi[0]), math.sin(phi[0])
+    c2, s2 = math.cos(phi[1]), math.sin(phi[1])
+    return np.array([[1.0, s1 * s2 / c2, -c1 * s2 / c2], [0.0, c1, s1], [0.0, -s1 / c2, c1 / c2]])
 
 
 def euler_xyz_T_dot(phi: Any, phid: Any) -> np.ndarray:

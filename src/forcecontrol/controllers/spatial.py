@@ -1,0 +1,326 @@
+"""6-D compliance (9.15) and impedance (9.35) control with the error on the desired frame.
+
+Error (9.9): ``x̃ = −[R_dᵀ (o_e − o_d); φ_{d,e}]``, φ_{d,e} the XYZ Euler angles of ``R_dᵀ R_e``
+(or, with ``orientation="rotvec"``, its rotation vector: no representation singularity short of
+a 2π rotation, the chapter's alternative to Euler angles). ``x̃̇ = −J_Ad q̇ + b`` (9.33) with the
+analytical Jacobian on the desired frame (9.14) ``J_Ad = T_A⁻¹ blockdiag(R_dᵀ, R_dᵀ) J``.
+
+Impedance (9.30), (9.35): ``u = B y + n + Jᵀ h_e`` with y solving
+``J_Ad y = M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d) − J̇_Ad q̇ + ḃ``, which gives the
+configuration-independent impedance (9.36) ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_e^d``, all vectors on the
+desired frame. ``−J̇_Ad q̇ + ḃ`` is computed as one term, the part of x̃̈ that does not depend on
+q̈ (written out in :func:`error_acceleration_bias`), for a desired frame moving with
+``[ȯ_d; ω_d]`` and ``[ö_d; ω̇_d]``.
+
+Redundant arms (n > 6) and singularities: y is solved with
+:func:`forcecontrol.controllers.redundant.redundant_acceleration` (null-space posture, variable
+damped least squares); away from singularities the solution is exact and (9.36) holds.
+
+References use the library's :class:`~forcecontrol.controllers.base.Reference` with m = 6:
+``position = [o_d; φ_d]`` (φ_d XYZ Euler angles of R_d in the base frame; R_d is rebuilt from
+them, which is well defined at every φ_d), ``velocity = [ȯ_d; ω_d]``, ``acceleration = [ö_d; ω̇_d]``
+(base frame). The measured wrench is ``[f_e; μ_e]`` in the base frame about the end-effector origin
+(a plain (6,) array), or a :class:`~forcecontrol.spatial.Wrench` that must say so.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+
+from .._validate import as_gain_matrix
+from ..errors import FrameError, ParameterError, SingularityError
+from ..robots.base import RobotModel
+from ..spatial import (
+    Wrench,
+    euler_xyz_T,
+    euler_xyz_T_dot,
+    euler_xyz_T_inv,
+    euler_xyz_to_rotation,
+    rotation_to_euler_xyz,
+    rotation_vector,
+    rotvec_T,
+)
+from .base import Controller, Measurement, Reference
+from .redundant import NullSpacePosture, SingularityHandling, redundant_acceleration
+
+__all__ = [
+    "SpatialImpedanceController",
+    "SpatialComplianceController",
+    "DesiredFrameError",
+    "desired_frame_error",
+    "error_acceleration_bias",
+    "spatial_impedance_acceleration",
+]
+
+Orientation = Literal["euler", "rotvec"]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+class DesiredFrameError:
+    """x̃, x̃̇ and what (9.35) needs, at one sample (plain attributes, no checks: the hot path).
+
+    Attributes:
+        x: x̃ (9.9), (6,); xd: x̃̇ (9.33), (6,); JAd: J_Ad (9.14), (6, n);
+        c: ``−J̇_Ad q̇ + ḃ``, (6,), so that ``x̃̈ = −J_Ad q̈ + c`` (9.34);
+        R_d: desired rotation, (3, 3).
+    """
+
+    __slots__ = ("x", "xd", "JAd", "c", "R_d")
+
+    def __init__(self, x, xd, JAd, c, R_d) -> None:
+        self.x, self.xd, self.JAd, self.c, self.R_d = x, xd, JAd, c, R_d
+
+
+def _orientation_terms(R_de: np.ndarray, orientation: str, t: float):
+    """(φ, T(φ), T⁻¹(φ)) for the chosen representation of R_e^d."""
+    if orientation == "euler":
+        c2 = math.hypot(R_de[0, 0], R_de[0, 1])
+        if c2 < 1e-3:
+            raise SingularityError(
+                f"at t = {t:.6g} s the orientation error is at a representation singularity of XYZ Euler "
+                f"angles (cos(phi_2) = {c2:.3g}); use orientation='rotvec'"
+            )
+        phi = rotation_to_euler_xyz(R_de)
+        return phi, euler_xyz_T(phi), euler_xyz_T_inv(phi)
+    phi = rotation_vector(R_de)
+    T = rotvec_T(phi)
+    return phi, T, np.linalg.inv(T)
+
+
+def _T_dot(orientation: str, phi: np.ndarray, phid: np.ndarray) -> np.ndarray:
+    if orientation == "euler":
+        return euler_xyz_T_dot(phi, phid)
+    # rotation vector: directional derivative of T(θ) along θ̇ (central difference, O(ε²))
+    eps = 1e-6
+    return (rotvec_T(phi + eps * phid) - rotvec_T(phi - eps * phid)) / (2 * eps)
+
+
+def desired_frame_error(
+    R_e: np.ndarray,
+    o_e: np.ndarray,
+    J: np.ndarray,
+    Jdq: np.ndarray,
+    qd: np.ndarray,
+    reference: Reference,
+    orientation: str = "euler",
+    t: float = 0.0,
+) -> DesiredFrameError:
+    """x̃ (9.9), x̃̇ (9.33), J_Ad (9.14) and ``c = −J̇_Ad q̇ + ḃ`` for a moving desired frame.
+
+    Args:
+        R_e, o_e: end-effector pose in the base frame; J (6, n), Jdq (6,): geometric Jacobian
+            and J̇q̇; qd: q̇ (n,); reference: 6-D reference (see module docstring).
+        orientation: ``"euler"`` (XYZ, the chapter's) or ``"rotvec"``.
+
+    Raises:
+        SingularityError: Euler angles at a representation singularity (|cos φ₂| < 1e-3).
+    """
+    pos = reference.position
+    o_d = pos[:3]
+    R_d = euler_xyz_to_rotation(pos[3:])
+    od_dot, w_d = reference.velocity[:3], reference.velocity[3:]
+    od_ddot, wd_dot = reference.acceleration[:3], reference.acceleration[3:]
+    RdT = R_d.T
+    v = J @ qd
+    e = o_e - o_d
+    e_dot = v[:3] - od_dot
+    w_rel = v[3:] - w_d
+    R_de = RdT @ R_e
+    phi, T, Tinv = _orientation_terms(R_de, orientation, t)
+    w_rel_d = RdT @ w_rel
+    phid = Tinv @ w_rel_d
+    x = np.empty(6)
+    x[:3] = -(RdT @ e)
+    x[3:] = -phi
+    xd = np.empty(6)
+    xd[:3] = RdT @ (_cross(w_d, e) - e_dot)
+    xd[3:] = -phid
+    JAd = np.empty_like(J)
+    JAd[:3] = RdT @ J[:3]
+    JAd[3:] = Tinv @ (RdT @ J[3:])
+    c = error_acceleration_bias(RdT, Tinv, _T_dot(orientation, phi, phid), phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, Jdq)
+    return DesiredFrameError(x, xd, JAd, c, R_d)
+
+
+def error_acceleration_bias(RdT, Tinv, Tdot, phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, Jdq) -> np.ndarray:
+    """``c = −J̇_Ad q̇ + ḃ``: the part of x̃̈ (9.34) independent of q̈, (6,).
+
+    Position (differentiate ``x̃_P = −R_dᵀ e``, e = o_e − o_d, twice with ``Ṙ_d = S(ω_d) R_d``)::
+
+        c_P = −R_dᵀ [ (S(ω_d)² − S(ω̇_d)) e − 2 S(ω_d) ė + J̇_P q̇ − ö_d ]
+
+    Orientation (``x̃_O = −φ``, ``φ̇ = T⁻¹ R_dᵀ (ω_e − ω_d)``)::
+
+        c_O = −T⁻¹ ( −Ṫ φ̇ + R_dᵀ [ −S(ω_d)(ω_e − ω_d) + J̇_O q̇ − ω̇_d ] )
+    """
+    c = np.empty(6)
+    wxe = _cross(w_d, e)
+    c[:3] = -(RdT @ (_cross(w_d, wxe) - _cross(wd_dot, e) - 2.0 * _cross(w_d, e_dot) + Jdq[:3] - od_ddot))
+    c[3:] = -(Tinv @ (RdT @ (Jdq[3:] - _cross(w_d, w_rel) - wd_dot) - Tdot @ phid))
+    return c
+
+
+def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md_inv, K_D, K_P) -> np.ndarray:
+    """The ``J_Ad q̈`` that (9.35) asks for: ``c − x̃̈*`` with ``x̃̈* = M_d⁻¹ (h_e^d − K_D x̃̇ − K_P x̃)``."""
+    return err.c - Md_inv @ (h_e_d - K_D @ err.xd - K_P @ err.x)
+
+
+def _spatial_robot(robot: RobotModel) -> None:
+    if int(robot.task_dim) != 6 or not hasattr(robot, "spatial_terms"):
+        raise ParameterError(
+            "the 6-D controllers need a robot with task='pose' (task_dim 6) and spatial_terms(), e.g. "
+            f"forcecontrol.robots.pinocchio.panda(); got {type(robot).__name__} with task_dim {robot.task_dim}"
+        )
+
+
+class _SpatialBase(Controller):
+    kind: ClassVar[int] = 0
+
+    def __init__(self, robot, orientation, posture, singularity, sample_time, base_frame, ee_frame) -> None:
+        super().__init__(robot, sample_time)
+        _spatial_robot(robot)
+        if orientation not in ("euler", "rotvec"):
+            raise ParameterError(f"orientation must be 'euler' or 'rotvec'; got {orientation!r}")
+        self.orientation = orientation
+        n = int(robot.nq)
+        if posture is None:
+            posture = NullSpacePosture(np.zeros(n), 0.0, 0.0) if n > 6 else None
+        elif not isinstance(posture, NullSpacePosture):
+            posture = NullSpacePosture(posture)
+        if posture is not None and posture.posture.shape != (n,):
+            raise ParameterError(f"posture must have {n} joint values; got {posture.posture.shape[0]}")
+        self.posture = posture
+        self.singularity = singularity if singularity is not None else SingularityHandling()
+        self.base_frame = base_frame
+        self.ee_frame = ee_frame or getattr(robot, "frame", "end_effector")
+        #: λ² of the last step (0 away from singularities).
+        self.last_damping = 0.0
+
+    def _wrench(self, w: Any) -> np.ndarray:
+        if isinstance(w, Wrench):
+            return w.require(self.base_frame, self.ee_frame)
+        return w
+
+
+class SpatialImpedanceController(_SpatialBase):
+    """Impedance control on the desired frame, (9.30) with (9.35).
+
+    Law: ``u = B(q) y + n(q, q̇) + Jᵀ(q) h_e`` with
+    ``J_Ad y = M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d) − J̇_Ad q̇ + ḃ`` (null-space posture and variable
+    damped least squares for n > 6 or near singularities). Closed loop (9.36):
+    ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_e^d``, independent of the configuration.
+
+    Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` h_e (6,) [N, N m], base frame,
+    about the end-effector origin; ``reference`` with m = 6 (module docstring).
+    Output: torques (n,) [N m].
+
+    Args:
+        robot: a 6-D robot with ``spatial_terms`` (:class:`~forcecontrol.robots.pinocchio.PinocchioRobot`).
+        inertia: M_d, SPD (6, 6) [kg, kg m²]; damping: K_D, SPD (6, 6); stiffness: K_P, SPD (6, 6).
+        orientation: ``"euler"`` (XYZ, the chapter's) or ``"rotvec"``.
+        posture: null-space posture (n > 6): a :class:`NullSpacePosture` or joint values.
+        singularity: damped-least-squares settings.
+        sample_time: Ts [s]; base_frame, ee_frame: names a :class:`~forcecontrol.spatial.Wrench`
+            measurement must carry.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        inertia: Any,
+        damping: Any,
+        stiffness: Any,
+        *,
+        orientation: Orientation = "euler",
+        posture: Any = None,
+        singularity: SingularityHandling | None = None,
+        sample_time: float = 1e-3,
+        base_frame: str = "world",
+        ee_frame: str | None = None,
+    ) -> None:
+        super().__init__(robot, orientation, posture, singularity, sample_time, base_frame, ee_frame)
+        self.inertia = as_gain_matrix("inertia", inertia, 6)
+        self.damping = as_gain_matrix("damping", damping, 6)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
+        self._Md_inv = np.linalg.inv(self.inertia)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.30), (9.35) for this sample."""
+        q, qd = measurement.q, measurement.qd
+        h = self._wrench(measurement.wrench)
+        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        RdT = err.R_d.T
+        h_d = np.concatenate([RdT @ h[:3], RdT @ h[3:]])
+        r = spatial_impedance_acceleration(err, h_d, self._Md_inv, self.damping, self.stiffness)
+        # x̃̈ = −J_Ad q̈ + c  ⇒  J_Ad q̈ = c − x̃̈*  (= r)
+        y0 = self.posture.acceleration(q, qd) if self.posture is not None else None
+        s = self.singularity
+        y, self.last_damping = redundant_acceleration(err.JAd, r, y0, s.threshold, s.max_damping)
+        u = B @ y + nv + J.T @ h
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "inertia": self.inertia.tolist(),
+            "damping": self.damping.tolist(),
+            "stiffness": self.stiffness.tolist(),
+            "orientation": self.orientation,
+        }
+
+
+class SpatialComplianceController(_SpatialBase):
+    """PD control with gravity compensation on the desired frame (active compliance), (9.15).
+
+    Law: ``u = g(q) + J_Adᵀ (K_P x̃ − K_D J_Ad q̇)`` (+ a posture torque projected in the null
+    space of J_Adᵀ for n > 6). At equilibrium with the environment (9.16)–(9.19):
+    ``h_e = K_P dx_{e,d}``; with an environment (9.21) the force and pose at equilibrium are
+    (9.22)–(9.23).
+
+    Inputs: ``measurement.q, .qd`` (n,) (no force measurement); ``reference.position`` (6,).
+    Output: torques (n,) [N m].
+
+    Args:
+        robot: a 6-D robot with ``spatial_terms``.
+        stiffness: K_P, SPD (6, 6) [N/m, N m/rad]; damping: K_D, SPD (6, 6).
+        orientation, posture, singularity, sample_time: as for :class:`SpatialImpedanceController`
+            (the posture torque here is ``B y₀`` projected with ``I − J_Adᵀ J_Ad⁺ᵀ``).
+    """
+
+    uses_force: ClassVar[bool] = False
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        stiffness: Any,
+        damping: Any,
+        *,
+        orientation: Orientation = "euler",
+        posture: Any = None,
+        singularity: SingularityHandling | None = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
+        self.damping = as_gain_matrix("damping", damping, 6)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.15) for this sample."""
+        q, qd = measurement.q, measurement.qd
+        R_e, o_e, J, Jdq, B, _nv, g = self.robot.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        JAd = err.JAd
+        u = g + JAd.T @ (self.stiffness @ err.x - self.damping @ (JAd @ qd))
+        if self.posture is not None:
+            tau0 = B @ self.posture.acceleration(q, qd)
+            u = u + tau0 - JAd.T @ np.linalg.lstsq(JAd.T, tau0, rcond=None)[0]
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist(), "orientation": self.orientation}

@@ -1,0 +1,413 @@
+"""6-D pose error on the desired frame, frame-tagged wrenches, 6-D environments, spatial compliance and impedance on the Panda."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from forcecontrol.controllers.base import Measurement, Reference
+from forcecontrol.errors import DimensionError, FrameError, ParameterError, SingularityError
+from forcecontrol.spatial import (
+    Transform,
+    Twist,
+    Wrench,
+    analytical_jacobian_desired,
+    b_vector,
+    error_rate,
+    euler_xyz_T,
+    euler_xyz_T_dot,
+    euler_xyz_T_inv,
+    euler_xyz_to_rotation,
+    pose_error,
+    rotation_to_euler_xyz,
+    rotation_vector,
+    rotvec_T,
+    rotvec_to_rotation,
+)
+
+pin = pytest.importorskip("pinocchio")
+
+from forcecontrol.controllers.redundant import NullSpacePosture, SingularityHandling, redundant_acceleration  # noqa: E402
+from forcecontrol.controllers.spatial import (  # noqa: E402
+    SpatialComplianceController,
+    SpatialImpedanceController,
+    desired_frame_error,
+)
+from forcecontrol.environments.spatial import ConstantWrench, SpatialSpring, Table  # noqa: E402
+from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
+from forcecontrol.simulation import simulate  # noqa: E402
+from forcecontrol.trajectories import Setpoint  # noqa: E402
+
+RNG = np.random.default_rng(7)
+
+
+@pytest.fixture(scope="module")
+def franka():
+    return panda()
+
+
+def _pose(robot, q):
+    R, p = robot.frame_pose(q)
+    return np.concatenate([p, rotation_to_euler_xyz(R)])
+
+
+# ------------------------------------------------------------------ Euler angles and T
+
+
+def test_euler_roundtrip_and_T_at_zero_is_identity():
+    """R(φ) → φ recovers φ away from cos φ₂ = 0, and T(0) = I (Problem 3.13)."""
+    for _ in range(50):
+        phi = RNG.uniform([-3, -1.5, -3], [3, 1.5, 3])
+        assert np.allclose(rotation_to_euler_xyz(euler_xyz_to_rotation(phi)), phi, atol=1e-10)
+    assert np.array_equal(euler_xyz_T(np.zeros(3)), np.eye(3))
+
+
+def test_T_maps_euler_rates_to_angular_velocity_by_finite_differences():
+    """ω from S(ω) = Ṙ Rᵀ (central differences) equals T(φ) φ̇; T⁻¹ and Ṫ match too."""
+    h = 1e-6
+    for _ in range(10):
+        phi, phid = RNG.uniform(-1.2, 1.2, 3), RNG.normal(size=3)
+        W = (euler_xyz_to_rotation(phi + h * phid) - euler_xyz_to_rotation(phi - h * phid)) / (2 * h) @ euler_xyz_to_rotation(phi).T
+        w = np.array([W[2, 1], W[0, 2], W[1, 0]])
+        assert np.allclose(w, euler_xyz_T(phi) @ phid, atol=1e-7)
+        assert np.allclose(euler_xyz_T_inv(phi) @ euler_xyz_T(phi), np.eye(3), atol=1e-12)
+        Td = (euler_xyz_T(phi + h * phid) - euler_xyz_T(phi - h * phid)) / (2 * h)
+        assert np.allclose(euler_xyz_T_dot(phi, phid), Td, atol=1e-7)
+
+
+def test_rotation_vector_roundtrip_and_its_T_by_finite_differences():
+    """exp/log roundtrip and ω = T(θ) θ̇ for the rotation vector (the axis-angle alternative)."""
+    h = 1e-6
+    for _ in range(10):
+        th, thd = RNG.uniform(-1.5, 1.5, 3), RNG.normal(size=3)
+        assert np.allclose(rotation_vector(rotvec_to_rotation(th)), th, atol=1e-9)
+        W = (rotvec_to_rotation(th + h * thd) - rotvec_to_rotation(th - h * thd)) / (2 * h) @ rotvec_to_rotation(th).T
+        assert np.allclose([W[2, 1], W[0, 2], W[1, 0]], rotvec_T(th) @ thd, atol=1e-7)
+
+
+def test_euler_extraction_at_representation_singularity_is_an_error():
+    """A relative rotation with pitch 90° raises SingularityError (strict) naming the alternative."""
+    R = euler_xyz_to_rotation([0.3, math.pi / 2, 0.2])
+    with pytest.raises(SingularityError, match="representation singularity.*rotvec"):
+        rotation_to_euler_xyz(R, strict=True)
+    with pytest.raises(SingularityError, match="representation singularity"):
+        pose_error(np.zeros(3), np.eye(3), np.zeros(3), R)
+
+
+# ------------------------------------------------------------------ error on the desired frame (9.9)-(9.14), (9.33)
+
+
+def _moving_desired(t):
+    """A desired frame moving with a known analytic pose, twist and acceleration."""
+    phi = np.array([0.2 + 0.3 * t, -0.1 + 0.2 * t * t, 0.4 - 0.5 * t])
+    phid = np.array([0.3, 0.4 * t, -0.5])
+    phidd = np.array([0.0, 0.4, 0.0])
+    o = np.array([0.4 + 0.1 * t, 0.1 * math.sin(t), 0.5 + 0.05 * t * t])
+    od = np.array([0.1, 0.1 * math.cos(t), 0.1 * t])
+    odd = np.array([0.0, -0.1 * math.sin(t), 0.1])
+    w = euler_xyz_T(phi) @ phid
+    wd = euler_xyz_T_dot(phi, phid) @ phid + euler_xyz_T(phi) @ phidd
+    return Reference(np.concatenate([o, phi]), np.concatenate([od, w]), np.concatenate([odd, wd]), np.zeros(6), np.zeros(6), np.zeros(6))
+
+
+def test_error_rate_and_acceleration_bias_against_finite_differences(franka):
+    """x̃̇ = −J_Ad q̇ + b (9.33, corrected b) and x̃̈ = −J_Ad q̈ + c (9.34) match differences of x̃ along a motion."""
+    q0 = PANDA_READY + RNG.normal(0, 0.1, 7)
+    qd0, qdd = RNG.normal(0, 0.5, 7), RNG.normal(0, 1.0, 7)
+    t0, h = 0.3, 1e-4
+
+    def err(t):
+        q = q0 + qd0 * (t - t0) + 0.5 * qdd * (t - t0) ** 2
+        qd = qd0 + qdd * (t - t0)
+        R_e, o_e, J, Jdq, *_ = franka.spatial_terms(q, qd)
+        return desired_frame_error(R_e, o_e, J.copy(), Jdq.copy(), qd, _moving_desired(t))
+
+    e0, ep, em = err(t0), err(t0 + h), err(t0 - h)
+    assert np.allclose((ep.x - em.x) / (2 * h), e0.xd, atol=1e-6)
+    assert np.allclose((ep.xd - em.xd) / (2 * h), -e0.JAd @ qdd + e0.c, atol=1e-5)
+    # the chapter's pieces: J_Ad (9.14) and b (9.33) give the same x̃̇
+    ref = _moving_desired(t0)
+    R_d = euler_xyz_to_rotation(ref.position[3:])
+    R_e, o_e, J, *_ = franka.spatial_terms(q0, qd0)
+    JAd = analytical_jacobian_desired(J, R_d, -e0.x[3:])
+    assert np.allclose(JAd, e0.JAd, atol=1e-12)
+    b = b_vector(e0.x, R_d, ref.velocity[:3], ref.velocity[3:])
+    assert np.allclose(-JAd @ qd0 + b, e0.xd, atol=1e-12)
+    assert np.allclose(error_rate(e0.x, R_d, J @ qd0, ref.velocity), e0.xd, atol=1e-12)
+    assert np.allclose(pose_error(ref.position[:3], R_d, o_e, R_e), e0.x, atol=1e-12)
+
+
+def test_rotvec_error_rate_against_finite_differences(franka):
+    """With orientation='rotvec' the same x̃̇ and x̃̈ identities hold (Ṫ by a directional difference)."""
+    q0, qd0, qdd = PANDA_READY.copy(), RNG.normal(0, 0.5, 7), RNG.normal(0, 1.0, 7)
+    t0, h = 0.2, 1e-4
+
+    def err(t):
+        q = q0 + qd0 * (t - t0) + 0.5 * qdd * (t - t0) ** 2
+        qd = qd0 + qdd * (t - t0)
+        R_e, o_e, J, Jdq, *_ = franka.spatial_terms(q, qd)
+        return desired_frame_error(R_e, o_e, J.copy(), Jdq.copy(), qd, _moving_desired(t), "rotvec")
+
+    e0, ep, em = err(t0), err(t0 + h), err(t0 - h)
+    assert np.allclose((ep.x - em.x) / (2 * h), e0.xd, atol=1e-6)
+    assert np.allclose((ep.xd - em.xd) / (2 * h), -e0.JAd @ qdd + e0.c, atol=1e-4)
+
+
+# ------------------------------------------------------------------ frames
+
+
+def test_wrench_and_twist_transformations_preserve_power():
+    """Changing frame (one call) keeps hᵀv, and X then X⁻¹ gives back the wrench."""
+    X = Transform(euler_xyz_to_rotation([0.3, -0.2, 1.0]), [0.1, -0.4, 0.7], parent="world", child="tool")
+    w = Wrench([1.0, 2.0, -3.0], [0.5, -0.1, 0.2], frame="tool", point="tool")
+    v = Twist([0.2, -0.1, 0.3], [1.0, 0.4, -0.6], frame="tool", point="tool")
+    w0, v0 = w.transformed(X), v.transformed(X)
+    assert (w0.frame, w0.point) == ("world", "world")
+    assert math.isclose(v0.power(w0), v.power(w), rel_tol=1e-12)
+    back = w0.transformed(X.inverse())
+    assert np.allclose(back.vector, w.vector)
+    # shifting the point: moment about the new point
+    s = w.rotated(X).shifted("p", [0.0, 0.0, 1.0])
+    assert np.allclose(s.moment, X.rotation @ w.moment - np.cross([0, 0, 1.0], X.rotation @ w.force))
+
+
+@pytest.mark.parametrize(
+    ("action", "match"),
+    [
+        (lambda: Wrench([1, 0, 0], [0, 0, 0], "tool", "tool") + Wrench([1, 0, 0], [0, 0, 0], "world", "tool"), "different frames"),
+        (lambda: Wrench([1, 0, 0], [0, 0, 0], "world", "world") - Wrench([1, 0, 0], [0, 0, 0], "world", "tool"), "different frames"),
+        (lambda: Wrench([1, 0, 0], [0, 0, 0], "world", "world").transformed(Transform(np.eye(3), [0, 0, 0], "world", "tool")), "needs a wrench in 'tool'"),
+        (lambda: Twist([1, 0, 0], [0, 0, 0], "a", "a") + Twist([1, 0, 0], [0, 0, 0], "b", "b"), "different frames"),
+        (lambda: Twist([1, 0, 0], [0, 0, 0], "a", "a").power(Wrench([1, 0, 0], [0, 0, 0], "b", "b")), "same frame"),
+        (lambda: Transform(np.eye(3), [0, 0, 0], "a", "b") @ Transform(np.eye(3), [0, 0, 0], "c", "d"), "cannot compose"),
+        (lambda: Wrench([1, 0, 0], [0, 0, 0], "tool", "tool").require("world", "tool"), "must be expressed in frame 'world'"),
+    ],
+)
+def test_mixing_frames_raises_frame_error(action, match):
+    """Adding, transforming, composing or reading wrenches/twists in the wrong frame raises FrameError."""
+    with pytest.raises(FrameError, match=match):
+        action()
+
+
+def test_transform_rejects_non_rotation():
+    """A rotation that is not orthonormal is a ParameterError."""
+    with pytest.raises(ParameterError, match="rotation must be a rotation matrix"):
+        Transform(np.diag([1.0, 2.0, 1.0]), [0, 0, 0])
+
+
+# ------------------------------------------------------------------ 6-D environments
+
+
+def test_spatial_spring_rejects_non_symmetric_or_indefinite_stiffness():
+    """The 6×6 stiffness must be symmetric PSD: asymmetric, indefinite and wrong-shape inputs raise."""
+    K = np.eye(6)
+    K[0, 3] = 1.0
+    with pytest.raises(ParameterError, match="stiffness must be a symmetric positive semi-definite .*non-symmetric"):
+        SpatialSpring(K, [0, 0, 0])
+    with pytest.raises(ParameterError, match="stiffness must be a symmetric positive semi-definite .*eigenvalues"):
+        SpatialSpring(np.diag([1, 1, 1, 1, 1, -1.0]), [0, 0, 0])
+    with pytest.raises(DimensionError, match=r"\(6, 6\)"):
+        SpatialSpring(np.eye(3), [0, 0, 0])
+
+
+def test_spatial_spring_with_coupling_blocks_is_K_dx_in_the_rest_frame():
+    """h_e = K dx for a small displacement given in the rest frame, coupling blocks included, rotated to the base."""
+    A = RNG.normal(size=(6, 6))
+    K = A @ A.T * 100.0
+    R_r = euler_xyz_to_rotation([0.1, 0.2, -0.3])
+    env = SpatialSpring(K, [0.5, 0.0, 0.3], R_r)
+    d_r = np.array([1e-3, -2e-3, 5e-4, 1e-3, 2e-3, -1e-3])  # displacement in the rest frame
+    o = env.rest_position + R_r @ d_r[:3]
+    R_e = rotvec_to_rotation(R_r @ d_r[3:]) @ R_r
+    h = env.wrench(np.concatenate([o, rotation_to_euler_xyz(R_e)]), np.zeros(6))
+    X = np.zeros((6, 6))
+    X[:3, :3] = X[3:, 3:] = R_r
+    assert np.allclose(h, X @ K @ d_r, rtol=1e-9, atol=1e-9)
+
+
+def test_table_pushes_back_along_its_normal_and_never_pulls():
+    """Penetration δ gives f = k δ along +ν with zero moment; above the table nothing."""
+    t = Table([0, 0, 0.1], [0, 0, 1], stiffness=1e4)
+    assert np.allclose(t.wrench(np.array([0.3, 0.1, 0.098, 0, 0, 0]), np.zeros(6)), [0, 0, -20.0, 0, 0, 0])
+    assert np.allclose(t.wrench(np.array([0.3, 0.1, 0.2, 0, 0, 0]), np.zeros(6)), 0)
+
+
+# ------------------------------------------------------------------ controllers on the Panda
+
+
+MD = np.diag([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
+KP = np.diag([400.0, 400.0, 400.0, 10.0, 10.0, 10.0])
+KD = np.diag(2 * 0.7 * np.sqrt(np.diag(MD) * np.diag(KP)))
+
+
+def _impedance_run(robot, q0, h, duration=0.8):
+    x0 = _pose(robot, q0)
+    c = SpatialImpedanceController(robot, MD, KD, KP, posture=q0)
+    res = simulate(robot, ConstantWrench(h), c, Setpoint(x0), q0=q0, duration=duration, substeps=1)
+    R_d = euler_xyz_to_rotation(x0[3:])
+    xt = np.array([pose_error(x0[:3], R_d, x[:3], euler_xyz_to_rotation(x[3:])) for x in res.x])
+    h_d = np.concatenate([R_d.T @ h[:3], R_d.T @ h[3:]])
+    return res.t, xt, h_d
+
+
+def _second_order(t, i, h_d):
+    _, y = signal.step(signal.lti([1.0], [MD[i, i], KD[i, i], KP[i, i]]), T=t)
+    return h_d[i] * y
+
+
+def test_panda_impedance_step_matches_second_order_response(franka):
+    """(9.36): after a step of external wrench the pose error on the desired frame follows M_d s² + K_D s + K_P within 2%."""
+    h = np.array([6.0, -4.0, 5.0, 0.3, -0.2, 0.25])
+    t, xt, h_d = _impedance_run(franka, PANDA_READY, h)
+    for i in range(6):
+        y = _second_order(t, i, h_d)
+        assert np.max(np.abs(xt[:, i] - y)) <= 0.02 * np.max(np.abs(y)), i
+
+
+def test_orientation_compliance_is_the_same_at_two_postures(franka):
+    """A moment step gives the same orientation response (on the desired frame) at two different postures."""
+    h = np.array([0.0, 0.0, 0.0, 0.2, -0.15, 0.1])
+    q_b = np.array([0.5, -0.3, -0.4, -1.9, 0.6, 2.1, -0.3])
+    runs = [_impedance_run(franka, q, h, duration=0.6) for q in (PANDA_READY, q_b)]
+    for t, xt, h_d in runs:
+        for i in (3, 4, 5):
+            y = _second_order(t, i, h_d)
+            assert np.max(np.abs(xt[:, i] - y)) <= 0.02 * np.max(np.abs(y)), i
+    # on the desired frame the moment is the same vector only if the frames coincide: compare compliance
+    (t, xa, ha), (_, xb, hb) = runs
+    assert np.allclose(xa[-1, 3:] / ha[3:], xb[-1, 3:] / hb[3:], rtol=0.02)
+
+
+def test_impedance_with_wrench_object_in_wrong_frame_is_frame_error(franka):
+    """A measured Wrench expressed in the tool frame (not the base) is refused with FrameError."""
+    c = SpatialImpedanceController(franka, MD, KD, KP)
+    x0 = _pose(franka, PANDA_READY)
+    bad = Wrench([1, 0, 0], [0, 0, 0], frame="panda_hand_tcp", point="panda_hand_tcp")
+    with pytest.raises(FrameError, match="must be expressed in frame 'world'"):
+        c.step(0.0, Measurement(PANDA_READY, np.zeros(7), bad), Reference.setpoint(x0))
+    good = Wrench([1, 0, 0], [0, 0, 0], frame="world", point="panda_hand_tcp")
+    assert np.all(np.isfinite(c.step(0.0, Measurement(PANDA_READY, np.zeros(7), good), Reference.setpoint(x0))))
+
+
+def test_desired_pose_at_representation_singularity_is_error(franka):
+    """A desired frame whose relative rotation to the end-effector has pitch 90° raises SingularityError; rotvec copes."""
+    R_e, o_e = franka.frame_pose(PANDA_READY)
+    R_d = R_e @ euler_xyz_to_rotation([0.0, math.pi / 2, 0.0]).T
+    ref = Reference.setpoint(np.concatenate([o_e, rotation_to_euler_xyz(R_d)]))
+    c = SpatialImpedanceController(franka, MD, KD, KP)
+    with pytest.raises(SingularityError, match="representation singularity.*rotvec"):
+        c.step(0.0, Measurement(PANDA_READY, np.zeros(7), np.zeros(6)), ref)
+    c2 = SpatialImpedanceController(franka, MD, KD, KP, orientation="rotvec")
+    assert np.all(np.isfinite(c2.step(0.0, Measurement(PANDA_READY, np.zeros(7), np.zeros(6)), ref)))
+
+
+def test_hand_built_impedance_torque(franka):
+    """The controller's torque equals B y + n + Jᵀh built by hand from (9.35) with pinv and the posture term."""
+    rng = np.random.default_rng(11)
+    q, qd, h = PANDA_READY + rng.normal(0, 0.1, 7), rng.normal(0, 0.3, 7), rng.normal(0, 3, 6)
+    x0 = _pose(franka, PANDA_READY) + np.array([0.01, -0.02, 0.01, 0.05, -0.03, 0.02])
+    post = NullSpacePosture(PANDA_READY, 25.0, 10.0)
+    c = SpatialImpedanceController(franka, MD, KD, KP, posture=post)
+    u = c.step(0.0, Measurement(q, qd, h), Reference.setpoint(x0))
+    R_e, o_e, J, Jdq, B, nv, g = franka.spatial_terms(q, qd)
+    J, Jdq, B, nv = J.copy(), Jdq.copy(), B.copy(), nv.copy()
+    R_d = euler_xyz_to_rotation(x0[3:])
+    xt = pose_error(x0[:3], R_d, o_e, R_e)
+    JAd = analytical_jacobian_desired(J, R_d, -xt[3:])
+    xtd = -JAd @ qd
+    # constant desired frame: c = −J̇_Ad q̇, by a finite difference of J_Ad along q̇
+    eps = 1e-7
+    def JAd_at(qq):
+        Re, oe = franka.frame_pose(qq)
+        return analytical_jacobian_desired(franka.spatial_jacobian(qq), R_d, -pose_error(x0[:3], R_d, oe, Re)[3:])
+    JAd_dot_qd = (JAd_at(q + eps * qd) - JAd_at(q - eps * qd)) @ qd / (2 * eps)
+    h_d = np.concatenate([R_d.T @ h[:3], R_d.T @ h[3:]])
+    r = -JAd_dot_qd - np.linalg.solve(MD, h_d - KD @ xtd - KP @ xt)
+    Jp = np.linalg.pinv(JAd)
+    y0 = post.acceleration(q, qd)
+    y = Jp @ r + (np.eye(7) - Jp @ JAd) @ y0
+    assert np.allclose(u, B @ y + nv + J.T @ h, rtol=1e-6, atol=1e-6)
+
+
+def test_dls_keeps_torques_bounded_at_a_singularity(franka):
+    """At a singular posture (rank 5) the exact inverse explodes while damped least squares stays bounded."""
+    q = np.array([0.0, 1e-7, 0.0, 0.0, 0.0, 0.0, 0.0])  # axes 1 and 3 aligned, arm stretched: rank 5
+    R_e, o_e, J, *_ = franka.spatial_terms(q, np.zeros(7))
+    assert np.linalg.svd(J, compute_uv=False)[-1] < 1e-6
+    r = np.array([0.5, -0.4, 0.3, 0.2, -0.1, 0.3])
+    y_exact, _ = redundant_acceleration(J.copy(), r, None, 0.05, 0.0)
+    y_dls, lam2 = redundant_acceleration(J.copy(), r, None, 0.05, 0.05)
+    assert lam2 > 0
+    assert np.linalg.norm(y_dls) < 1e3 < np.linalg.norm(y_exact)
+
+
+def test_task_met_exactly_away_from_singularities_and_posture_only_in_null_space(franka):
+    """Away from singularities J y = r exactly (λ = 0), and adding a posture does not change J y."""
+    R_e, o_e, J, *_ = franka.spatial_terms(PANDA_READY, np.zeros(7))
+    r = RNG.normal(size=6)
+    y1, lam2 = redundant_acceleration(J.copy(), r, None, 0.05, 0.05)
+    y2, _ = redundant_acceleration(J.copy(), r, RNG.normal(size=7), 0.05, 0.05)
+    assert lam2 == 0.0
+    assert np.allclose(J @ y1, r, atol=1e-10) and np.allclose(J @ y2, r, atol=1e-10)
+    assert not np.allclose(y1, y2)
+
+
+def test_compliance_6d_equilibrium_matches_9_22_and_9_23(franka):
+    """(9.15) against a 6-D spring: the force and pose error at equilibrium are (9.22)–(9.23) for a small dx_{r,d}."""
+    x0 = _pose(franka, PANDA_READY)
+    R0 = euler_xyz_to_rotation(x0[3:])
+    K_P = np.diag([1000.0, 1000.0, 1000.0, 30.0, 30.0, 30.0])
+    K_D = np.diag([100.0, 100.0, 100.0, 2.0, 2.0, 2.0])
+    K = np.diag([3000.0, 0.0, 2000.0, 0.0, 20.0, 0.0])  # PSD: force along x, z and moment about y (rest frame)
+    # rest frame = end-effector frame at q0; desired frame moved by dx_{r,d} (small, rest-frame axes)
+    dx_rd = np.array([0.004, 0.003, -0.005, 0.0, 0.02, 0.01])
+    env = SpatialSpring(K, x0[:3], R0)
+    o_d = x0[:3] + R0 @ dx_rd[:3]
+    R_d = R0 @ rotvec_to_rotation(dx_rd[3:])
+    ref = Setpoint(np.concatenate([o_d, rotation_to_euler_xyz(R_d)]))
+    c = SpatialComplianceController(franka, K_P, K_D, posture=NullSpacePosture(PANDA_READY, 10.0, 5.0))
+    res = simulate(franka, env, c, ref, q0=PANDA_READY, duration=3.0, substeps=1)
+    h_expected = np.linalg.solve(np.eye(6) + K @ np.linalg.inv(K_P), K @ dx_rd)  # rest-frame axes
+    X = np.zeros((6, 6))
+    X[:3, :3] = X[3:, 3:] = R0
+    h_sim = X.T @ res.wrench[-1]
+    scale = np.abs(h_expected).max(axis=None)
+    assert np.allclose(h_sim, h_expected, atol=0.03 * scale), (h_sim, h_expected)
+    dx_ed = np.linalg.solve(K_P, h_expected)
+    xt_sim = pose_error(o_d, R_d, res.x[-1, :3], euler_xyz_to_rotation(res.x[-1, 3:]))
+    assert np.allclose(xt_sim, dx_ed, atol=0.03 * np.abs(dx_ed).max()), (xt_sim, dx_ed)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "match"),
+    [
+        ({"inertia": -1.0}, ParameterError, "inertia must be a symmetric positive definite"),
+        ({"stiffness": np.ones((6, 6))}, ParameterError, "stiffness must be a symmetric positive definite"),
+        ({"orientation": "quat"}, ParameterError, "orientation must be 'euler' or 'rotvec'"),
+        ({"posture": np.zeros(3)}, ParameterError, "posture must have 7 joint values"),
+    ],
+)
+def test_bad_controller_inputs(franka, kwargs, exc, match):
+    """Bad gains, unknown orientation kind and a posture of the wrong size raise clear errors."""
+    args = {"inertia": MD, "damping": KD, "stiffness": KP}
+    extra = {k: v for k, v in kwargs.items() if k not in args}
+    args.update({k: v for k, v in kwargs.items() if k in args})
+    with pytest.raises(exc, match=match):
+        SpatialImpedanceController(franka, **args, **extra)
+
+
+def test_planar_robot_is_refused_by_6d_controllers():
+    """A robot whose task space is not the 6-D pose is refused with a message naming what is needed."""
+    from forcecontrol.robots import CHAPTER_ARM
+
+    with pytest.raises(ParameterError, match="task='pose'"):
+        SpatialImpedanceController(CHAPTER_ARM, 1.0, 1.0, 1.0)
+
+
+def test_singularity_settings_are_checked():
+    """A non-positive DLS threshold is a ParameterError."""
+    with pytest.raises(ParameterError, match="threshold must be a positive number"):
+        SingularityHandling(threshold=0.0)
