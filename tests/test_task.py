@@ -72,9 +72,9 @@ def selections(draw):
     task = draw(tasks())
     sel = task.selection("base")
     d, m = sel.dim, sel.m
-    # mix the columns (S_f A, S_v B span the same subspaces)
-    A = draw(arrays(np.float64, (m, m), elements=finite)) + 2.0 * np.eye(m)
-    B = draw(arrays(np.float64, (d - m, d - m), elements=finite)) + 2.0 * np.eye(d - m)
+    # mix the columns (S_f A, S_v B span the same subspaces; A, B strictly diagonally dominant)
+    A = np.eye(m) + 0.9 / m * draw(arrays(np.float64, (m, m), elements=finite))
+    B = np.eye(d - m) + 0.9 / (d - m) * draw(arrays(np.float64, (d - m, d - m), elements=finite))
     return SelectionMatrices(
         sel.force_selection @ A, sel.velocity_selection @ B,
         force_weight=sel.force_weight, velocity_weight=sel.velocity_weight,
@@ -377,3 +377,45 @@ def test_unknown_task_name_raises():
     """Asking for an unknown named task lists the valid names."""
     with pytest.raises(ParameterError, match=r"task must be one of .*'peg-in-hole'.*got 'pegs'"):
         named_task("pegs")
+
+
+# --------------------------------------------------------------------------- the CLI
+
+
+def test_cli_task_prints_table_and_matrices():
+    """'forcecontrol task sliding-on-plane' prints Table 9.1's rows and S_f, S_v in brackets."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    out = CliRunner().invoke(app, ["task", "sliding-on-plane"])
+    assert out.exit_code == 0, out.output
+    assert "ȯ_z^c" in out.output and "μ_z^c" in out.output
+    assert "S_f = ⎢ 1  0  0 ⎥" in out.output
+    assert "S_v = ⎢ 0  0  0 ⎥" in out.output
+
+
+def test_cli_task_json_in_base_frame():
+    """'forcecontrol task problem-9.10 --frame base --json' gives Example 9.4's base-frame S_f and the −50 N reference."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    out = CliRunner().invoke(app, ["task", "problem-9.10", "--frame", "base", "--pinv", "--json"])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.output)
+    np.testing.assert_allclose(data["S_f"], [[-R2], [R2]])
+    np.testing.assert_allclose(data["S_v_pinv"], [[R2, R2]])
+    assert data["constraints"][0] == {"natural": "ȯ_y^c", "artificial": "f_y^c", "reference": -50.0}
+
+
+def test_cli_task_unknown_name_fails():
+    """An unknown task name exits with code 2 and names the valid tasks."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    out = CliRunner().invoke(app, ["task", "pegs"])
+    assert out.exit_code == 2

@@ -184,3 +184,4 @@ def main() -> None:  # pragma: no cover
 
 # Commands contributed by other modules are registered below (one line each).
 app.command("analyze")(__import__("forcecontrol.cli_analyze", fromlist=["analyze_command"]).analyze_command)
+app.command("task")(__import__("forcecontrol.cli_task", fromlist=["task_command"]).task_command)

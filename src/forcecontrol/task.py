@@ -826,18 +826,25 @@ def inclined_plane(
     return Task(
         "example-9.4", ("vy", "fx"), frame=ConstraintFrame(planar_rotation(angle), through),
         references=references, dim=2,
-        description=f"planar tip on a plane at {angle:.6g} rad to x0 through {list(through)} (Example 9.4, Fig. 9.16)",
+        description=f"planar tip on a plane at {math.degrees(angle):.6g}° to x0 through {list(through)} (Example 9.4, Fig. 9.16)",
     )
 
 
-#: the named tasks, built with default parameters.
+def _problem_9_10() -> Task:
+    task = inclined_plane(references={"fy": -50.0})
+    task.name = "problem-9.10"
+    task.description = "Example 9.4's plane, pushing 50 N into it (λ_d = f_y^c = −50 N), motion along x_c (Problem 9.10)"
+    return task
+
+
+#: the named tasks, built with default parameters (the crank turning at 1 rad/s).
 TASKS: dict[str, Callable[[], Task]] = {
     "sliding-on-plane": sliding_on_plane,
     "peg-in-hole": peg_in_hole,
-    "turning-crank": turning_crank,
+    "turning-crank": lambda: turning_crank(angular_rate=1.0),
     "driving-screw": driving_screw,
     "example-9.4": inclined_plane,
-    "problem-9.10": lambda: inclined_plane(references={"fy": -50.0}),
+    "problem-9.10": _problem_9_10,
 }
 
 
