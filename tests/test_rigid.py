@@ -191,7 +191,7 @@ def test_position_mode_reaches_position_on_plane(plane_env):
 
 
 def test_proportional_force_law_sampled_limit():
-    """With the reaction measured one sample late, (9.93) gives λ_{k+1} = (1 + K_Pλ) λ_d − K_Pλ λ_k: K_Pλ = 0.5 converges, 1.0 does not."""
+    """The reaction is read one sample late: (9.93) gives λ_{k+1} = (1 + K_Pλ) λ_d − K_Pλ λ_k; K_Pλ = 0.5 converges, 1 not."""
     env = RigidEnvironment(PlaneConstraint.inclined(math.pi / 4, P0))  # bilateral: the oscillation is not clipped
     task = inclined_plane()
     sel = task.selection("base")

@@ -148,9 +148,11 @@ def test_lambda_invariant_under_units_when_weight_transformed(sel, data):
     D = np.diag(10.0 ** exps.astype(float))  # e.g. N -> kN, N m -> N mm per component
     h = data.draw(arrays(np.float64, d, elements=st.floats(-100, 100)))
     new = sel.transformed(D)
-    np.testing.assert_allclose(new.force_coordinates(D @ h), sel.force_coordinates(h), rtol=1e-7, atol=1e-7 * (1 + np.abs(h).max()))
+    tol = 1e-7 * (1 + np.abs(h).max())
+    np.testing.assert_allclose(new.force_coordinates(D @ h), sel.force_coordinates(h), rtol=1e-7, atol=tol)
     v = data.draw(arrays(np.float64, d, elements=st.floats(-1, 1)))
-    np.testing.assert_allclose(new.velocity_coordinates(np.linalg.inv(D).T @ v), sel.velocity_coordinates(v), rtol=1e-7, atol=1e-7)
+    v_new = np.linalg.inv(D).T @ v
+    np.testing.assert_allclose(new.velocity_coordinates(v_new), sel.velocity_coordinates(v), rtol=1e-7, atol=1e-7)
     np.testing.assert_allclose(new.force_selection.T @ new.velocity_selection, 0.0, atol=1e-9 * np.abs(D).max() ** 2)
 
 
@@ -223,11 +225,14 @@ def test_problem_9_9_pseudo_inverses():
     ("factory", "S_f_cols", "S_v_cols", "rows"),
     [
         (sliding_on_plane, [2, 3, 4], [0, 1, 5],
-         [("ȯ_z^c", "f_z^c"), ("ω_x^c", "μ_x^c"), ("ω_y^c", "μ_y^c"), ("f_x^c", "ȯ_x^c"), ("f_y^c", "ȯ_y^c"), ("μ_z^c", "ω_z^c")]),
+         [("ȯ_z^c", "f_z^c"), ("ω_x^c", "μ_x^c"), ("ω_y^c", "μ_y^c"),
+          ("f_x^c", "ȯ_x^c"), ("f_y^c", "ȯ_y^c"), ("μ_z^c", "ω_z^c")]),
         (peg_in_hole, [0, 1, 3, 4], [2, 5],
-         [("ȯ_x^c", "f_x^c"), ("ȯ_y^c", "f_y^c"), ("ω_x^c", "μ_x^c"), ("ω_y^c", "μ_y^c"), ("f_z^c", "ȯ_z^c"), ("μ_z^c", "ω_z^c")]),
+         [("ȯ_x^c", "f_x^c"), ("ȯ_y^c", "f_y^c"), ("ω_x^c", "μ_x^c"),
+          ("ω_y^c", "μ_y^c"), ("f_z^c", "ȯ_z^c"), ("μ_z^c", "ω_z^c")]),
         (turning_crank, [0, 2, 3, 4], [1, 5],
-         [("ȯ_x^c", "f_x^c"), ("ȯ_z^c", "f_z^c"), ("ω_x^c", "μ_x^c"), ("ω_y^c", "μ_y^c"), ("f_y^c", "ȯ_y^c"), ("μ_z^c", "ω_z^c")]),
+         [("ȯ_x^c", "f_x^c"), ("ȯ_z^c", "f_z^c"), ("ω_x^c", "μ_x^c"),
+          ("ω_y^c", "μ_y^c"), ("f_y^c", "ȯ_y^c"), ("μ_z^c", "ω_z^c")]),
     ],
 )
 def test_tables_9_1_to_9_3(factory, S_f_cols, S_v_cols, rows):
@@ -323,9 +328,11 @@ def test_rank_deficient_force_selection_raises():
 
 def test_weight_not_positive_definite_raises():
     """A weight that is not positive definite is rejected, with its eigenvalues."""
-    with pytest.raises(ParameterError, match=r"force_weight must be a symmetric positive definite \(2, 2\) matrix; got eigenvalues \[-1"):
+    msg = r"force_weight must be a symmetric positive definite \(2, 2\) matrix; got eigenvalues \[-1"
+    with pytest.raises(ParameterError, match=msg):
         SelectionMatrices([[0.0], [1.0]], [[1.0], [0.0]], force_weight=np.diag([1.0, -1.0]))
-    with pytest.raises(ParameterError, match=r"weight must be a symmetric positive definite \(2, 2\) matrix; got a non-symmetric"):
+    msg = r"weight must be a symmetric positive definite \(2, 2\) matrix; got a non-symmetric"
+    with pytest.raises(ParameterError, match=msg):
         weighted_pseudo_inverse([[0.0], [1.0]], [[1.0, 1.0], [0.0, 1.0]])
 
 
@@ -344,7 +351,8 @@ def test_reference_conflicting_with_natural_constraint_raises():
 def test_wrench_reference_outside_force_subspace_raises():
     """A desired wrench with a component the natural constraints forbid (f_x^c) is rejected."""
     sel = inclined_plane().selection("base")
-    with pytest.raises(ParameterError, match=r"force reference conflicts with the natural constraints: it must lie in the force controlled"):
+    msg = r"force reference conflicts with the natural constraints: it must lie in the force controlled"
+    with pytest.raises(ParameterError, match=msg):
         sel.check_references(force=[10.0, 0.0])
     sel.check_references(force=[35.0, -35.0], velocity=[0.1, 0.1])
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-import scipy.linalg
+import scipy.linalg  # type: ignore[import-untyped]
 
 from ._validate import as_matrix, as_vector, readonly
 from .errors import DimensionError, FrameError, ParameterError
@@ -221,7 +221,8 @@ def partial_compliance(velocity_selection: Any, compliance: Any, velocity_weight
 def _rotation(name: str, R: Any, dims: tuple[int, ...] = (2, 3)) -> np.ndarray:
     R = as_matrix(name, R)
     if R.shape[0] != R.shape[1] or R.shape[0] not in dims:
-        raise DimensionError(f"{name} must be a rotation matrix of shape {' or '.join(f'({k}, {k})' for k in dims)}; got shape {R.shape}")
+        shapes = " or ".join(f"({k}, {k})" for k in dims)
+        raise DimensionError(f"{name} must be a rotation matrix of shape {shapes}; got shape {R.shape}")
     err = float(np.max(np.abs(R.T @ R - np.eye(R.shape[0]))))
     if err > 1e-9 or np.linalg.det(R) < 0:
         raise ParameterError(
@@ -674,11 +675,15 @@ class Task:
         D = scipy.linalg.block_diag(Rd, Rd) if self.dim == 6 else Rd
         return D @ self._sel_c.force_selection, D @ self._sel_c.velocity_selection
 
-    def stiffness(self, compliance: Any, frame: FrameName = "constraint", t: float = 0.0, end_effector_rotation: Any = None) -> np.ndarray:
+    def stiffness(
+        self, compliance: Any, frame: FrameName = "constraint", t: float = 0.0, end_effector_rotation: Any = None
+    ) -> np.ndarray:
         """K′ (9.70) in ``frame``; ``compliance`` C is given in that same frame."""
         return self.selection(frame, t, end_effector_rotation).stiffness(compliance)
 
-    def compliance(self, compliance: Any, frame: FrameName = "constraint", t: float = 0.0, end_effector_rotation: Any = None) -> np.ndarray:
+    def compliance(
+        self, compliance: Any, frame: FrameName = "constraint", t: float = 0.0, end_effector_rotation: Any = None
+    ) -> np.ndarray:
         """C′ (9.72) in ``frame``; ``compliance`` C is given in that same frame."""
         return self.selection(frame, t, end_effector_rotation).compliance(compliance)
 
@@ -782,7 +787,9 @@ def turning_crank(
     )
 
 
-def driving_screw(pitch: float = 0.0, rotation: Any = None, origin: Any = None, references: Mapping[str, float] | None = None) -> Task:
+def driving_screw(
+    pitch: float = 0.0, rotation: Any = None, origin: Any = None, references: Mapping[str, float] | None = None
+) -> Task:
     """Driving a screw in a hole, Problem 9.7 (Fig. 9.17); z_c along the screw's axis.
 
     With the screwdriver's blade seated in the slot and the screw in its hole, the environment

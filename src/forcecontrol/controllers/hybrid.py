@@ -293,7 +293,9 @@ class HybridCompliantController(Controller):
         Pv, Pf = self._S_v_pinv, self._S_f_pinv
         nu = Pv @ T.xd
         nu_d = Pv @ reference.velocity
-        alpha_nu = velocity_law(Pv @ reference.acceleration, nu_d, nu, self.state, self.velocity_gain, self.velocity_integral_gain)
+        alpha_nu = velocity_law(
+            Pv @ reference.acceleration, nu_d, nu, self.state, self.velocity_gain, self.velocity_integral_gain
+        )
         f_lam = compliant_force_law(
             Pf @ reference.force_accel, Pf @ reference.force_rate, self._L_hat @ T.xd,
             Pf @ reference.force, Pf @ h, self.force_rate_gain, self.force_gain,
@@ -380,13 +382,17 @@ class HybridRigidController(Controller):
             if velocity_integral_gain is None:
                 raise ParameterError("velocity_integral_gain must be given for motion='velocity' (K_Iν of (9.80)); got None")
             if position_gain is not None:
-                raise ParameterError("position_gain applies to motion='position' only (K_Pr of (9.95)); got a value with motion='velocity'")
+                raise ParameterError(
+                    "position_gain applies to motion='position' only (K_Pr of (9.95)); got a value with motion='velocity'"
+                )
             self.second_gain = as_gain_matrix("velocity_integral_gain", velocity_integral_gain, l)
         else:
             if position_gain is None:
                 raise ParameterError("position_gain must be given for motion='position' (K_Pr of (9.95)); got None")
             if velocity_integral_gain is not None:
-                raise ParameterError("velocity_integral_gain applies to motion='velocity' only; got a value with motion='position'")
+                raise ParameterError(
+                    "velocity_integral_gain applies to motion='velocity' only; got a value with motion='position'"
+                )
             self.second_gain = as_gain_matrix("position_gain", position_gain, l)
         zero = np.zeros((k, k))
         self.force_gain = zero
@@ -402,7 +408,9 @@ class HybridRigidController(Controller):
                 raise ParameterError("force_integral_gain must be given for force_law='integral' (K_Iλ of (9.94)); got None")
             self.force_integral_gain = as_gain_matrix("force_integral_gain", force_integral_gain, k)
         elif force_integral_gain is not None:
-            raise ParameterError(f"force_integral_gain applies to force_law='integral' only; got a value with force_law={force_law!r}")
+            raise ParameterError(
+                f"force_integral_gain applies to force_law='integral' only; got a value with force_law={force_law!r}"
+            )
         self._S_v = np.ascontiguousarray(sel.velocity_selection)
         self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
         self._S_f = np.ascontiguousarray(sel.force_selection)

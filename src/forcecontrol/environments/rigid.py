@@ -320,7 +320,8 @@ class RigidEnvironment(Environment):
 
     def reaction(self, robot, q: Any, qd: Any, u: Any) -> np.ndarray:
         """λ (m,) under the torques u (9.87)."""
-        return self.solve(robot, np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64), np.asarray(u, dtype=np.float64))[1]
+        q, qd, u = (np.asarray(v, dtype=np.float64) for v in (q, qd, u))
+        return self.solve(robot, q, qd, u)[1]
 
     def violation(self, robot, q: Any) -> np.ndarray:
         """φ(q), (m,): how far the arm is off the constraint [m]."""
