@@ -18,6 +18,7 @@ __all__ = [
     "FrameError",
     "SingularityError",
     "DriftWarning",
+    "BandwidthWarning",
 ]
 
 
@@ -80,4 +81,12 @@ class DriftWarning(UserWarning):
 
     Direct force control reads such a component as a velocity reference and the end-effector
     drifts along it; along axes where C_F is zero the component is ignored.
+    """
+
+
+class BandwidthWarning(UserWarning):
+    """Admittance control (Sect. 9.3) with a motion loop not faster than its impedance loop.
+
+    Stability of the scheme of Fig. 9.5 needs the motion loop's bandwidth to exceed the
+    impedance loop's; the message gives both.
     """
