@@ -61,6 +61,8 @@ class SimulationResult:
         reference: packed references (N+1, 6 m), blocks as in ``REFERENCE_FIELDS``.
         label: the case's label.
         metadata: scenario, gains, environment, versions (JSON-serialisable).
+        events: what the controller logged (safety reactions, contact transitions), each a dict
+            with at least ``t`` [s] and ``event``; empty when the controller logs nothing.
     """
 
     t: np.ndarray
@@ -74,6 +76,7 @@ class SimulationResult:
     reference: np.ndarray
     label: str = ""
     metadata: dict[str, Any] = field(default_factory=dict)
+    events: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def m(self) -> int:
@@ -216,7 +219,9 @@ def simulate(
         reference: references as a function of time.
         q0: initial joint positions (n,) [rad]; qd0: initial velocities (zeros by default).
         duration: simulated time [s], > 0.
-        sensor: force sensor model; exact by default.
+        sensor: force sensor model; exact by default. A sensor whose ``compiled_ok`` is False
+            (a stateful one, e.g. RealisticForceSensor) runs in the Python loop through its
+            ``start``/``measure`` hooks.
         substeps: RK4 steps per sample; by default from :func:`choose_substeps`.
         engine: ``"python"``, ``"compiled"`` (chapter arm, built-in parts) or ``"auto"``.
         max_joint_speed: a joint faster than this [rad/s] stops the run as a runaway.
@@ -261,18 +266,21 @@ def simulate(
         isinstance(robot, PlanarTwoLink)
         and environment.kind in (1, 2)
         and controller.kind in COMPILED_KINDS
+        and sensor.compiled_ok
     )
     if engine == "compiled" and not compiled_ok:
         raise ParameterError(
             "engine='compiled' needs the built-in planar arm, a built-in environment and a "
-            f"built-in controller; got {type(robot).__name__}, {type(environment).__name__}, "
-            f"{type(controller).__name__}"
+            f"built-in controller (and the simple ForceSensor); got {type(robot).__name__}, "
+            f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
         )
     use_compiled = compiled_ok and engine != "python"
 
     # initial measurement for controllers whose reset depends on it
     h0 = environment.sampled_wrench(robot, q0, qd0, np.zeros(n))
-    controller.reset(Measurement(q0, qd0, h0 + bias + noise[0]), reference.at(0.0))
+    rich = None if sensor.compiled_ok else sensor
+    hm0 = h0 + bias + noise[0] if rich is None else rich.start(N + 1, m, Ts, h0, q0)
+    controller.reset(Measurement(q0, qd0, hm0), reference.at(0.0))
 
     logs = {
         "q": np.full((N + 1, n), np.nan), "qd": np.full((N + 1, n), np.nan),
@@ -304,9 +312,10 @@ def simulate(
         )
     else:
         status, k = _python_loop(
-            robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs
+            robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=rich
         )
-    result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)
+    events = [dict(e) for e in getattr(controller, "events", [])]
+    result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, **logs)
     if status != 0:
         _raise_diverged(result, int(status), int(k), Ts, max_qd)
     return result
@@ -326,7 +335,7 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
     partial = SimulationResult(
         t=result.t[sl], q=result.q[sl], qd=result.qd[sl], x=result.x[sl], xd=result.xd[sl],
         wrench=result.wrench[sl], wrench_measured=result.wrench_measured[sl], torque=result.torque[sl],
-        reference=result.reference[sl], label=result.label, metadata=result.metadata,
+        reference=result.reference[sl], label=result.label, metadata=result.metadata, events=result.events,
     )
     err = SimulationDivergedError(
         f"simulation '{result.label or 'case'}' diverged at t = {t:.4f} s (sample {k}): {cause}: {detail}; "
@@ -338,8 +347,8 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
     raise err
 
 
-def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs):
-    """The reference loop in plain Python/NumPy (any robot, environment, controller)."""
+def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=None):
+    """The reference loop in plain Python/NumPy (any robot, environment, controller, sensor)."""
     N = refs.shape[0] - 1
     m = int(robot.task_dim)
     q, qd = q0.copy(), qd0.copy()
@@ -354,8 +363,11 @@ def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, q
         t = k * Ts
         T = robot.terms(q, qd)
         h = environment.sampled_wrench(robot, q, qd, u)
-        raw = h + bias + noise[k]
-        hm = raw.copy() if k == 0 else hm + alpha * (raw - hm)
+        if sensor is not None:  # stateful sensor model (started in simulate)
+            hm = sensor.measure(k, t, h, q)
+        else:
+            raw = h + bias + noise[k]
+            hm = raw.copy() if k == 0 else hm + alpha * (raw - hm)
         row = refs[k]
         ref = Reference(*(row[i * m : (i + 1) * m] for i in range(len(REFERENCE_FIELDS))))
         try:
