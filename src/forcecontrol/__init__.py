@@ -42,6 +42,10 @@ from .sensors import ForceSensor  # noqa: E402
 from .simulation import SimulationResult, simulate  # noqa: E402
 from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
 from .task import SelectionMatrices, Task  # noqa: E402
+from .controllers import AdmittanceController, SpatialComplianceController, SpatialImpedanceController  # noqa: E402
+from .environments import ConstantWrench, SpatialSpring, Table  # noqa: E402
+from .errors import BandwidthWarning, FrameError  # noqa: E402
+from .spatial import Transform, Twist, Wrench  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -82,4 +86,15 @@ __all__ = [
     "PlaneConstraint",
     "Task",
     "SelectionMatrices",
+    "SpatialImpedanceController",
+    "SpatialComplianceController",
+    "AdmittanceController",
+    "SpatialSpring",
+    "Table",
+    "ConstantWrench",
+    "BandwidthWarning",
+    "FrameError",
+    "Transform",
+    "Twist",
+    "Wrench",
 ]

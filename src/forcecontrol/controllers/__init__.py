@@ -10,6 +10,9 @@ from .force import (
 )
 from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
+from .admittance import AdmittanceController
+from .redundant import NullSpacePosture, SingularityHandling
+from .spatial import SpatialComplianceController, SpatialImpedanceController
 
 __all__ = [
     "Controller",
@@ -25,4 +28,9 @@ __all__ = [
     "check_force_reference",
     "HybridCompliantController",
     "HybridRigidController",
+    "SpatialImpedanceController",
+    "SpatialComplianceController",
+    "AdmittanceController",
+    "NullSpacePosture",
+    "SingularityHandling",
 ]

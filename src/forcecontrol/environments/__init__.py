@@ -2,6 +2,7 @@
 
 from .base import Environment
 from .elastic import ElasticPlane, LinearSpring
+from .spatial import ConstantWrench, SpatialSpring, Table
 from .rigid import (
     CircleConstraint,
     HolonomicConstraint,
@@ -21,4 +22,7 @@ __all__ = [
     "PlaneConstraint",
     "CircleConstraint",
     "JointConstraint",
+    "SpatialSpring",
+    "Table",
+    "ConstantWrench",
 ]
