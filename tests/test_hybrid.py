@@ -232,3 +232,26 @@ def test_path_reference_runs_in_python_loop(task):
     res = simulate(CHAPTER_ARM, env, _compliant(task), ref, q0=CHAPTER_ARM.inverse_kinematics([1.0, 0.0]), duration=0.05)
     assert res.metadata["controller"]["type"] == "HybridCompliantController"
     np.testing.assert_allclose(res.metadata["controller"]["S_f"], [[-R2], [R2]])
+
+
+@pytest.mark.parametrize("which", ["compliant", "rigid-velocity", "rigid-position"])
+def test_compiled_engine_agrees_with_python_loop(task, which):
+    """The compiled loop (dispatcher kinds 7, 8) reproduces the Python loop to round-off for the hybrid controllers."""
+    env = ElasticPlane.inclined(math.pi / 4, [1.0, 0.0], K_ENV)
+    ref = LinearPath([1.0, 0.0], [1.1, 0.1], 0.3, force=task.selection("base").wrench([-20.0]))
+
+    def make():
+        if which == "compliant":
+            return _compliant(task, 2.0 / K_ENV)
+        if which == "rigid-velocity":
+            return HybridRigidController(CHAPTER_ARM, task, velocity_gain=100.0, velocity_integral_gain=2500.0,
+                                         force_integral_gain=20.0)
+        return HybridRigidController(CHAPTER_ARM, task, motion="position", velocity_gain=100.0, position_gain=2500.0,
+                                     force_law="proportional", force_gain=0.3)
+
+    q0 = CHAPTER_ARM.inverse_kinematics([1.0, 0.0])
+    a = simulate(CHAPTER_ARM, env, make(), ref, q0=q0, duration=0.5, engine="python")
+    b = simulate(CHAPTER_ARM, env, make(), ref, q0=q0, duration=0.5, engine="compiled")
+    assert b.metadata["engine"] == "compiled"
+    np.testing.assert_allclose(b.q, a.q, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(b.torque, a.torque, rtol=1e-9, atol=1e-8)

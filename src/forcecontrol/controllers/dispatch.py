@@ -13,12 +13,13 @@ from numba import njit
 
 from .compliance import joint_pd_packed, os_pd_packed
 from .force import inner_position_packed, inner_velocity_packed, parallel_packed
+from .hybrid import hybrid_compliant_packed, hybrid_rigid_packed
 from .impedance import impedance_packed
 
 __all__ = ["controller_step", "COMPILED_KINDS"]
 
 #: controller kinds the compiled loop knows.
-COMPILED_KINDS = frozenset({1, 2, 3, 4, 5, 6})
+COMPILED_KINDS = frozenset({1, 2, 3, 4, 5, 6, 7, 8})
 
 
 @njit(cache=True)
@@ -36,6 +37,10 @@ def controller_step(kind, t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s): 
         return inner_velocity_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
     if kind == 6:
         return parallel_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
+    if kind == 7:
+        return hybrid_compliant_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
+    if kind == 8:
+        return hybrid_rigid_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)
     u = np.empty(q.shape[0])
     u[:] = np.nan
     return u
