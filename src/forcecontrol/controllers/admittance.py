@@ -150,6 +150,7 @@ class AdmittanceController(_SpatialBase):
         self._Ad, self._Gd = E[:12, :12], E[:12, 12:]
         self._A, self._G = A, G
         self.state = np.zeros(12)
+        self._eye6 = np.eye(6)
         self.bandwidths = self.check_bandwidth()
 
     def check_bandwidth(self) -> dict[str, float]:
@@ -189,6 +190,10 @@ class AdmittanceController(_SpatialBase):
         R_d = euler_xyz_to_rotation(reference.position[3:])
         h_d = np.concatenate([R_d.T @ h[:3], R_d.T @ h[3:]])
         ref_t = self.compliant_reference(reference, h_d)
+        if self.compiled:
+            u = self._compiled_torque(t, q, qd, h, ref_t, self._eye6, self.motion_damping, self.motion_stiffness, False)
+            self.state[:] = self._Ad @ self.state + self._Gd @ h_d
+            return self._check_output(t, u, measurement)
         R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref_t, self.orientation, t)
         r = err.c + self.motion_damping @ err.xd + self.motion_stiffness @ err.x
