@@ -17,6 +17,7 @@ from forcecontrol.environments.rigid import (
 )
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.task import inclined_plane
+from forcecontrol.trajectories import ReferenceSignal
 
 R2 = 1.0 / math.sqrt(2.0)
 P0 = np.array([1.0, 0.0])
@@ -227,3 +228,60 @@ def test_bad_rigid_inputs_raise():
         RigidEnvironment(PlaneConstraint(P0, [0.0, 1.0]), stabilisation_frequency=-1)
     with pytest.raises(ParameterError, match=r"size must be a positive integer; got 0"):
         JointConstraint(lambda q: q, lambda q: np.eye(2), size=0)
+
+
+class CircleReference(ReferenceSignal):
+    """The handle of a crank turning at a constant rate: tip position, velocity and acceleration on the circle."""
+
+    dim = 2
+
+    def __init__(self, center, radius, rate):
+        self.center, self.radius, self.rate = np.asarray(center, dtype=float), float(radius), float(rate)
+
+    def sample(self, times):
+        th = self.rate * np.asarray(times, dtype=float)
+        r, w = self.radius, self.rate
+        out = np.zeros((len(th), 12))
+        out[:, 0:2] = self.center + r * np.column_stack([np.cos(th), np.sin(th)])
+        out[:, 2:4] = r * w * np.column_stack([-np.sin(th), np.cos(th)])
+        out[:, 4:6] = -r * w * w * np.column_stack([np.cos(th), np.sin(th)])
+        return out
+
+
+def test_crank_hybrid_control_with_moving_selection():
+    """Turning a crank: with S_f, S_v, Ṡ_v from the geometry, (9.91) keeps λ = f_λ = 0 instead of ≈ 28 N centripetal."""
+    center, radius, rate = np.array([1.0, 0.5]), 0.3, 1.0
+    crank = CircleConstraint(center, radius)
+    env = RigidEnvironment(crank)
+    ctrl = HybridRigidController(CHAPTER_ARM, crank, velocity_gain=100.0, velocity_integral_gain=2500.0,
+                                 force_law="feedforward")
+    q0 = CHAPTER_ARM.inverse_kinematics(center + [radius, 0.0])
+    res = simulate(CHAPTER_ARM, env, ctrl, CircleReference(center, radius, rate), q0=q0, duration=2.0)
+    sels = [crank.selection(x, xd) for x, xd in zip(res.x, res.xd)]
+    lam = np.array([S_f[:, 0] @ h for (S_f, _, _), h in zip(sels, res.wrench)])
+    nu = np.array([S_v[:, 0] @ xd for (_, S_v, _), xd in zip(sels, res.xd)])
+    nu_d = np.array([S_v[:, 0] @ v for (_, S_v, _), v in zip(sels, res.reference_block("velocity"))])
+    phi = np.array([env.violation(CHAPTER_ARM, q)[0] for q in res.q])
+    assert np.abs(phi).max() < 1e-6
+    late = res.t >= 0.3
+    assert np.abs(lam[late]).max() < 1.0
+    assert np.abs(nu - nu_d)[late].max() < 0.01 * radius * rate
+    angle = math.atan2(res.x[-1, 1] - center[1], res.x[-1, 0] - center[0])
+    assert angle == pytest.approx(rate * 2.0, abs=1e-3)
+    # the reaction the Ṡ_v ν term removes: B_f S_fᵀ Ṡ_v ν at the last state (λ of (9.90) with α_ν = 0)
+    T = CHAPTER_ARM.terms(res.q[-1], res.qd[-1])
+    S_f, S_v, S_v_dot = crank.selection(T.x, T.xd)
+    Jinv = np.linalg.inv(T.J)
+    B_e = Jinv.T @ T.B @ Jinv
+    B_f = 1.0 / (S_f.T @ np.linalg.solve(B_e, S_f))
+    assert abs((B_f * (S_f.T @ S_v_dot) * (S_v.T @ T.xd)).item()) > 20.0
+
+
+def test_moving_selection_needs_velocity_motion_and_planar_constraint():
+    """A constraint-given selection refuses position control (ψ unknown) and constraints that are not one planar equation."""
+    crank = CircleConstraint([1.0, 0.5], 0.3)
+    with pytest.raises(ParameterError, match=r"motion must be 'velocity' with a moving contact geometry.*got 'position'"):
+        HybridRigidController(CHAPTER_ARM, crank, motion="position", velocity_gain=1.0, position_gain=1.0)
+    with pytest.raises(DimensionError, match=r"one constraint on a 2-dimensional operational space; got dim 3"):
+        HybridRigidController(CHAPTER_ARM, CircleConstraint([1.0, 0.5, 0.0], 0.3), velocity_gain=1.0,
+                              velocity_integral_gain=1.0, force_integral_gain=1.0)

@@ -326,7 +326,11 @@ class HybridRigidController(Controller):
 
     Law: ``u = Jᵀ γ_e`` with (9.91) ``γ_e = B_e (S_v α_ν + Ṡ_v ν) + S_f f_λ + n_e``, i.e.
     ``u = B J⁻¹ (S_v α_ν + Ṡ_v ν − J̇ q̇) + n + Jᵀ S_f f_λ`` (Ṡ_v = O for a fixed task frame);
-    the closed loop is ``ν̇ = α_ν``, ``λ = f_λ``. Force laws: ``"feedforward"`` (9.92)
+    the closed loop is ``ν̇ = α_ν``, ``λ = f_λ``. With a contact geometry that moves with the
+    end-effector (``selection`` an :class:`~forcecontrol.environments.rigid.OperationalConstraint`,
+    e.g. the handle of a crank) S_f, S_v and Ṡ_v are evaluated at each sample from the measured
+    state and the term ``Ṡ_v ν`` is what keeps λ = f_λ (without it the reaction would carry the
+    centripetal force). Force laws: ``"feedforward"`` (9.92)
     ``f_λ = λ_d``; ``"proportional"`` (9.93) ``f_λ = λ_d + K_Pλ (λ_d − λ)``; ``"integral"`` (9.94)
     ``f_λ = λ_d + K_Iλ ∫(λ_d − λ)``, with ``λ = S_f† h_e`` (9.54). Motion: ``"velocity"`` (9.80)
     ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)``; ``"position"`` (9.95)
@@ -334,12 +338,15 @@ class HybridRigidController(Controller):
     (9.61) for a constant S_v, e.g. a plane: then ``ṙ = ν``) and ``r_d = S_v† x_d``.
 
     Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` h_e (d,) [N] (the reaction),
-    ``reference.position/.velocity/.acceleration`` and ``reference.force`` (f_d), base frame.
+    ``reference.position/.velocity/.acceleration`` and ``reference.force`` (f_d), base frame,
+    mapped with the selection of the sample (``ν_d = S_v† ẋ_d``, ``λ_d = S_f† f_d``).
     Output: torques (n,) [N m]. State: ``[∫(ν_d − ν) (d − m), ∫(λ_d − λ) (m)]``.
 
     Args:
         robot: the manipulator (square Jacobian).
-        selection: task or base-frame selection matrices (fixed frame).
+        selection: task or base-frame selection matrices (fixed frame), or a planar single
+            operational constraint whose ``selection(x, ẋ)`` gives S_f, S_v, Ṡ_v (moving
+            geometry; velocity motion only; Python loop only).
         motion: ``"velocity"`` (9.80) or ``"position"`` (9.95).
         velocity_gain: K_Pν (velocity) or K_Dr (position), SPD (d − m, d − m) [1/s].
         velocity_integral_gain: K_Iν, SPD [1/s²] (velocity mode only).
@@ -367,6 +374,23 @@ class HybridRigidController(Controller):
         sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, sample_time)
+        from ..environments.rigid import OperationalConstraint
+
+        self._constraint: OperationalConstraint | None = None
+        if isinstance(selection, OperationalConstraint):
+            if selection.dim != self.m or selection.dim != 2 or selection.size != 1:
+                raise DimensionError(
+                    "selection from a constraint needs one constraint on a 2-dimensional operational space; "
+                    f"got dim {selection.dim}, size {selection.size} for a {self.m}-dimensional robot"
+                )
+            if motion != "velocity":
+                raise ParameterError(
+                    "motion must be 'velocity' with a moving contact geometry (r = ψ(q) of (9.95) is not known); "
+                    f"got {motion!r}"
+                )
+            self._constraint = selection
+            self.kind = 0  # type: ignore[misc]  # state-dependent S_f, S_v: the Python loop only
+            selection = SelectionMatrices([[0.0], [1.0]], [[1.0], [0.0]])  # sizes and gains only
         sel = _selection(selection, self.m)
         self.selection = sel
         d, k = sel.dim, sel.m
@@ -431,7 +455,11 @@ class HybridRigidController(Controller):
         """Torques of (9.91) with the chosen force and motion laws; advances the integrals."""
         T = self.robot.terms(measurement.q, measurement.qd)
         h = np.asarray(measurement.wrench, dtype=np.float64)
+        S_v, S_f, S_v_dot = self._S_v, self._S_f, self._S_v_dot
         Pv, Pf = self._S_v_pinv, self._S_f_pinv
+        if self._constraint is not None:
+            S_f, S_v, S_v_dot = self._constraint.selection(T.x, T.xd)
+            Pv, Pf = S_v.T, S_f.T  # unit columns, W = I
         l = Pv.shape[0]
         nu = Pv @ T.xd
         nu_d = Pv @ reference.velocity
@@ -443,8 +471,8 @@ class HybridRigidController(Controller):
         lam_d = Pf @ reference.force
         lam = Pf @ h
         f_lam = rigid_force_law(lam_d, lam, self.state[l:], self.force_gain, self.force_integral_gain)
-        a = rigid_acceleration(self._S_v, alpha_nu, self._S_v_dot, nu)
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, self._S_f @ f_lam, True)
+        a = rigid_acceleration(S_v, alpha_nu, S_v_dot, nu)
+        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, S_f @ f_lam, True)
         u = self._check_output(t, u, measurement)
         self.state[:l] += self.sample_time * (nu_d - nu)
         self.state[l:] += self.sample_time * (lam_d - lam)
@@ -454,10 +482,12 @@ class HybridRigidController(Controller):
         out: dict[str, Any] = {
             "S_f": self.selection.force_selection.tolist(),
             "S_v": self.selection.velocity_selection.tolist(),
+        } if self._constraint is None else {"selection_from": self._constraint.describe()}
+        out.update({
             "motion": self.motion,
             "force_law": self.force_law,
             "velocity_gain": self.velocity_gain.tolist(),
-        }
+        })
         out["velocity_integral_gain" if self.motion == "velocity" else "position_gain"] = self.second_gain.tolist()
         if self.force_law == "proportional":
             out["force_gain"] = self.force_gain.tolist()

@@ -124,6 +124,30 @@ class OperationalConstraint(HolonomicConstraint):
         """S_f = Gᵀ(x) (9.53 with J_φ = G J), (dim, m)."""
         return self.gradient(np.asarray(x, dtype=np.float64)).T
 
+    def gradient_dot(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
+        """Ġ(x, ẋ), (m, dim): needed for Ṡ_f, Ṡ_v of a moving contact geometry."""
+        raise NotImplementedError(f"{type(self).__name__} does not provide Ġ")
+
+    def selection(self, x: Any, xd: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """S_f, S_v and Ṡ_v at the end-effector state, for one constraint in the plane (dim 2, m 1).
+
+        ``S_f = n = Gᵀ/|G|`` (9.53, normalised: λ is the force along n [N]), ``S_v = [n_y, −n_x]ᵀ``
+        (reciprocal, (9.58); x_c of Example 9.4 for a plane) and ``Ṡ_v`` from
+        ``ṅ = (I − n nᵀ) Ġᵀ/|G|``; the columns are unit vectors, so ``S† = Sᵀ`` with W = I.
+        """
+        if self.dim != 2 or self.size != 1:
+            raise ParameterError(
+                f"selection follows one constraint in the plane (dim 2, size 1); got dim {self.dim}, size {self.size}"
+            )
+        x = np.asarray(x, dtype=np.float64)
+        xd = np.asarray(xd, dtype=np.float64)
+        g = self.gradient(x)[0]
+        norm = float(np.linalg.norm(g))
+        n = g / norm
+        gd = self.gradient_dot(x, xd)[0]
+        nd = (gd - n * float(n @ gd)) / norm
+        return n[:, None], np.array([[n[1]], [-n[0]]]), np.array([[nd[1]], [-nd[0]]])
+
 
 class PlaneConstraint(OperationalConstraint):
     """The tip on a rigid plane (a line in 2-D): ``φ = νᵀ (x − p) = 0``.
@@ -159,6 +183,9 @@ class PlaneConstraint(OperationalConstraint):
     def gradient_rate(self, x, xd):
         return np.zeros(1)
 
+    def gradient_dot(self, x, xd):
+        return np.zeros((1, self.dim))
+
     def describe(self):
         return {"type": "plane", "point": self.point.tolist(), "normal": self.normal.tolist()}
 
@@ -189,6 +216,12 @@ class CircleConstraint(OperationalConstraint):
         rho = float(np.linalg.norm(d))
         u = d / rho
         return np.array([(float(xd @ xd) - float(u @ xd) ** 2) / rho])
+
+    def gradient_dot(self, x, xd):
+        d = x - self.center
+        rho = float(np.linalg.norm(d))
+        u = d / rho
+        return ((xd - u * float(u @ xd)) / rho)[None, :]
 
     def describe(self):
         return {"type": "circle", "center": self.center.tolist(), "radius": self.radius}
