@@ -113,7 +113,7 @@ def compliant_acceleration(S_v, alpha_nu, CpS_f, f_lam):  # pragma: no cover - c
 
 @njit(cache=True)
 def rigid_acceleration(S_v, alpha_nu, S_v_dot, nu):  # pragma: no cover - compiled
-    """The motion part of (9.91): ``a = S_v α_ν + Ṡ_v ν`` (B_e times this enters γ_e)."""
+    """(9.91), motion part: ``a = S_v α_ν + Ṡ_v ν`` (B_e a enters γ_e; Ṡ_v = O for a fixed task frame)."""
     return mv(S_v, alpha_nu) + mv(S_v_dot, nu)
 
 
