@@ -255,3 +255,57 @@ def test_compiled_engine_agrees_with_python_loop(task, which):
     assert b.metadata["engine"] == "compiled"
     np.testing.assert_allclose(b.q, a.q, rtol=0, atol=1e-10)
     np.testing.assert_allclose(b.torque, a.torque, rtol=1e-9, atol=1e-8)
+
+
+def _scenario(controller: dict, environment: dict | None = None, reference: dict | None = None) -> dict:
+    return {
+        "name": "t", "duration": 0.01,
+        "robot": {"start_position": [1.0, 0.0]},
+        "environment": environment or {"type": "elastic-plane", "point": [1.0, 0.0], "angle": 45.0, "stiffness": 5000.0},
+        "controller": controller,
+        "reference": reference or {"type": "path-on-plane", "start": [1.0, 0.0], "end": [1.1, 0.1], "duration": 1.0,
+                                   "normal_force": -50.0},
+    }
+
+
+def test_scenario_parts_build_hybrid_controllers():
+    """The scenario types hybrid-compliant, hybrid-rigid, rigid-plane and path-on-plane build the library's objects."""
+    from forcecontrol.environments.rigid import RigidEnvironment
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    comp = {"type": "hybrid-compliant", "velocity_gain": 100.0, "velocity_integral_gain": 2500.0,
+            "force_gain": 2500.0, "force_rate_gain": 100.0}
+    parts = build_case(load_scenario(_scenario(comp)).cases[0])
+    assert isinstance(parts["controller"], HybridCompliantController)
+    np.testing.assert_allclose(parts["controller"].compliance, np.eye(2) / K_ENV)  # I/k from the plane
+    np.testing.assert_allclose(parts["reference"].force, [50 * R2, -50 * R2])
+    rigid = {"type": "hybrid-rigid", "velocity_gain": 100.0, "velocity_integral_gain": 2500.0, "force_integral_gain": 50.0}
+    parts = build_case(load_scenario(_scenario(rigid, {"type": "rigid-plane", "point": [1.0, 0.0], "angle": 45.0})).cases[0])
+    assert isinstance(parts["controller"], HybridRigidController)
+    assert isinstance(parts["environment"], RigidEnvironment) and parts["environment"].unilateral
+
+
+@pytest.mark.parametrize(
+    ("controller", "environment", "match"),
+    [
+        ({"type": "hybrid-compliant", "velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_gain": 1.0,
+          "force_rate_gain": 1.0, "force_selection": [[0.0], [1.0]]}, None,
+         r"force_selection and velocity_selection must be given together"),
+        ({"type": "hybrid-compliant", "velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_gain": 1.0,
+          "force_rate_gain": 1.0, "force_selection": [[1.0], [0.0]], "velocity_selection": [[1.0], [1.0]]}, None,
+         r"must be reciprocal, S_fᵀ S_v = O"),
+        ({"type": "hybrid-rigid", "velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_integral_gain": 1.0},
+         {"type": "rigid-plane", "point": [1.0, 0.0], "angle": 45.0, "normal": [0.0, 1.0]},
+         r"give exactly one of normal or angle for a rigid plane"),
+        ({"type": "hybrid-compliant", "velocity_gain": 1.0, "velocity_integral_gain": 1.0, "force_gain": 1.0,
+          "force_rate_gain": 1.0}, {"type": "rigid-plane", "point": [1.0, 0.0], "angle": 45.0},
+         r"compliance must be given unless the environment is an elastic plane"),
+    ],
+)
+def test_bad_scenario_parts_raise(controller, environment, match):
+    """Bad hybrid scenario tables are scenario errors naming the table, type and the problem."""
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import load_scenario
+
+    with pytest.raises(ScenarioError, match=match):
+        load_scenario(_scenario(controller, environment))

@@ -113,3 +113,14 @@ def test_estimated_compliance_still_settles(ratio):
     assert lam[-1] == pytest.approx(LAMBDA_D, rel=1e-4)
     cruise = 0.2 * SQ2 / 0.8
     assert np.abs(nu - nu_d)[res.t <= 1.0].max() < 0.01 * cruise
+
+
+@pytest.mark.parametrize("name", ["problem-9.10", "problem-9.3"])
+def test_built_in_scenario_meets_its_expected_values(name):
+    """The built-in scenarios (hybrid 9.10, impedance 9.3; both path readings) meet every closed-form expected value."""
+    from forcecontrol.scenarios import run_scenario
+
+    run = run_scenario(name, engine="python")
+    assert len(run.cases) == 2
+    failed = [(c.label, ch["metric"], ch["value"]) for c in run.cases for ch in c.checks if not ch["ok"]]
+    assert not failed
