@@ -120,7 +120,7 @@ def test_built_in_scenario_meets_its_expected_values(name):
     """The built-in scenarios (hybrid 9.10, impedance 9.3; both path readings) meet every closed-form expected value."""
     from forcecontrol.scenarios import run_scenario
 
-    run = run_scenario(name, engine="python")
+    run = run_scenario(name)
     assert len(run.cases) == 2
     failed = [(c.label, ch["metric"], ch["value"]) for c in run.cases for ch in c.checks if not ch["ok"]]
     assert not failed
