@@ -36,7 +36,7 @@ class RestingPath(LinearPath):
     def sample(self, times):
         out = super().sample(times)
         t = np.asarray(times, dtype=np.float64) - self.start_time
-        rest = (t <= 0.0) | (t >= self.duration)
+        rest = (t < 0.0) | (t >= self.duration)  # the sample at t_f holds [t_f, t_f + Ts]: at rest
         out[rest, 2 * self.dim : 3 * self.dim] = 0.0
         return out
 

@@ -62,9 +62,12 @@ _TASK_FIELDS = {
 class TaskPath(LinearPath):
     """A trapezoidal segment whose force reference is ``h_d = S_f λ_d`` on a planar contact.
 
-    Its acceleration reference is zero while the path rests, before ``start_time`` and after
-    ``start_time + duration``; this overrides ``LinearPath.sample``, which in this tree returns the
-    first and last phases' ``±s̈`` there (reported; the override is then a no-op).
+    Its acceleration reference is zero while the path rests, for ``t < start_time`` and
+    ``t ≥ start_time + duration`` (the sample at t_f holds its torque over [t_f, t_f + Ts], when
+    the path is at rest); this overrides ``LinearPath.sample``, which in this tree returns the first
+    and last phases' ``±s̈`` there (reported). Without it the feedforward ẍ_d after t_f is
+    ``−s̈_c (p_f − p_i)``, which leaves a hybrid run 0.7 mm short and an impedance run
+    ``M_d s̈_c |p_f − p_i| / K_P`` (7 cm for Problem 9.3's gains) off the end point.
     """
 
     def __init__(self, start: Any, end: Any, duration: float, accel_time: float | None = None,
@@ -78,7 +81,7 @@ class TaskPath(LinearPath):
     def sample(self, times: np.ndarray) -> np.ndarray:
         out = super().sample(times)
         t = np.asarray(times, dtype=np.float64) - self.start_time
-        rest = (t <= 0.0) | (t >= self.duration)
+        rest = (t < 0.0) | (t >= self.duration)  # the sample at t_f holds [t_f, t_f + Ts]: at rest
         out[rest, 2 * self.dim : 3 * self.dim] = 0.0
         return out
 
