@@ -46,6 +46,8 @@ __all__ = [
     "ConstraintFrame",
     "Task",
     "weighted_pseudo_inverse",
+    "planar_rotation",
+    "wrench_rotation",
     "force_selection_from_constraint",
     "velocity_selection_from_parametrisation",
     "partial_stiffness",
@@ -243,7 +245,7 @@ def wrench_rotation(R: np.ndarray, dim: int) -> np.ndarray:
     return R
 
 
-@dataclass(frozen=True, init=False)
+@dataclass(frozen=True, init=False, eq=False)
 class SelectionMatrices:
     """A checked pair S_f, S_v with the weights of their pseudo-inverses (Sect. 9.5.1).
 
