@@ -38,7 +38,10 @@ from .errors import (  # noqa: E402
     WorkspaceError,
 )
 from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel  # noqa: E402
-from .sensors import ForceSensor  # noqa: E402
+from .encoders import EncoderFeedback, JointEncoder  # noqa: E402
+from .safety import Safety  # noqa: E402
+from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity  # noqa: E402
+from .transitions import ContactSupervisor, critical_damping, impact_report  # noqa: E402
 from .simulation import SimulationResult, simulate  # noqa: E402
 from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
 from .task import SelectionMatrices, Task  # noqa: E402
@@ -75,6 +78,15 @@ __all__ = [
     "PlanarTwoLinkParameters",
     "CHAPTER_ARM",
     "ForceSensor",
+    "RealisticForceSensor",
+    "ToolGravity",
+    "identify_tool_gravity",
+    "JointEncoder",
+    "EncoderFeedback",
+    "Safety",
+    "ContactSupervisor",
+    "critical_damping",
+    "impact_report",
     "simulate",
     "SimulationResult",
     "ReferenceSignal",
