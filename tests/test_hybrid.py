@@ -309,3 +309,23 @@ def test_bad_scenario_parts_raise(controller, environment, match):
 
     with pytest.raises(ScenarioError, match=match):
         load_scenario(_scenario(controller, environment))
+
+
+def test_problem_9_8_force_subspace_is_inner_velocity_loop():
+    """Problem 9.8: along y_c hybrid control is the inner velocity loop (9.45)–(9.47), K_Dλ = k_D/m_d, K_Pλ = k k_P k_F/m_d."""
+    from forcecontrol import InnerVelocityForceController
+
+    env = ElasticPlane.inclined(math.pi / 4, [1.0, 0.0], K_ENV)
+    task = inclined_plane()
+    sel = task.selection("base")
+    ref = Setpoint([1.0, 0.0], force=sel.wrench([-50.0]))
+    q0 = CHAPTER_ARM.inverse_kinematics([1.0, 0.0])
+    m_d, k_D, k_P = 100.0, 100.0 * 100.0, 2500.0
+    k_F = 2500.0 * m_d / (K_ENV * k_P)  # K_Pλ = 2500 s⁻²
+    inner = InnerVelocityForceController(CHAPTER_ARM, m_d, k_D, k_P, k_F)
+    a = simulate(CHAPTER_ARM, env, inner, ref, q0=q0, duration=0.5)
+    b = simulate(CHAPTER_ARM, env, _compliant(task), ref, q0=q0, duration=0.5)
+    lam_a = (a.wrench @ sel.force_pinv.T).ravel()
+    lam_b = (b.wrench @ sel.force_pinv.T).ravel()
+    assert np.abs(lam_a - lam_b).max() < 1e-6 * 50.0
+    assert lam_b[-1] == pytest.approx(-50.0, rel=1e-3)
