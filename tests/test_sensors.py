@@ -341,3 +341,52 @@ def test_bad_sensor_use_is_refused(run, exc, match):
     """Misuse at run time (shapes, order of samples, poses that identify nothing) gives a clear error."""
     with pytest.raises(exc, match=match):
         run()
+
+
+# ----------------------------------------------------------------------------- scenario [sensor] table
+
+
+def _scenario_with_sensor(sensor: dict) -> dict:
+    """Example 9.3's base case (inner position, k = 1e3) with the given [sensor] table."""
+    import copy
+
+    from forcecontrol.scenarios import load_scenario
+
+    data = copy.deepcopy(load_scenario("example-9.3").raw)
+    data["sensor"] = sensor
+    data["duration"] = 0.05
+    data["controller"]["integral_gain"] = [0.0016, 0.0]
+    return data
+
+
+def test_scenario_sensor_table_builds_the_realistic_sensor_when_asked():
+    """[sensor] with resolution/delay/tool keys gives a RealisticForceSensor; without them the simple one."""
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    rich = load_scenario(_scenario_with_sensor({"noise_std": 0.5, "cutoff": 50.0, "filter": "butterworth",
+                                                "resolution": 0.05, "delay_samples": 2, "tool_mass": 1.2,
+                                                "zeroing_samples": 100}))
+    s = build_case(rich.cases[0])["sensor"]
+    assert isinstance(s, RealisticForceSensor) and s.filter == "butterworth" and s.delay_samples == 2
+    assert s.tool.mass == 1.2 and s.tool_estimate.mass == 1.2 and s.resolution == 0.05
+    simple = load_scenario(_scenario_with_sensor({"noise_std": 0.5, "cutoff": 50.0}))
+    assert build_case(simple.cases[0])["sensor"].compiled_ok
+
+
+@pytest.mark.parametrize(
+    "sensor, match",
+    [
+        ({"tool_mass": -1.0}, r"\[sensor\]: tool mass must be a non-negative number \[kg\]; got -1.0"),
+        ({"cutoff": 700.0, "filter": "butterworth"}, r"\[sensor\]: cutoff must be below the Nyquist frequency 500 Hz"),
+        ({"resolution": -0.1}, r"\[sensor\]: resolution must be a non-negative number"),
+        ({"delay_samples": -2}, r"\[sensor\]: delay_samples must be a non-negative integer"),
+        ({"filter": "median"}, r"key 'filter' must be one of 'none', 'first-order', 'butterworth'"),
+    ],
+)
+def test_scenario_sensor_table_refuses_bad_values(sensor, match):
+    """Bad [sensor] values in a scenario are ScenarioErrors naming the table and the key."""
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import load_scenario
+
+    with pytest.raises(ScenarioError, match=match):
+        load_scenario(_scenario_with_sensor(sensor))

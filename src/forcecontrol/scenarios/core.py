@@ -72,7 +72,15 @@ SENSOR_FIELDS: dict[str, Field] = {
     "bias": Field("gain", default=0.0, doc="constant bias [N]"),
     "cutoff": Field("number", doc="first-order low-pass cut-off [Hz]"),
     "seed": Field("int", default=0),
+    # realistic sensor (RealisticForceSensor, Python loop) when any of these is given
+    "filter": Field("str", choices=("none", "first-order", "butterworth"), doc="digital filter kind"),
+    "drift": Field("gain", doc="bias drift rate in the sensor frame [N/s]"),
+    "resolution": Field("number", doc="quantisation step [N]"),
+    "delay_samples": Field("int", doc="transport delay [samples]"),
+    "zeroing_samples": Field("int", doc="readings averaged at start to estimate the bias"),
+    "tool_mass": Field("number", doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
 }
+_RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_samples", "tool_mass")
 
 FIGURE_FIELDS: dict[str, Field] = {
     "name": Field("str", default="", doc="suffix of the figure's file name (several figures)"),
@@ -397,7 +405,19 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
     st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
     try:
-        sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
+        if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
+            from ..sensors import RealisticForceSensor, ToolGravity
+
+            tool = None if st["tool_mass"] is None else ToolGravity(st["tool_mass"])
+            sensor = RealisticForceSensor(
+                st["noise_std"], st["bias"], st["cutoff"], st["seed"], filter=st["filter"],
+                drift=0.0 if st["drift"] is None else st["drift"], resolution=st["resolution"] or 0.0,
+                delay_samples=st["delay_samples"] or 0, zeroing_samples=st["zeroing_samples"] or 0,
+                tool=tool, tool_estimate=tool,
+            )
+            sensor.filter_coefficients(Ts)
+        else:
+            sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
         sensor.alpha(Ts)
     except ForceControlError as exc:
         raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
