@@ -35,3 +35,23 @@ def test_bad_path_timing_is_refused():
     """An acceleration time longer than half the duration is refused."""
     with pytest.raises(ParameterError, match=r"accel_time must be at most duration/2 = 0.5 s; got 0.6 s"):
         fc.LinearPath([0, 0], [1, 1], 1.0, accel_time=0.6)
+
+
+def test_profile_rests_before_and_after_the_motion():
+    """Outside [0, t_f) the velocity and acceleration references are zero (no feedforward at rest)."""
+    s, sd, sdd = trapezoidal_profile(np.array([-0.5, 0.0, 1.0, 1.5]), 1.0, 0.2)
+    np.testing.assert_array_equal(s, [0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_array_equal(sd, [0.0, 0.0, 0.0, 0.0])
+    assert sdd[0] == 0.0 and sdd[1] == pytest.approx(1 / (0.2 * 0.8)) and sdd[2] == 0.0 and sdd[3] == 0.0
+
+
+def test_impedance_tracks_the_path_end_point():
+    """Impedance control along a path ends at p_f (the feedforward stops with the motion)."""
+    import forcecontrol as fc
+
+    arm = fc.PlanarTwoLink()
+    env = fc.LinearSpring(np.zeros((2, 2)), [0.0, 0.0])
+    path = fc.LinearPath([1.0, 0.0], [1.2, 0.2], 1.0)
+    ctl = fc.ImpedanceController(arm, 100, 1000, 2500)
+    r = fc.simulate(arm, env, ctl, path, q0=arm.inverse_kinematics([1.0, 0.0]), duration=3.0)
+    np.testing.assert_allclose(r.x[-1], [1.2, 0.2], atol=1e-4)

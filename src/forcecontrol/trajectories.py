@@ -73,7 +73,8 @@ def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tu
     """Normalised trapezoidal velocity timing law s(t) in [0, 1] (Sect. 4.2.1 of the book).
 
     Args:
-        t: times since the start [s]; values outside [0, duration] are clamped.
+        t: times since the start [s]; before 0 the profile rests at s = 0, from t_f on at
+            s = 1, with zero velocity and acceleration.
         duration: t_f [s].
         accel_time: t_c [s], 0 < t_c <= t_f / 2.
 
@@ -82,13 +83,20 @@ def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tu
     """
     tf, tc = duration, accel_time
     sdd_c = 1.0 / (tc * (tf - tc))
-    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, tf)
+    t = np.asarray(t, dtype=np.float64)
     s = np.empty_like(t)
     sd = np.empty_like(t)
     sdd = np.empty_like(t)
-    a = t < tc
-    c = (t >= tc) & (t <= tf - tc)
-    d = t > tf - tc
+    # at rest before the start and from t_f on (a sample at t_f holds a resting interval);
+    # a sample at t = 0 holds the first accelerating interval
+    before = t < 0.0
+    after = t >= tf
+    s[before], sd[before], sdd[before] = 0.0, 0.0, 0.0
+    s[after], sd[after], sdd[after] = 1.0, 0.0, 0.0
+    moving = ~(before | after)
+    a = moving & (t < tc)
+    c = moving & (t >= tc) & (t <= tf - tc)
+    d = moving & (t > tf - tc)
     s[a] = 0.5 * sdd_c * t[a] ** 2
     sd[a] = sdd_c * t[a]
     sdd[a] = sdd_c
