@@ -42,6 +42,6 @@ def configure() -> str | None:
         os.makedirs(folder, exist_ok=True)
     except OSError:  # pragma: no cover - read-only home: keep Numba's own default
         return None
-    numba.config.CACHE_DIR = folder
+    setattr(numba.config, "CACHE_DIR", folder)  # read by Numba when a cached function is compiled
     CACHE_DIR = folder
     return folder
