@@ -85,7 +85,7 @@ def layer_costs(n: int = 5000) -> dict[str, float]:
 
 
 def main(cycles: int = 5000) -> dict[str, object]:
-    robot = own_loop.StandInArm(fc.CHAPTER_ARM.inverse_kinematics([0.95, 0.0]))
+    robot = own_loop.StandInArm(fc.CHAPTER_ARM.inverse_kinematics([0.95, 0.0]), samples=cycles + 1)
     controller = own_loop.make_controller()
     reference = fc.LinearPath([0.95, 0.0], [1.05, 0.0], 0.6, accel_time=0.1, force=[10.0, 0.0])
     stats = own_loop.run(robot, controller, reference, cycles)

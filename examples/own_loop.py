@@ -45,12 +45,12 @@ class ArmInterface(Protocol):
 class StandInArm:
     """The chapter's arm against the plane x = 1 (k_e = 1e4 N/m), integrated over each period."""
 
-    def __init__(self, q0, substeps: int = 4) -> None:
+    def __init__(self, q0, samples: int = 100_000, substeps: int = 4) -> None:
         self.arm, self.plane = fc.CHAPTER_ARM, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4)
         self.q, self.qd, self.k, self.n = np.array(q0, float), np.zeros(2), 0, substeps
         self.sensor = RealisticForceSensor(noise_std=0.5, bias=[1.0, -0.5], cutoff=100.0, resolution=0.02,
                                            delay_samples=1, zeroing_samples=100, seed=0)
-        self.sensor.start(10**7, 2, PERIOD, np.zeros(2), self.q)
+        self.sensor.start(samples, 2, PERIOD, np.zeros(2), self.q)  # noise drawn for `samples` reads
 
     def read_state(self):
         return self.q.copy(), self.qd.copy()
@@ -118,7 +118,7 @@ def run(robot: ArmInterface, controller: fc.Controller, reference, cycles: int) 
 
 def main(cycles: int = 2000) -> dict[str, np.ndarray]:
     q0 = fc.CHAPTER_ARM.inverse_kinematics([0.95, 0.0])
-    robot = StandInArm(q0)
+    robot = StandInArm(q0, samples=cycles + 1)
     controller = make_controller()
     reference = fc.LinearPath([0.95, 0.0], [1.05, 0.0], 0.6, accel_time=0.1, force=[10.0, 0.0])
     stats = run(robot, controller, reference, cycles)

@@ -171,3 +171,14 @@ def test_wrapping_a_non_controller_is_refused():
     """Only a forcecontrol Controller can be wrapped."""
     with pytest.raises(ParameterError, match="controller must be a forcecontrol Controller; got str"):
         Safety("pd")
+
+
+def test_saved_log_metadata_carries_the_events(tmp_path):
+    """SimulationResult.save writes the safety log (time, cause, detail) into the JSON beside the data."""
+    import json
+
+    s = Safety(_impedance(), max_force=50.0)
+    r = fc.simulate(ARM, PLANE, s, fc.Setpoint([1.1, 0.1]), q0=Q0, duration=0.2)
+    _, meta = r.save(tmp_path / "run")
+    (e,) = json.loads(meta.read_text())["events"]
+    assert e["cause"] == "force limit" and e["t"] == pytest.approx(r.events[0]["t"]) and "N > 50 N" in e["detail"]

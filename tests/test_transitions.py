@@ -187,3 +187,19 @@ def test_scenario_with_unknown_nested_controller_type_is_refused():
     bad["controller"]["contact"]["type"] = "magic"
     with pytest.raises(ScenarioError, match=r"\[controller.contact\]: key 'type' must be one of .*got 'magic'"):
         load_scenario(bad)
+
+
+def test_own_loop_example_runs_the_stack_against_a_user_interface():
+    """examples/own_loop.py: 400 cycles at 1 kHz reach contact through the user interface; compute times are recorded."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "own_loop.py"
+    spec = importlib.util.spec_from_file_location("own_loop_example", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    robot = mod.StandInArm(ARM.inverse_kinematics([0.95, 0.0]), samples=401)
+    ctl = mod.make_controller()
+    stats = mod.run(robot, ctl, APPROACH, 400)
+    assert stats["compute"].shape == (400,) and np.all(stats["compute"] > 0)
+    assert robot.k == 400 and "contact" in [e["event"] for e in ctl.events]

@@ -22,7 +22,7 @@ import math
 import platform
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -306,7 +306,7 @@ def simulate(
         from ._kernels import run_planar_loop
 
         status, k = run_planar_loop(
-            robot._K, environment.kind, environment.packed(), controller.kind, controller._params,
+            cast(PlanarTwoLink, robot)._K, environment.kind, environment.packed(), controller.kind, controller._params,
             controller.state, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd,
             logs["q"], logs["qd"], logs["x"], logs["xd"], logs["wrench"], logs["wrench_measured"], logs["torque"],
         )
@@ -315,6 +315,8 @@ def simulate(
             robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=rich
         )
     events = [dict(e) for e in getattr(controller, "events", [])]
+    if events:
+        meta["events"] = events  # saved with the log's metadata
     result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, **logs)
     if status != 0:
         _raise_diverged(result, int(status), int(k), Ts, max_qd)

@@ -26,9 +26,7 @@ from .schema import CONTROLLERS, Field, check_table, register_controller
 
 def _nested(name: str, table: Any, ctx: dict[str, Any]):
     """Build a controller from a nested table (``type`` + that type's keys)."""
-    where = f"[controller.{name}]"
-    if not isinstance(table, dict):
-        raise ScenarioError(f"{where}: must be a table; got {table!r}")
+    where = f"[controller.{name}]"  # the schema has checked that the table is a table
     kind = table.get("type")
     if kind not in CONTROLLERS:
         raise ScenarioError(f"{where}: key 'type' must be one of {', '.join(sorted(CONTROLLERS))}; got {kind!r}")
