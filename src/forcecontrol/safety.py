@@ -25,8 +25,10 @@ number of clamped samples per cause is in :attr:`Safety.counts`.
 
 from __future__ import annotations
 
+import math
 import warnings
-from typing import Any, ClassVar, Literal
+from collections.abc import Callable
+from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 
@@ -56,6 +58,12 @@ def _limit(name: str, value: Any, size: int, unit: str) -> np.ndarray | None:
         raise ParameterError(f"{name} must be positive and finite [{unit}]; got {a.tolist()}")
     a.flags.writeable = False
     return a
+
+
+def _scalar_limit(name: str, value: Any, unit: str) -> float | None:
+    """None, or a positive finite scalar limit."""
+    a = _limit(name, value, 1, unit)
+    return None if a is None else float(a[0])
 
 
 class Safety(Controller):
@@ -105,11 +113,9 @@ class Safety(Controller):
         n, m = int(self.robot.nq), self.m
         self.max_torque = _limit("max_torque", max_torque, n, "N m")
         self.max_torque_rate = _limit("max_torque_rate", max_torque_rate, n, "N m/s")
-        self.max_force = None if max_force is None else float(_limit("max_force", max_force, 1, "N")[0])
-        self.max_speed = None if max_speed is None else float(_limit("max_speed", max_speed, 1, "m/s")[0])
-        self.max_path_deviation = (
-            None if max_path_deviation is None else float(_limit("max_path_deviation", max_path_deviation, 1, "m")[0])
-        )
+        self.max_force = _scalar_limit("max_force", max_force, "N")
+        self.max_speed = _scalar_limit("max_speed", max_speed, "m/s")
+        self.max_path_deviation = _scalar_limit("max_path_deviation", max_path_deviation, "m")
         axes = np.ones(m, dtype=bool) if deviation_axes is None else np.asarray(deviation_axes, dtype=bool).reshape(-1)
         if axes.shape != (m,):
             raise DimensionError(f"deviation_axes must have shape ({m},); got shape {axes.shape}")
@@ -181,14 +187,15 @@ class Safety(Controller):
             "reaction": reaction, "detail": detail,
         })
 
-    def _episode(self, t: float, cause: str, violated: bool, value: float, limit: float, reaction: str, detail: str) -> None:
-        """Log at the start of a violation episode; count every violating sample."""
+    def _episode(self, t: float, cause: str, violated: bool, value: float, limit: float, reaction: str,
+                 detail: Callable[[], str]) -> None:
+        """Log at the start of a violation episode (the message is built only then); count every violating sample."""
         if violated:
             self.counts[cause] += 1
             if cause not in self._active:
                 self._active.add(cause)
-                self._log(t, cause, value, limit, reaction, detail)
-        else:
+                self._log(t, cause, value, limit, reaction, detail())
+        elif self._active:
             self._active.discard(cause)
 
     def _stop(self, t: float, q: np.ndarray) -> None:
@@ -200,60 +207,67 @@ class Safety(Controller):
     def _hold_torque(self, measurement: Measurement) -> np.ndarray:
         q = np.asarray(measurement.q, dtype=np.float64)
         qd = np.asarray(measurement.qd, dtype=np.float64)
-        return self.robot.gravity(q) + self.hold_stiffness @ (self.q_hold - q) - self.hold_damping @ qd
+        q_hold = cast(np.ndarray, self.q_hold)  # set by _stop before any call
+        return self.robot.gravity(q) + self.hold_stiffness @ (q_hold - q) - self.hold_damping @ qd
 
     def _cartesian(self, t: float, measurement: Measurement, reference: Reference) -> None:
         q = np.asarray(measurement.q, dtype=np.float64)
-        checks = []
+        checks: list[tuple[str, float, float, str, str]] = []
         if self.max_force is not None:
-            f = float(np.linalg.norm(measurement.wrench))
-            checks.append(("force limit", f, self.max_force, f"contact force |h_e| = {f:.6g} N > {self.max_force:.6g} N"))
-        if self.max_speed is not None or self.max_path_deviation is not None:
-            x = self.robot.forward_kinematics(q)
+            w = np.asarray(measurement.wrench, dtype=np.float64)
+            checks.append(("force limit", math.sqrt(float(w @ w)), self.max_force, "contact force |h_e|", "N"))
         if self.max_speed is not None:
-            v = float(np.linalg.norm(self.robot.jacobian(q) @ np.asarray(measurement.qd, dtype=np.float64)))
-            checks.append(("speed limit", v, self.max_speed, f"tip speed |xdot_e| = {v:.6g} m/s > {self.max_speed:.6g} m/s"))
+            v = self.robot.jacobian(q) @ np.asarray(measurement.qd, dtype=np.float64)
+            checks.append(("speed limit", math.sqrt(float(v @ v)), self.max_speed, "tip speed |xdot_e|", "m/s"))
         if self.max_path_deviation is not None:
-            e = float(np.linalg.norm(np.where(self.deviation_axes, np.asarray(reference.position) - x, 0.0)))
-            checks.append((
-                "path deviation limit", e, self.max_path_deviation,
-                f"deviation |S (x_d - x_e)| = {e:.6g} m > {self.max_path_deviation:.6g} m",
-            ))
-        for cause, value, limit, detail in checks:
+            e = np.where(self.deviation_axes, np.asarray(reference.position) - self.robot.forward_kinematics(q), 0.0)
+            checks.append(("path deviation limit", math.sqrt(float(e @ e)), self.max_path_deviation,
+                           "deviation |S (x_d - x_e)|", "m"))
+        for cause, value, limit, what, unit in checks:
             violated = value > limit
-            if violated and not self.stopped:
+            stopping = violated and not self.stopped
+            if stopping:
                 self._stop(t, q)
-                self._episode(t, cause, True, value, limit, "stop", f"{detail}; safe stop, holding q = {np.round(q, 6).tolist()}")
-            else:
-                self._episode(t, cause, violated, value, limit, "stop", detail)
+
+            def detail(what=what, value=value, limit=limit, unit=unit, stopping=stopping) -> str:
+                msg = f"{what} = {value:.6g} {unit} > {limit:.6g} {unit}"
+                return f"{msg}; safe stop, holding q = {np.round(q, 6).tolist()}" if stopping else msg
+
+            self._episode(t, cause, violated, value, limit, "stop", detail)
 
     def _actuator(self, t: float, u: np.ndarray, measurement: Measurement) -> np.ndarray:
         u = np.array(u, dtype=np.float64)
+        reaction = self.torque_reaction
         if self.max_torque is not None:
-            over = np.abs(u) > self.max_torque
-            j = int(np.argmax(np.abs(u) / self.max_torque))
-            reaction = self.torque_reaction
-            value = float(abs(u[j]))
-            detail = f"joint {j + 1}: |u| = {value:.6g} N m > {self.max_torque[j]:.6g} N m"
-            if over.any() and reaction == "stop" and not self.stopped:
-                self._stop(t, measurement.q)
-                u = self._hold_torque(measurement)
-                detail += "; safe stop"
-            self._episode(t, "torque limit", bool(over.any()), value, float(self.max_torque[j]), reaction, detail)
-            u = np.clip(u, -self.max_torque, self.max_torque)
+            tau_max = self.max_torque
+            over = bool(np.any(np.abs(u) > tau_max))
+            if over or "torque limit" in self._active:
+                j = int(np.argmax(np.abs(u) / tau_max))
+                value, stopping = float(abs(u[j])), over and reaction == "stop" and not self.stopped
+                if stopping:
+                    self._stop(t, measurement.q)
+                    u = self._hold_torque(measurement)
+                self._episode(
+                    t, "torque limit", over, value, float(tau_max[j]), reaction,
+                    lambda: f"joint {j + 1}: |u| = {value:.6g} N m > {tau_max[j]:.6g} N m" + ("; safe stop" if stopping else ""),
+                )
+                u = np.clip(u, -tau_max, tau_max)
         if self.max_torque_rate is not None and self._u_prev is not None:
-            step = self.max_torque_rate * self.sample_time
-            du = u - self._u_prev
-            over = np.abs(du) > step * (1.0 + 1e-12)
-            j = int(np.argmax(np.abs(du) / step))
-            rate = abs(du[j]) / self.sample_time
-            reaction = self.torque_reaction
-            detail = f"joint {j + 1}: |du/dt| = {rate:.6g} N m/s > {self.max_torque_rate[j]:.6g} N m/s"
-            if over.any() and reaction == "stop" and not self.stopped:
-                self._stop(t, measurement.q)
-                detail += "; safe stop"
-            self._episode(t, "torque rate limit", bool(over.any()), rate, float(self.max_torque_rate[j]), reaction, detail)
-            u = np.clip(u, self._u_prev - step, self._u_prev + step)
+            rate_max, u_prev = self.max_torque_rate, self._u_prev
+            step = rate_max * self.sample_time
+            du = u - u_prev
+            over = bool(np.any(np.abs(du) > step * (1.0 + 1e-12)))
+            if over or "torque rate limit" in self._active:
+                j = int(np.argmax(np.abs(du) / step))
+                rate, stopping = float(abs(du[j])) / self.sample_time, over and reaction == "stop" and not self.stopped
+                if stopping:
+                    self._stop(t, measurement.q)
+                self._episode(
+                    t, "torque rate limit", over, rate, float(rate_max[j]), reaction,
+                    lambda: f"joint {j + 1}: |du/dt| = {rate:.6g} N m/s > {rate_max[j]:.6g} N m/s"
+                    + ("; safe stop" if stopping else ""),
+                )
+                u = np.clip(u, u_prev - step, u_prev + step)
         return u
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
