@@ -1,0 +1,146 @@
+"""The ``forcecontrol sweep`` command (registered at the bottom of :mod:`forcecontrol.cli`)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["sweep_command"]
+
+
+class Design(str, Enum):
+    grid = "grid"
+    random = "random"
+
+
+def sweep_command(
+    scenario: Annotated[str, typer.Argument(help="built-in name or .toml file (may hold a [sweep] table)")],
+    param: Annotated[list[str] | None, typer.Option(  # noqa: UP007 - typer needs Optional
+        "--param", "-p",
+        help="PATH=VALUES, e.g. environment.stiffness=logspace(3,6,40), controller.force_gain[0]=0.001,0.002, "
+             "sensor.seed=range(0,100); random design: uniform(a,b), loguniform(a,b), normal(m,s), randint(a,b)",
+    )] = None,
+    design: Annotated[Design, typer.Option(help="grid (full factorial) or random (Monte Carlo)")] = Design.grid,
+    samples: Annotated[int, typer.Option(help="number of random draws (design random)")] = 0,
+    seed: Annotated[int, typer.Option(help="seed of the random design")] = 0,
+    case: Annotated[list[str] | None, typer.Option(  # noqa: UP007
+        "--case", help="scenario case label or 1-based index to sweep (repeatable; default: all)")] = None,
+    out: Annotated[Path | None, typer.Option(  # noqa: UP007
+        help="Parquet table (default forcecontrol-out/NAME-sweep.parquet)")] = None,
+    scheduler: Annotated[str | None, typer.Option(  # noqa: UP007
+        help="Dask scheduler address (tcp://host:8786); default: this machine, all cores")] = None,
+    workers: Annotated[int | None, typer.Option(help="local threads (default: all cores)")] = None,  # noqa: UP007
+    block_size: Annotated[int | None, typer.Option(help="cases per stored block (default: automatic)")] = None,  # noqa: UP007
+    figure: Annotated[bool, typer.Option(help="write the metric maps over the first two parameters (PNG)")] = True,
+    x: Annotated[str | None, typer.Option(help="figure x axis (a swept parameter)")] = None,  # noqa: UP007
+    y: Annotated[str | None, typer.Option(help="figure y axis (a swept parameter)")] = None,  # noqa: UP007
+    overwrite: Annotated[bool, typer.Option(help="replace a different sweep stored at --out")] = False,
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object")] = False,
+) -> None:
+    """Sweep scenario parameters (grid or Monte Carlo), locally or on a Dask cluster; resumable.
+
+    Each case's settling time, overshoot, steady-state force error, peak force, stability and
+    contact loss go to a Parquet table (the sweep definition is in its metadata). Finished
+    blocks are stored as they end: after Ctrl-C or a crash, the same command resumes.
+    """
+    from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.text import Text
+
+    from ..cli import _fail, _slug, console, err_console
+    from ..errors import ForceControlError
+    from .run import load_sweep_scenario, prepare_sweep, run_sweep
+    from .spec import SweepDefinition
+
+    class Rate(ProgressColumn):
+        def render(self, task) -> Text:  # type: ignore[override]
+            s = task.finished_speed or task.speed
+            return Text(f"{s:,.0f} cases/s" if s else "- cases/s")
+
+    try:
+        scn, file_def = load_sweep_scenario(scenario)
+        if param:
+            definition = SweepDefinition.from_options(
+                param, design=design.value, samples=samples, seed=seed, cases=case or []
+            )
+        elif file_def is not None:
+            definition = file_def
+            if case:
+                from dataclasses import replace
+
+                definition = replace(definition, cases=tuple(case))
+        else:
+            definition = None
+        prep = prepare_sweep(scn, definition)
+    except ForceControlError as exc:
+        _fail(exc)
+        return
+    path = out or Path("forcecontrol-out") / f"{_slug(scn.name)}-sweep.parquet"
+    bar = Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
+        Rate(), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,
+        disable=json_out,
+    )
+    task = bar.add_task(f"sweep {scn.name}", total=prep.n_cases)
+    try:
+        with bar:
+            result = run_sweep(
+                prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
+                progress=lambda done, total: bar.update(task, completed=done),
+            )
+    except KeyboardInterrupt:
+        err_console.print(f"[yellow]interrupted[/]: finished cases are stored in {path}.parts; run the same command "
+                          "again to resume")
+        raise typer.Exit(code=130) from None
+    except ForceControlError as exc:
+        _fail(exc)
+        return
+    files = {"table": str(result.path)}
+    params = list(prep.columns)
+    if figure and len(params) >= 2:
+        from .figures import plot_sweep_map
+
+        fx, fy = x or params[0], y or params[1]
+        try:
+            files["figure"] = str(plot_sweep_map(result, fx, fy, path.with_suffix(".png")))
+        except ForceControlError as exc:
+            _fail(exc)
+    df = result.table
+    summary = {
+        "scenario": scn.name,
+        "cases": int(len(df)),
+        "ran": result.ran,
+        "resumed": result.resumed,
+        "seconds": round(result.seconds, 3),
+        "arm_steps_per_second": round(result.steps / result.seconds) if result.seconds > 0 else None,
+        "scheduler": result.scheduler,
+        "stable": int(df["stable"].sum()),
+        "contact_lost": int(df["contact_lost"].sum()),
+        "files": files,
+    }
+    if json_out:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        return
+    from rich.table import Table
+
+    t = Table(title=f"{scn.name}: {len(df)} cases ({result.ran} run now, {result.resumed} stored before)",
+              title_justify="left")
+    for col in ("case", "cases", "stable", "contact lost", "median settling [s]", "max overshoot [%]",
+                "max |ss error| [N]"):
+        t.add_column(col, justify="left" if col == "case" else "right")
+    for label, g in df.groupby("case", sort=False):
+        t.add_row(
+            str(label), str(len(g)), str(int(g["stable"].sum())), str(int(g["contact_lost"].sum())),
+            f"{g['settling_time'].median():.3g}", f"{g['overshoot'].max():.3g}",
+            f"{g['steady_state_force_error'].abs().max():.3g}",
+        )
+    console.print(t)
+    if result.seconds > 0:
+        console.print(f"{result.steps:,} arm-steps in {result.seconds:.2f} s "
+                      f"({summary['arm_steps_per_second']:,} per second, {result.scheduler})")
+    for k, v in files.items():
+        console.print(f"{k}: {v}")

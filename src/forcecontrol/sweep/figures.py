@@ -1,0 +1,195 @@
+"""Maps of sweep metrics over two swept parameters, with the analytic sampled-loop stability boundary.
+
+The boundary comes from :mod:`forcecontrol.analysis.force`: for a direct force controller with
+diagonal gains on an elastic environment, the sampled loop along the force axis (the chapter's
+per-axis model, zero-order hold at Ts, the arm's operational mass at q0) is stable when its
+spectral radius is below 1 (:meth:`ForceLoopAxis.spectral_radius`). The map draws the simulated
+metric per case, marks the cases the simulation found unstable, and the contour ρ = 1 computed on
+a finer grid of the same two parameters.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .spec import SweepError, parse_parameter
+
+__all__ = ["analytic_spectral_radius", "stability_boundary", "plot_sweep_map"]
+
+
+def analytic_spectral_radius(parts: dict[str, Any]) -> float:
+    """Spectral radius of the sampled force loop of a built case along its force axis (NaN if n/a).
+
+    Applies to the three direct force schemes (Sect. 9.4) with diagonal gains on an elastic
+    environment with a diagonal stiffness; the force axis is the base axis of the largest
+    component of the final reference force (x when f_d = 0).
+    """
+    from ..analysis.force import force_loop_axes, operational_mass
+    from ..errors import ForceControlError
+
+    ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
+    if not hasattr(env, "stiffness_matrix"):
+        return math.nan
+    try:
+        axes = force_loop_axes(ctl, env.stiffness_matrix())
+    except ForceControlError:
+        return math.nan
+    f_d = np.asarray(ref.at(float(parts["duration"])).force, dtype=np.float64)
+    i = int(np.argmax(np.abs(f_d))) if np.any(f_d) else 0
+    axis = axes[i]
+    if axis.environment_stiffness <= 0.0:
+        return math.nan
+    nu = np.zeros(ctl.m)
+    nu[i] = 1.0
+    mx = operational_mass(robot, parts["q0"], nu)
+    return float(axis.spectral_radius(ctl.sample_time, mx))
+
+
+def _build(config: dict[str, Any], label: str, assign: dict[str, Any]) -> dict[str, Any]:
+    from ..scenarios import CaseSpec, build_case
+    from .run import _apply
+
+    cfg = copy.deepcopy(config)
+    for path, v in assign.items():
+        _apply(cfg, parse_parameter(path, [v]), v, label)
+    return build_case(CaseSpec(label, cfg, {}), where=f"boundary ({label})")
+
+
+def stability_boundary(
+    config: dict[str, Any],
+    x_path: str,
+    y_path: str,
+    x_values: Any,
+    y_values: Any,
+    label: str = "case",
+    fixed: dict[str, Any] | None = None,
+) -> np.ndarray:
+    """Analytic spectral radius ρ on the grid ``x_values × y_values`` (shape (ny, nx)).
+
+    Args:
+        config: a scenario case configuration (``CaseSpec.config`` or the sweep metadata's).
+        x_path, y_path: the two parameter paths; fixed: other parameters to set first.
+    """
+    rho = np.full((len(y_values), len(x_values)), np.nan)
+    with np.errstate(all="ignore"):
+        for iy, yv in enumerate(y_values):
+            for ix, xv in enumerate(x_values):
+                assign = dict(fixed or {})
+                assign[x_path] = _plain(xv)
+                assign[y_path] = _plain(yv)
+                try:
+                    rho[iy, ix] = analytic_spectral_radius(_build(config, label, assign))
+                except Exception:  # noqa: BLE001 - a grid point the scenario rejects stays NaN
+                    pass
+    return rho
+
+
+def _plain(v: Any) -> Any:
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def _fine(values: np.ndarray, n: int) -> np.ndarray:
+    lo, hi = float(np.min(values)), float(np.max(values))
+    if lo > 0 and hi / lo > 100:
+        return np.geomspace(lo, hi, n)
+    return np.linspace(lo, hi, n)
+
+
+def plot_sweep_map(
+    source: Any,
+    x: str,
+    y: str,
+    out: str | Path,
+    metrics: tuple[str, ...] = ("settling_time", "overshoot", "steady_state_force_error", "peak_force"),
+    fixed: dict[str, Any] | None = None,
+    boundary: bool = True,
+    resolution: int = 40,
+) -> Path:
+    """One figure: a row per scenario case, a column per metric, over swept parameters x and y.
+
+    Cells are the simulated metric (grid designs; random designs are scattered); a white ``×``
+    marks a case the simulation found unstable; the black line is the analytic sampled-loop
+    boundary ρ = 1 (on a ``resolution``² grid), drawn when the analysis applies.
+
+    Args:
+        source: a :class:`~forcecontrol.sweep.SweepResult` or the table's path.
+        x, y: swept parameter paths; fixed: values for the other swept parameters (default: the
+            first of each).
+        out: the PNG file.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .run import read_sweep
+
+    df, meta = (source.table, source.metadata) if hasattr(source, "table") else read_sweep(source)
+    params = meta.get("parameters", [])
+    for p in (x, y):
+        if p not in params:
+            raise SweepError(f"figure axis '{p}' is not a swept parameter; expected one of {', '.join(params)}")
+    fixed = dict(fixed or {})
+    for p in params:
+        if p not in (x, y) and p not in fixed:
+            fixed[p] = df[p].iloc[0]
+    sel = np.ones(len(df), dtype=bool)
+    for p, v in fixed.items():
+        sel &= (df[p] == v).to_numpy()
+    df = df[sel]
+    cases = meta.get("cases", [])
+    labels = list(dict.fromkeys(df["case"]))
+    fig, axs = plt.subplots(len(labels), len(metrics), figsize=(4.2 * len(metrics), 3.4 * len(labels)), squeeze=False)
+    for r, label in enumerate(labels):
+        sub = df[df["case"] == label]
+        xs = np.sort(sub[x].unique().astype(float))
+        ys = np.sort(sub[y].unique().astype(float))
+        grid = len(xs) * len(ys) == len(sub)
+        rho = None
+        if boundary:
+            cfg = next((c["config"] for c in cases if c["label"] == label), None)
+            if cfg is not None:
+                fx, fy = _fine(xs, resolution), _fine(ys, resolution)
+                rho = stability_boundary(cfg, x, y, fx, fy, label, {k: _plain(v) for k, v in fixed.items()})
+                if not np.any(np.isfinite(rho)):
+                    rho = None
+        for c, metric in enumerate(metrics):
+            ax = axs[r, c]
+            vals = sub[metric].to_numpy(dtype=float)
+            if grid:
+                Z = np.full((len(ys), len(xs)), np.nan)
+                ix = np.searchsorted(xs, sub[x].to_numpy(dtype=float))
+                iy = np.searchsorted(ys, sub[y].to_numpy(dtype=float))
+                Z[iy, ix] = vals
+                mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(Z), shading="nearest", cmap="viridis")
+            else:
+                mesh = ax.scatter(sub[x], sub[y], c=vals, cmap="viridis", s=12)
+            fig.colorbar(mesh, ax=ax)
+            bad = ~sub["stable"].to_numpy(dtype=bool)
+            ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="white", s=18, linewidths=1.0,
+                       label="unstable (simulated)")
+            if rho is not None:
+                ax.contour(fx, fy, rho, levels=[1.0], colors="black", linewidths=1.5)
+                ax.plot([], [], color="black", label="analytic ρ = 1")
+            for p, axis_set in ((xs, ax.set_xscale), (ys, ax.set_yscale)):
+                if p.size and p.min() > 0 and p.max() / p.min() > 100:
+                    axis_set("log")
+            ax.set_xlabel(x)
+            ax.set_ylabel(y)
+            ax.set_title(f"{label}\n{metric}", fontsize=9)
+            if r == 0 and c == 0:
+                ax.legend(fontsize=7, loc="best")
+    title = meta.get("title") or meta.get("scenario", "")
+    fig.suptitle(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), fontsize=10)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out

@@ -1,0 +1,374 @@
+"""Sweeps: the batched kernel against the Python loop, metrics by hand, the analytic stability
+boundary, local against a real Dask cluster, kill and resume, bad definitions rejected up front."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import forcecontrol as fc
+from forcecontrol._batch import case_metrics, run_case
+from forcecontrol.analysis.force import force_loop_axes, operational_mass, sampled_stability_limit
+from forcecontrol.cli import app
+from forcecontrol.controllers.base import Measurement
+from forcecontrol.errors import ScenarioError
+from forcecontrol.sweep import (
+    SweepDefinition,
+    SweepError,
+    plot_sweep_map,
+    prepare_sweep,
+    read_sweep,
+    run_sweep,
+)
+
+ARM = fc.PlanarTwoLink()
+Q0 = ARM.inverse_kinematics([1.0, 0.0])
+
+#: Example 9.3 set-up (chapter arm on the plane x = 1, f_d = 10 N), three schemes, short runs.
+SCENARIO = {
+    "name": "sweep-test",
+    "title": "Example 9.3 schemes",
+    "duration": 2.0,
+    "robot": {"model": "chapter-arm", "start_position": [1.0, 0.0], "elbow": "up"},
+    "environment": {"type": "elastic-plane", "point": [1.0, 0.0], "normal": [-1.0, 0.0], "stiffness": 1e4},
+    "controller": {"type": "inner-position", "inertia": [100.0, 100.0], "damping": [500.0, 500.0],
+                   "stiffness": [2500.0, 2500.0], "force_gain": [0.00064, 0.0]},
+    "reference": {"type": "setpoint", "position": [1.015, 0.1], "force": [10.0, 0.0]},
+    "case": [
+        {"label": "inner position", "controller": {"integral_gain": [0.0016, 0.0]}},
+        {"label": "inner velocity", "controller": {"type": "inner-velocity", "force_gain": [0.0024, 0.0]}},
+        {"label": "parallel", "controller": {"type": "parallel", "integral_gain": [0.0016, 0.0]}},
+    ],
+}
+
+
+def _scenario(**top):
+    s = json.loads(json.dumps(SCENARIO))
+    s.update(top)
+    return s
+
+
+def _reference_metrics(y, Ts, window, f_ref, band=0.02):
+    """Settling time, overshoot and steady-state error computed directly with NumPy (the test's own)."""
+    yf = y[-window:].mean()
+    s = yf - y[0]
+    outside = np.flatnonzero(np.abs(y - yf) > band * abs(s))
+    settling = (outside[-1] + 1) * Ts if outside.size else 0.0
+    if outside.size and outside[-1] == len(y) - 1:
+        settling = math.nan  # still outside the band at the end: not settled
+    overshoot = 100.0 * max(0.0, float((np.sign(s) * (y - yf)).max())) / abs(s)
+    return settling, overshoot, yf - f_ref
+
+
+# ----------------------------------------------------------------------------- kernel and metrics
+
+
+@pytest.mark.parametrize(
+    "make, env",
+    [
+        (lambda: fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0]), "plane"),
+        (lambda: fc.InnerVelocityForceController(ARM, 100, 500, 2500, [0.0024, 0]), "plane"),
+        (lambda: fc.ParallelForcePositionController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0],
+                                                    integral_limit=0.002), "plane"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, 2500), "spring"),
+        (lambda: fc.OperationalSpacePD(ARM, [2500, 2500], [1200, 1000]), "plane"),
+        (lambda: fc.JointSpacePD(ARM, [5000, 3000], [600, 400], ARM.inverse_kinematics([1.1, 0.1])), "plane"),
+    ],
+)
+def test_batched_kernel_reproduces_the_python_loop(make, env):
+    """The allocation-free kernel gives the contact force of simulate(engine='python') to round-off (noisy, filtered sensor)."""
+    environment = (fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4, damping=20.0) if env == "plane"
+                   else fc.LinearSpring([[1e4, 0.0], [0.0, 2e3]], [1.0, 0.0], [[10.0, 0.0], [0.0, 5.0]]))
+    sensor = fc.ForceSensor(noise_std=0.5, bias=[0.2, -0.1], cutoff=100.0, seed=3)
+    ref = fc.LinearPath([1.0, 0.0], [1.05, 0.1], 0.5, force=[10.0, 0.0])
+    py = fc.simulate(ARM, environment, make(), ref, q0=Q0, duration=0.6, sensor=sensor, engine="python")
+    ctl = make()
+    N, Ts = 600, ctl.sample_time
+    bias, noise = sensor.sequences(N + 1, 2)
+    ctl.reset(Measurement(Q0, np.zeros(2), environment.wrench(ARM.forward_kinematics(Q0), np.zeros(2)) + bias + noise[0]),
+              ref.at(0.0))
+    y = np.empty(N + 1)
+    status, last, peak, lost = run_case(
+        np.array(ARM._K), environment.kind, environment.packed(), ctl.kind, np.array(ctl._params), ctl.state.copy(),
+        ref.sample(np.arange(N + 1) * Ts), bias, noise, sensor.alpha(Ts), Q0, np.zeros(2), Ts,
+        py.metadata["substeps"], N, 50.0, np.array([0.6, 0.8]), y,
+    )
+    assert (status, last) == (0, N)
+    np.testing.assert_allclose(y, py.wrench @ [0.6, 0.8], rtol=1e-9, atol=1e-9)
+    assert peak == pytest.approx(py.peak_contact_force_norm(), rel=1e-9)
+
+
+def test_metrics_of_a_first_order_step_by_hand():
+    """y = 10 (1 − e^(−t/τ)): settling time τ ln 50 (2 % band), no overshoot, error y_final − f_d."""
+    Ts, tau = 1e-3, 0.2
+    t = np.arange(4001) * Ts
+    y = 10.0 * (1.0 - np.exp(-t / tau))
+    st, ov, err, stable, yf = case_metrics(y, len(y) - 1, 0, Ts, 100, 9.0, 0.02, 0.05)
+    assert st == pytest.approx(tau * math.log(50.0), abs=2 * Ts)
+    assert ov == pytest.approx(0.0, abs=1e-6) and stable == 1.0
+    assert err == pytest.approx(1.0, abs=1e-6) and yf == pytest.approx(10.0, abs=1e-6)
+
+
+def test_metrics_of_a_damped_oscillation_by_hand():
+    """Second-order step with ζ = 0.3: overshoot 100 exp(−ζπ/√(1−ζ²)) %, settled and stable."""
+    Ts, zeta, wn = 1e-3, 0.3, 10.0
+    t = np.arange(6001) * Ts
+    wd = wn * math.sqrt(1 - zeta**2)
+    y = 1.0 - np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * t))
+    st, ov, err, stable, yf = case_metrics(y, len(y) - 1, 0, Ts, 100, 1.0, 0.02, 0.05)
+    assert ov == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2)), rel=1e-3)
+    assert stable == 1.0 and 0.9 < st < 1.5
+
+
+def test_growing_oscillation_is_unstable_and_diverged_case_has_no_metrics():
+    """A growing oscillation is flagged unstable; a diverged run gets NaN metrics and unstable."""
+    Ts = 1e-3
+    t = np.arange(3001) * Ts
+    y = 10.0 + np.exp(0.5 * t) * np.sin(40 * t)
+    assert case_metrics(y, len(y) - 1, 0, Ts, 100, 10.0, 0.02, 0.05)[3] == 0.0
+    out = case_metrics(y, 200, 2, Ts, 100, 10.0, 0.02, 0.05)
+    assert out[3] == 0.0 and all(math.isnan(v) for v in (out[0], out[1], out[2]))
+
+
+def test_sweep_table_matches_per_case_python_simulations():
+    """Each row's metrics equal those computed by hand from simulate(engine='python') of the same case."""
+    d = SweepDefinition.from_options({"environment.stiffness": [3e3, 3e4]})
+    prep = prepare_sweep(_scenario(duration=1.5), d)
+    from forcecontrol.sweep.run import run_block
+
+    rows = run_block(prep.jobs, 0.02, 0.05)
+    assert [r["engine"] for r in rows] == ["batch"] * 6
+    assert any(math.isnan(r["settling_time"]) for r in rows) and any(r["settling_time"] > 0 for r in rows)
+    for job, row in zip(prep.jobs, rows):
+        scn_case = [c for c in prep.scenario.cases if c.label == job.label][0]
+        from forcecontrol.scenarios import CaseSpec, build_case
+
+        cfg = json.loads(json.dumps(scn_case.config))
+        cfg["environment"]["stiffness"] = job.values["environment.stiffness"]
+        p = build_case(CaseSpec(job.label, cfg, {}))
+        res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"],
+                          duration=1.5, engine="python")
+        y = res.wrench[:, 0]
+        st, ov, err = _reference_metrics(y, 1e-3, 100, 10.0)
+        assert row["settling_time"] == pytest.approx(st, abs=1e-12, nan_ok=True)
+        assert row["overshoot"] == pytest.approx(ov, rel=1e-6, abs=1e-9)
+        assert row["steady_state_force_error"] == pytest.approx(err, abs=1e-8)
+        assert row["peak_force"] == pytest.approx(res.peak_contact_force_norm(), rel=1e-9)
+        norms = np.linalg.norm(res.wrench, axis=1)
+        first_contact = np.flatnonzero(norms > 0)[0]
+        assert row["status"] == "ok" and row["contact_lost"] == bool(np.any(norms[first_contact:] == 0))
+
+
+def test_simulated_stability_region_agrees_with_the_analytic_sampled_loop_boundary():
+    """Coarse grid over k and k_F: simulated stable exactly where k is below the analysis module's sampled-loop limit."""
+    d = SweepDefinition.from_options(
+        {"environment.stiffness": "logspace(4, 6, 5)", "controller.force_gain[0]": [0.0008, 0.0024]},
+        cases=["inner position", "inner velocity"],
+    )
+    prep = prepare_sweep(_scenario(duration=4.0), d)
+    from forcecontrol.scenarios import CaseSpec, build_case
+    from forcecontrol.sweep.run import run_block
+
+    rows = run_block(prep.jobs, 0.02, 0.05)
+    verdicts, limits = [], {}
+    for job, row in zip(prep.jobs, rows):
+        key = (job.label, job.values["controller.force_gain[0]"])
+        if key not in limits:  # the limit depends on the scheme and its gains, not on k
+            cfg = json.loads(json.dumps([c for c in prep.scenario.cases if c.label == job.label][0].config))
+            cfg["controller"]["force_gain"][0] = key[1]
+            p = build_case(CaseSpec(job.label, cfg, {}))
+            axis = force_loop_axes(p["controller"], p["environment"].stiffness_matrix())[0]
+            mx = operational_mass(ARM, p["q0"], [1.0, 0.0])
+            limits[key] = sampled_stability_limit(axis, 1e-3, arm_inertia=mx, low=1e3, high=1e8, rtol=1e-3)
+        limit = limits[key]
+        k = job.values["environment.stiffness"]
+        if abs(math.log(k / limit)) < math.log(1.25):
+            continue  # within 25 % of the boundary: the linearised model decides nothing there
+        verdicts.append((k < limit, row["stable"]))
+    assert len(verdicts) >= 16 and {a for a, _ in verdicts} == {True, False}
+    assert all(analytic == simulated for analytic, simulated in verdicts)
+
+
+# ----------------------------------------------------------------------------- where it runs
+
+
+def test_local_run_and_dask_localcluster_give_identical_tables(tmp_path):
+    """The same sweep on this machine's threads and on a real dask.distributed.LocalCluster: identical tables."""
+    distributed = pytest.importorskip("dask.distributed")
+    d = SweepDefinition.from_options(
+        {"environment.stiffness": "logspace(3, 5.5, 4)", "sensor.seed": "range(0, 2)", "sensor.noise_std": [0.3]},
+    )
+    prep = prepare_sweep(_scenario(duration=1.0), d)
+    local = run_sweep(prep, tmp_path / "local.parquet", workers=2, block_size=5)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        remote = run_sweep(prep, tmp_path / "cluster.parquet", scheduler=cluster.scheduler_address, block_size=3)
+    assert remote.scheduler.startswith("tcp://") and local.scheduler == "local"
+    pd.testing.assert_frame_equal(local.table, remote.table, check_exact=True)
+    assert len(local.table) == 24 and local.table["case_id"].tolist() == list(range(24))
+
+
+def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
+    """A sweep SIGKILLed midway in a subprocess, then rerun, equals an uninterrupted run: no case lost or duplicated."""
+    scn = tmp_path / "scn.toml"
+    scn.write_text(textwrap.dedent("""
+        name = "kill-test"
+        duration = 20.0
+        [robot]
+        start_position = [1.0, 0.0]
+        [environment]
+        type = "elastic-plane"
+        point = [1.0, 0.0]
+        normal = [-1.0, 0.0]
+        stiffness = 10000.0
+        [controller]
+        type = "inner-velocity"
+        inertia = 100.0
+        damping = 500.0
+        stiffness = 2500.0
+        force_gain = [0.0024, 0.0]
+        [reference]
+        type = "setpoint"
+        position = [1.0, 0.0]
+        force = [10.0, 0.0]
+        [sweep]
+        design = "random"
+        samples = 60
+        seed = 7
+        [sweep.parameters]
+        "environment.stiffness" = "loguniform(1e3, 1e5)"
+        "controller.force_gain[0]" = "uniform(0.001, 0.003)"
+    """))
+    out = tmp_path / "killed.parquet"
+    parts = tmp_path / "killed.parquet.parts"
+    code = (f"from forcecontrol.sweep import run_sweep, prepare_sweep; "
+            f"run_sweep(prepare_sweep({str(scn)!r}), {str(out)!r}, workers=1, block_size=1)")
+    proc = subprocess.Popen([sys.executable, "-c", code])
+    n_at_kill = 0
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        n_at_kill = len(list(parts.glob("part-*.parquet"))) if parts.exists() else 0
+        if n_at_kill >= 2:
+            os.kill(proc.pid, signal.SIGKILL)
+            break
+        time.sleep(0.001)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL and not out.exists()
+    assert 2 <= n_at_kill < 60
+    resumed = run_sweep(prepare_sweep(str(scn)), out, workers=2)
+    assert resumed.resumed >= n_at_kill and resumed.ran == 60 - resumed.resumed
+    whole = run_sweep(prepare_sweep(str(scn)), tmp_path / "whole.parquet", workers=2)
+    assert whole.ran == 60
+    pd.testing.assert_frame_equal(resumed.table, whole.table, check_exact=True)
+    assert resumed.table["case_id"].tolist() == list(range(60)) and not parts.exists()
+
+
+def test_rerun_of_a_finished_sweep_runs_nothing_and_a_different_sweep_is_refused(tmp_path):
+    """Same command again: nothing runs; another definition at the same path: SweepError naming both ids."""
+    out = tmp_path / "s.parquet"
+    d = SweepDefinition.from_options({"environment.stiffness": [1e4]}, cases=["parallel"])
+    first = run_sweep(prepare_sweep(_scenario(duration=0.2), d), out)
+    again = run_sweep(prepare_sweep(_scenario(duration=0.2), d), out)
+    assert (first.ran, again.ran, again.resumed) == (1, 0, 1)
+    other = SweepDefinition.from_options({"environment.stiffness": [2e4]}, cases=["parallel"])
+    with pytest.raises(SweepError, match=r"holds a different sweep \(id \w+, this one \w+\)"):
+        run_sweep(prepare_sweep(_scenario(duration=0.2), other), out)
+
+
+def test_table_has_the_definition_in_its_metadata_and_pandas_opens_it(tmp_path):
+    """pandas.read_parquet opens the table; its schema metadata holds the sweep definition."""
+    out = tmp_path / "m.parquet"
+    d = SweepDefinition.from_options({"controller.damping": "linspace(400, 600, 2)"}, cases=["2"])
+    run_sweep(prepare_sweep(_scenario(duration=0.3), d), out)
+    df = pd.read_parquet(out)
+    assert list(df["controller.damping"]) == [400.0, 600.0] and set(df["case"]) == {"inner velocity"}
+    for col in ("settling_time", "overshoot", "steady_state_force_error", "peak_force", "stable", "contact_lost"):
+        assert col in df.columns
+    _, meta = read_sweep(out)
+    assert meta["definition"]["parameters"][0] == {
+        "path": "controller.damping", "spec": "linspace(400, 600, 2)", "values": [400.0, 600.0]}
+    assert meta["n_cases"] == 2 and meta["scenario"] == "sweep-test"
+
+
+def test_random_design_is_reproducible_and_within_its_distributions():
+    """Monte Carlo draws depend only on the seed and stay inside their ranges; seeds give distinct noise."""
+    spec = {"environment.stiffness": "loguniform(1e3, 1e5)", "sensor.seed": "randint(0, 1000)"}
+    a = SweepDefinition.from_options(spec, design="random", samples=50, seed=1).assignments()
+    b = SweepDefinition.from_options(spec, design="random", samples=50, seed=1).assignments()
+    c = SweepDefinition.from_options(spec, design="random", samples=50, seed=2).assignments()
+    assert a == b and a != c
+    k = np.array([x["environment.stiffness"] for x in a])
+    assert np.all((k >= 1e3) & (k < 1e5)) and all(isinstance(x["sensor.seed"], int) for x in a)
+
+
+# ----------------------------------------------------------------------------- bad definitions
+
+
+@pytest.mark.parametrize(
+    "params, kwargs, match",
+    [
+        ({"controller.stifness": "1,2"}, {}, r"unknown parameter path 'controller.stifness'.*has no key 'stifness'"),
+        ({"enviroment.stiffness": "1e4"}, {}, r"unknown parameter path 'enviroment.stiffness': no table 'enviroment'"),
+        ({"robot.parameters.m_l3": "1"}, {}, r"robot.parameters.<name>"),
+        ({"environment.stiffness": "linspace(1e3, 1e4, 0)"}, {}, r"needs a positive integer num"),
+        ({"sensor.seed": "range(5, 5)"}, {}, r"empty range 'range\(5, 5\)'"),
+        ({"environment.stiffness": "[]"}, {}, r"empty range"),
+        ({"environment.stiffness": "uniform(1e3, 1e4)"}, {}, r"is a distribution and needs design = 'random'"),
+        ({"environment.stiffness": "loguniform(1e4, 1e3)"}, {"design": "random", "samples": 3}, r"empty range"),
+        ({"environment.stiffness": "logspace(3, 4)"}, {}, r"takes 3 numbers; got 2"),
+        ({"environment.stiffness": "1e4, -5"}, {}, r"sweep case 1 .*environment.stiffness=-5.*stiffness"),
+        ({"sensor.seed": "linspace(0, 1, 2)"}, {}, r"key 'seed' must be an integer"),
+        ({"controller.force_gain[5]": "0.001"}, {}, r"index \[5\] needs a list of more than 5 entries"),
+        ({"environment.stiffness": "1e4"}, {"cases": ["nope"]}, r"case 'nope' is not in scenario 'sweep-test'"),
+        ({"environment.stiffness": "1e4"}, {"design": "random"}, r"samples must be a positive integer"),
+        ({}, {}, r"at least one parameter"),
+    ],
+)
+def test_bad_sweep_definitions_are_rejected_before_any_case_runs(tmp_path, params, kwargs, match):
+    """Unknown paths, empty ranges, malformed specs and values failing validation: SweepError, nothing written."""
+    out = tmp_path / "never.parquet"
+    with pytest.raises(SweepError, match=match):
+        d = SweepDefinition.from_options(params, **kwargs)
+        run_sweep(_scenario(), out, d)
+    assert not out.exists() and not (tmp_path / "never.parquet.parts").exists()
+    assert issubclass(SweepError, ScenarioError)
+
+
+def test_cli_sweep_writes_table_and_reports_json(tmp_path):
+    """`forcecontrol sweep NAME --param ... --json` writes the table and reports the case count."""
+    out = tmp_path / "cli.parquet"
+    r = CliRunner().invoke(app, [
+        "sweep", "example-9.3", "--param", "environment.stiffness=1e3,1e5", "--case", "3",
+        "--out", str(out), "--no-figure", "--json",
+    ])
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    assert summary["cases"] == 2 and summary["files"]["table"] == str(out) and out.exists()
+
+
+def test_cli_rejects_a_bad_parameter_with_a_clear_message(tmp_path):
+    """A misspelt path exits with code 2 and names the parameter and the valid keys."""
+    out = str(tmp_path / "x.parquet")
+    r = CliRunner().invoke(app, ["sweep", "example-9.3", "--param", "controller.stifness=1", "--out", out])
+    assert r.exit_code == 2 and "controller.stifness" in r.output and "expected one of" in r.output
+
+
+def test_map_figure_is_written_with_the_boundary(tmp_path):
+    """plot_sweep_map writes a PNG of the metrics over two swept parameters (analytic boundary included)."""
+    d = SweepDefinition.from_options(
+        {"environment.stiffness": "logspace(4, 6, 3)", "controller.force_gain[0]": [0.001, 0.002]},
+        cases=["inner velocity"],
+    )
+    res = run_sweep(prepare_sweep(_scenario(duration=0.5), d), tmp_path / "f.parquet")
+    png = plot_sweep_map(res, "environment.stiffness", "controller.force_gain[0]", tmp_path / "f.png", resolution=6)
+    assert png.exists() and png.stat().st_size > 10_000
