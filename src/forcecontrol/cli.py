@@ -185,3 +185,4 @@ def main() -> None:  # pragma: no cover
 # Commands contributed by other modules are registered below (one line each).
 app.command("analyze")(__import__("forcecontrol.cli_analyze", fromlist=["analyze_command"]).analyze_command)
 app.command("task")(__import__("forcecontrol.cli_task", fromlist=["task_command"]).task_command)
+app.command("sweep")(__import__("forcecontrol.sweep.cli", fromlist=["sweep_command"]).sweep_command)
