@@ -339,9 +339,9 @@ class RealisticForceSensor(ForceSensor):
                 raise ParameterError(f"{name} must be a non-negative integer; got {v!r}")
         self.delay_samples = int(delay_samples)
         self.zeroing_samples = int(zeroing_samples)
-        for name, v in (("tool", tool), ("tool_estimate", tool_estimate)):
-            if v is not None and not isinstance(v, ToolGravity):
-                raise ParameterError(f"{name} must be a ToolGravity or None; got {type(v).__name__}")
+        for name, part in (("tool", tool), ("tool_estimate", tool_estimate)):
+            if part is not None and not isinstance(part, ToolGravity):
+                raise ParameterError(f"{name} must be a ToolGravity or None; got {type(part).__name__}")
         self.tool = tool
         self.tool_estimate = tool_estimate
         if orientation is not None and not callable(orientation):
@@ -349,6 +349,7 @@ class RealisticForceSensor(ForceSensor):
         self.orientation = orientation
         self.bias_estimate: np.ndarray | None = None
         self._k = -1
+        self._last = np.zeros(0)
 
     @property
     def compiled_ok(self) -> bool:
@@ -385,7 +386,7 @@ class RealisticForceSensor(ForceSensor):
         alpha = self.alpha(sample_time)  # checks the Nyquist limit
         if self.filter == "first-order":
             return np.array([alpha]), np.array([1.0, alpha - 1.0])
-        K = math.tan(math.pi * float(self.cutoff) * sample_time)
+        K = math.tan(math.pi * float(self.cutoff or 0.0) * sample_time)  # cutoff is set: the filter is not 'none'
         norm = 1.0 / (1.0 + math.sqrt(2.0) * K + K * K)
         b0 = K * K * norm
         a1 = 2.0 * (K * K - 1.0) * norm
