@@ -132,7 +132,9 @@ class AdmittanceController(_SpatialBase):
         self.motion_damping = as_gain_matrix("motion_damping", motion_damping, 6)
         self.bandwidth_ratio = positive_scalar("bandwidth_ratio", bandwidth_ratio)
         self.environment_stiffness = (
-            None if environment_stiffness is None else as_gain_matrix("environment_stiffness", environment_stiffness, 6, definite=False)
+            None
+            if environment_stiffness is None
+            else as_gain_matrix("environment_stiffness", environment_stiffness, 6, definite=False)
         )
         Mt_inv = np.linalg.inv(self.inertia)
         self._Mt_inv = Mt_inv

@@ -32,7 +32,7 @@ import numpy as np
 from numba import njit
 
 from .._validate import as_gain_matrix
-from ..errors import FrameError, ParameterError, SingularityError
+from ..errors import ParameterError, SingularityError
 from ..robots.base import RobotModel
 from ..spatial import (
     Wrench,

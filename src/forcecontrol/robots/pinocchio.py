@@ -141,6 +141,8 @@ class PinocchioRobot:
             self.rotor_coupling = Rc
         self.data = self.model.createData()
         self._lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        self.urdf_path: Path | None = None
+        self.locked_joints: tuple[str, ...] = ()
 
     # -- construction
     @classmethod
@@ -171,7 +173,11 @@ class PinocchioRobot:
                 ids.append(model.getJointId(j))
             q_ref = pin.neutral(model) if locked_values is None else np.asarray(locked_values, dtype=np.float64)
             model = pin.buildReducedModel(model, ids, q_ref)
-        return cls(model, frame, **kwargs)
+        robot = cls(model, frame, **kwargs)
+        #: where the model came from (the MuJoCo engine rebuilds the same robot from it).
+        robot.urdf_path = path
+        robot.locked_joints = tuple(locked_joints)
+        return robot
 
     # -- kinematics
     def frame_pose(self, q: Any) -> tuple[np.ndarray, np.ndarray]:

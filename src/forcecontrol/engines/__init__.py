@@ -1,0 +1,6 @@
+"""Other physics engines as independent plants (optional extras, imported lazily).
+
+``forcecontrol.engines.mujoco``: MuJoCo (``pip install forcecontrol[mujoco]``).
+"""
+
+__all__: list[str] = []

@@ -1,0 +1,451 @@
+"""MuJoCo as an independent plant: the same controller object, MuJoCo's dynamics, contact and force sensing.
+
+Needs the optional extra ``mujoco`` (``pip install forcecontrol[mujoco]``); MuJoCo is imported
+here only.
+
+The robot is rebuilt in MuJoCo from the same URDF (visual and collision meshes dropped, locked
+joints made fixed, static bodies kept so the controlled frame exists), with the joints'
+armature and damping; the end-effector gets a small frictionless sphere (``contact_radius``)
+centred on the controlled frame. Elastic planes and tables become MuJoCo planes shifted by that
+radius, so that the penetration MuJoCo sees is the built-in environments' δ.
+
+The loop is the same sampled loop as :func:`forcecontrol.simulation.simulate`: at each sample
+``t_k`` read q, q̇ and the contact wrench from MuJoCo, call ``controller.step``, hold the torque
+(``qfrc_applied``) over ``substeps`` MuJoCo RK4 steps.
+
+Where MuJoCo and the built-in simulator differ (see :func:`compare_engines`):
+
+* contacts are soft *constraints*: MuJoCo resolves ``a₁ + d (b v + k r) = (1 − d) a₀`` with an
+  impedance d and a regulariser built from a constant approximate inverse inertia; this gives a
+  spring of stiffness ``k_N`` at rest. ``solref = (−k, −b)`` is chosen so that ``k_N`` and the
+  contact damping equal the environment's (calibrated at build time on the model itself), but
+  the transient is not a pure spring: the regulariser adds a little compliance at high
+  frequency;
+* the contact acts at the sphere's surface, not at the frame's origin (no moment for a
+  frictionless contact, the force is along the normal through the centre);
+* the chapter arm: the rotor coupling ``k_r2 I_m2`` of b12 cannot be written in MuJoCo either
+  (the closed form has it): b12 differs by 1 kg m² (about 4 %), which changes transients a
+  little and statics not at all.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
+from ..environments.base import Environment
+from ..errors import ParameterError, SimulationDivergedError
+from ..simulation import SimulationResult
+from ..spatial import rotation_to_euler_xyz
+from ..trajectories import ReferenceSignal
+
+__all__ = ["MujocoPlant", "simulate_mujoco", "compare_engines", "DIFFERENCES"]
+
+#: why the two engines can differ, for reports.
+DIFFERENCES = (
+    "MuJoCo contact is a soft constraint (solref/solimp): f = (a_ref - a1)/R; its static stiffness and damping are "
+    "matched to the environment's, but the constraint also carries an apparent mass 1/R along the normal "
+    "(reported as apparent_contact_mass) that the built-in spring does not have: it slows the contact transient",
+    "MuJoCo's contact acts at the surface of a sphere of radius contact_radius around the end-effector frame, "
+    "the built-in one at the frame's origin (planes are shifted by the radius so the penetrations agree)",
+    "chapter arm: the rotor coupling k_r2 I_m2 = 1 kg m^2 of b12 has no MuJoCo counterpart (transients only)",
+    "integration: MuJoCo RK4 with the constraint solver vs the built-in RK4 on the unconstrained ODE",
+)
+
+
+def _mj():
+    try:
+        import mujoco
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise ImportError("the MuJoCo engine needs MuJoCo: pip install 'forcecontrol[mujoco]'") from exc
+    return mujoco
+
+
+def _robot_source(robot) -> tuple[Path, str, tuple[str, ...], np.ndarray, np.ndarray, str]:
+    """(urdf, frame, locked joints, armature, gravity, task) for a supported robot."""
+    from ..robots.planar_2r import PlanarTwoLink
+
+    if isinstance(robot, PlanarTwoLink):
+        from ..robots.pinocchio import model_path
+
+        p = robot.parameters
+        kr1, Im1, kr2, Im2 = (100.0, 0.01, 100.0, 0.01) if p is None else (p.k_r1, p.I_m1, p.k_r2, p.I_m2)
+        g = 9.81 if p is None else p.gravity
+        armature = np.array([kr1**2 * Im1, kr2**2 * Im2])
+        return model_path("chapter_arm"), "tip", (), armature, np.array([0.0, -g, 0.0]), "planar"
+    path = getattr(robot, "urdf_path", None)
+    if path is None:
+        raise ParameterError(
+            f"the MuJoCo engine needs the built-in arm or a PinocchioRobot loaded from a URDF; got {type(robot).__name__}"
+        )
+    return (
+        Path(path), robot.frame, tuple(robot.locked_joints), np.asarray(robot.model.armature, dtype=float).copy(),
+        np.asarray(robot.model.gravity.linear, dtype=float).copy(), robot.task,
+    )
+
+
+def _clean_urdf(text: str, locked: tuple[str, ...]) -> str:
+    text = re.sub(r"<visual\b.*?</visual>", "", text, flags=re.S)
+    text = re.sub(r"<collision\b.*?</collision>", "", text, flags=re.S)
+    for j in locked:
+        text = re.sub(rf'(<joint\s+name="{re.escape(j)}"\s+type=")\w+(")', r"\1fixed\2", text)
+    mj = '<mujoco><compiler discardvisual="true" fusestatic="false" balanceinertia="true"/></mujoco>'
+    return re.sub(r"(<robot\b[^>]*>)", r"\1" + mj, text, count=1)
+
+
+class MujocoPlant:
+    """A MuJoCo model of a robot and its environment, and the sampled loop around a controller.
+
+    Args:
+        robot: the built-in chapter arm or a URDF :class:`~forcecontrol.robots.pinocchio.PinocchioRobot`.
+        environment: :class:`~forcecontrol.environments.elastic.ElasticPlane` or
+            :class:`~forcecontrol.environments.spatial.Table` (MuJoCo contact).
+        sample_time: control period Ts [s]; substeps: MuJoCo steps per sample.
+        contact_radius: radius of the end-effector sphere [m].
+        impedance: MuJoCo's constraint impedance d (solimp dmin = dmax), in (0, 1). MuJoCo's contact
+            force is ``f = (a_ref − a₁) / R`` with ``R = (1 − d)/d · A``: besides the spring and
+            damper of a_ref it carries an apparent mass ``d/(1 − d)`` times the end-effector's
+            effective mass along the normal; the smallest d MuJoCo allows (default 1e-4) keeps that
+            mass small; :meth:`describe` reports it.
+    """
+
+    def __init__(
+        self,
+        robot: Any,
+        environment: Environment,
+        *,
+        sample_time: float = 1e-3,
+        substeps: int = 4,
+        contact_radius: float = 0.01,
+        impedance: float = 1e-4,
+    ) -> None:
+        mujoco = _mj()
+        self._mujoco = mujoco
+        self.robot = robot
+        self.environment = environment
+        self.sample_time = float(sample_time)
+        if int(substeps) != substeps or substeps < 1:
+            raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
+        self.substeps = int(substeps)
+        self.radius = float(contact_radius)
+        self.impedance = float(impedance)
+        urdf, frame, locked, armature, gravity, task = _robot_source(robot)
+        self.task = task
+        spec = mujoco.MjSpec.from_string(_clean_urdf(urdf.read_text(), locked))
+        spec.option.timestep = self.sample_time / self.substeps
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
+        spec.option.gravity = gravity
+        joints = [j for j in spec.joints if j.type != mujoco.mjtJoint.mjJNT_FREE]
+        if len(joints) != len(armature):
+            raise ParameterError(f"MuJoCo model has {len(joints)} joints, the robot {len(armature)}")
+        for j, a in zip(joints, armature):
+            j.armature = float(a)
+            j.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        body = spec.body(frame)
+        if body is None:
+            raise ParameterError(f"frame {frame!r} is not a body of the MuJoCo model")
+        tip = body.add_geom()
+        tip.name = "ee_contact"
+        tip.type = mujoco.mjtGeom.mjGEOM_SPHERE
+        tip.size = [self.radius, 0, 0]
+        tip.mass = 0.0
+        tip.density = 0.0
+        tip.condim = 1
+        tip.solimp = [self.impedance, self.impedance, 1e-6, 0.5, 2.0]
+        self._has_contact = self._add_environment(spec)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.ee_body = self.model.body(frame).id
+        self.ee_geom = self.model.geom("ee_contact").id
+        self.nq = int(self.model.nq)
+        if self._has_contact:
+            self._calibrate()
+
+    # -- building
+    def _add_environment(self, spec) -> bool:
+        from ..environments.elastic import ElasticPlane
+        from ..environments.spatial import Table
+
+        mujoco = self._mujoco
+        env = self.environment
+        if isinstance(env, (ElasticPlane, Table)):
+            point = np.zeros(3)
+            normal = np.zeros(3)
+            point[: env.point.shape[0]] = env.point
+            normal[: env.normal.shape[0]] = env.normal
+            self._k_env, self._c_env = float(env.stiffness), float(env.damping)
+        else:
+            raise ParameterError(
+                f"the MuJoCo engine supports ElasticPlane and Table environments; got {type(env).__name__}"
+            )
+        g = spec.worldbody.add_geom()
+        g.name = "environment"
+        g.type = mujoco.mjtGeom.mjGEOM_PLANE
+        g.size = [10.0, 10.0, 0.1]
+        g.pos = point - self.radius * normal
+        # plane normal = local z: rotate z onto the normal
+        z = np.array([0.0, 0.0, 1.0])
+        ax = np.cross(z, normal)
+        s, c = float(np.linalg.norm(ax)), float(z @ normal)
+        if s < 1e-12:
+            quat = [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
+        else:
+            ang = math.atan2(s, c)
+            ax = ax / s
+            quat = [math.cos(ang / 2), *(math.sin(ang / 2) * ax)]
+        g.quat = quat
+        g.condim = 1
+        g.solimp = [self.impedance, self.impedance, 1e-6, 0.5, 2.0]
+        g.solref = [-1.0, -1.0]  # set by _calibrate
+        return True
+
+    def _calibrate(self) -> None:
+        """Choose solref = (−k, −b) so MuJoCo's contact stiffness and damping at rest are the environment's.
+
+        MuJoCo's soft contact at rest satisfies ``R f = a_ref = −b' v − k' r`` (R the regulariser,
+        r the penetration, v its rate, k', b' from solref and the impedance d). The ratios
+        ``−a_ref / (R r)`` and ``−a_ref / (R v)`` are read from the compiled model at a probe
+        contact for unit solref values; both are linear in solref, which is then scaled so that
+        ``f = k_env δ + c_env δ̇``.
+        """
+        mujoco = self._mujoco
+        m = self.model
+        gid = m.geom("environment").id
+        probe = mujoco.MjData(m)
+        probe.qpos[:] = 0.5 * (-1.0) ** np.arange(m.nq)  # away from the stretched-arm singularity
+        mujoco.mj_forward(m, probe)
+        nrm = probe.geom_xmat[gid].reshape(3, 3)[:, 2]
+        saved = m.geom_pos[gid].copy()
+        m.geom_pos[gid] = probe.geom_xpos[self.ee_geom] - (self.radius - 1e-3) * nrm
+
+        def ratio(solref, use_velocity):
+            m.geom_solref[gid] = m.geom_solref[self.ee_geom] = solref
+            probe.qvel[:] = 0.0
+            if use_velocity:
+                probe.qvel[:] = np.linspace(0.3, -0.2, m.nv)
+            mujoco.mj_forward(m, probe)
+            rows = [i for i in range(probe.nefc) if probe.efc_type[i] == mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS]
+            if not rows:  # pragma: no cover - the probe always touches
+                raise RuntimeError("MuJoCo calibration found no contact")
+            i = rows[0]
+            self._last_R = float(probe.efc_R[i])
+            den = probe.efc_vel[i] if use_velocity else probe.efc_pos[i]
+            return -float(probe.efc_aref[i]) / (float(probe.efc_R[i]) * float(den))
+
+        k_unit = ratio([-1.0, 0.0], False)
+        R_probe = self._last_R
+        b_unit = ratio([-1e-12, -1.0], True)
+        m.geom_pos[gid] = saved
+        # f/r = k_unit · solref_k · R_probe / R: R follows the configuration (R ∝ A(q)), so the
+        # solref giving the environment's stiffness is rescheduled from R at every sample
+        self._k_scale = self._k_env / (k_unit * R_probe)
+        self._b_scale = self._c_env / (b_unit * R_probe) if self._c_env > 0 else 0.0
+        self._gid = gid
+        self._schedule(R_probe)
+        self.contact_unit_stiffness = k_unit
+        #: MuJoCo's apparent contact mass 1/R along the normal [kg] (at the probe posture).
+        self.apparent_contact_mass = 1.0 / R_probe
+        mujoco.mj_forward(m, self.data)
+
+    def _schedule(self, R: float) -> None:
+        # both geoms carry the same parameters (MuJoCo mixes the two geoms' solref/solimp)
+        self.model.geom_solref[self._gid] = self.model.geom_solref[self.ee_geom] = [-self._k_scale * R, -self._b_scale * R]
+
+    def _reschedule(self) -> None:
+        """Solref for the current configuration, from R of the live contact (when there is one)."""
+        d = self.data
+        for i in range(d.nefc):
+            if d.efc_type[i] == self._mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS:
+                self._schedule(float(d.efc_R[i]))
+                return
+
+    # -- measuring
+    def _pose_twist(self) -> tuple[np.ndarray, np.ndarray]:
+        mujoco, m, d = self._mujoco, self.model, self.data
+        p = d.xpos[self.ee_body].copy()
+        v6 = np.zeros(6)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.ee_body, v6, 0)
+        twist = np.concatenate([v6[3:], v6[:3]])
+        if self.task == "planar":
+            return p[:2], twist[:2]
+        if self.task == "position":
+            return p, twist[:3]
+        R = d.xmat[self.ee_body].reshape(3, 3)
+        return np.concatenate([p, rotation_to_euler_xyz(R)]), twist
+
+    def contact_wrench(self) -> np.ndarray:
+        """h_e from MuJoCo's contacts on the end-effector sphere: ``[f; μ]`` about the frame origin, base frame."""
+        mujoco, m, d = self._mujoco, self.model, self.data
+        f_ee = np.zeros(3)
+        mu_ee = np.zeros(3)
+        o = d.xpos[self.ee_body]
+        buf = np.zeros(6)
+        for i in range(d.ncon):
+            con = d.contact[i]
+            if con.geom1 != self.ee_geom and con.geom2 != self.ee_geom:
+                continue
+            mujoco.mj_contactForce(m, d, i, buf)
+            frame = con.frame.reshape(3, 3)
+            f = frame.T @ buf[:3]  # force geom1 exerts on geom2... in world axes
+            on_ee = f if con.geom2 == self.ee_geom else -f
+            f_ee += on_ee
+            mu_ee += np.cross(con.pos - o, on_ee)
+        h = -np.concatenate([f_ee, mu_ee])
+        if self.task == "planar":
+            return h[:2]
+        if self.task == "position":
+            return h[:3]
+        return h
+
+    # -- running
+    def run(
+        self,
+        controller: Controller,
+        reference: ReferenceSignal,
+        *,
+        q0: Any,
+        duration: float,
+        qd0: Any = None,
+        label: str = "",
+        max_joint_speed: float = 50.0,
+    ) -> SimulationResult:
+        """The sampled loop with MuJoCo as the plant; returns the same log as ``simulate``."""
+        mujoco, m, d = self._mujoco, self.model, self.data
+        n = self.nq
+        Ts = self.sample_time
+        if abs(controller.sample_time - Ts) > 1e-15:
+            raise ParameterError(f"controller.sample_time ({controller.sample_time}) must equal the plant's ({Ts})")
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = np.asarray(q0, dtype=float)
+        d.qvel[:] = 0.0 if qd0 is None else np.asarray(qd0, dtype=float)
+        mujoco.mj_forward(m, d)
+        N = int(round(duration / Ts))
+        times = np.arange(N + 1) * Ts
+        refs = np.ascontiguousarray(reference.sample(times), dtype=np.float64)
+        mdim = refs.shape[1] // len(REFERENCE_FIELDS)
+        logs = {k: np.full((N + 1, n), np.nan) for k in ("q", "qd", "torque")}
+        logs.update({k: np.full((N + 1, mdim), np.nan) for k in ("x", "xd", "wrench", "wrench_measured")})
+        h = self.contact_wrench()
+        controller.reset(Measurement(d.qpos.copy(), d.qvel.copy(), h), reference.at(0.0))
+        status_k = None
+        for k in range(N + 1):
+            q, qd = d.qpos.copy(), d.qvel.copy()
+            x, xd = self._pose_twist()
+            h = self.contact_wrench()
+            row = refs[k]
+            ref = Reference(*(row[i * mdim : (i + 1) * mdim] for i in range(len(REFERENCE_FIELDS))))
+            u = np.asarray(controller.step(k * Ts, Measurement(q, qd, h.copy()), ref), dtype=float)
+            logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, x, xd
+            logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, h, u
+            if k == N:
+                break
+            d.qfrc_applied[:] = u
+            for _ in range(self.substeps):
+                if self._has_contact:
+                    self._reschedule()
+                mujoco.mj_step(m, d)
+            if not np.all(np.isfinite(d.qpos)) or np.max(np.abs(d.qvel)) > max_joint_speed:
+                status_k = k
+                break
+        meta = {
+            "label": label,
+            "engine": "mujoco",
+            "robot": type(self.robot).__name__,
+            "environment": self.environment.describe(),
+            "controller": {"type": type(controller).__name__, **controller.gains()},
+            "sample_time": Ts,
+            "duration": float(duration),
+            "substeps": self.substeps,
+            "mujoco": self.describe(),
+        }
+        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)
+        if status_k is not None:
+            raise SimulationDivergedError(
+                f"MuJoCo run '{label or 'case'}' diverged at t = {status_k * Ts:.4f} s",
+                time=status_k * Ts, step=status_k, cause="runaway", q=d.qpos.copy(),
+            )
+        return result
+
+    def describe(self) -> dict[str, Any]:
+        """MuJoCo-side parameters (for metadata and reports)."""
+        mujoco = self._mujoco
+        out: dict[str, Any] = {
+            "version": mujoco.__version__,
+            "timestep": float(self.model.opt.timestep),
+            "integrator": "RK4",
+            "contact_radius": self.radius,
+        }
+        if self._has_contact:
+            gid = self.model.geom("environment").id
+            out.update(
+                solref=self.model.geom_solref[gid].tolist(),
+                solimp=self.model.geom_solimp[gid].tolist(),
+                stiffness_per_unit_solref=self.contact_unit_stiffness,
+                apparent_contact_mass=self.apparent_contact_mass,
+            )
+        return out
+
+
+def simulate_mujoco(
+    robot: Any,
+    environment: Environment,
+    controller: Controller,
+    reference: ReferenceSignal,
+    *,
+    q0: Any,
+    duration: float,
+    qd0: Any = None,
+    substeps: int = 4,
+    contact_radius: float = 0.01,
+    label: str = "",
+) -> SimulationResult:
+    """Like :func:`forcecontrol.simulation.simulate`, with MuJoCo as the plant."""
+    plant = MujocoPlant(
+        robot, environment, sample_time=controller.sample_time, substeps=substeps, contact_radius=contact_radius
+    )
+    return plant.run(controller, reference, q0=q0, duration=duration, qd0=qd0, label=label)
+
+
+def _transient(t: np.ndarray, f: np.ndarray) -> dict[str, float]:
+    final = float(np.mean(f[t >= t[-1] - 0.1]))
+    peak_i = int(np.argmax(np.abs(f)))
+    tol = 0.02 * abs(final) if final != 0 else 1e-9
+    outside = np.nonzero(np.abs(f - final) > tol)[0]
+    settle = float(t[outside[-1] + 1]) if outside.size and outside[-1] + 1 < len(t) else float(t[0])
+    return {
+        "steady": final,
+        "peak": float(f[peak_i]),
+        "peak_time": float(t[peak_i]),
+        "overshoot_percent": 100.0 * (abs(f[peak_i]) - abs(final)) / abs(final) if final else 0.0,
+        "settling_time_2pc": settle,
+    }
+
+
+def compare_engines(builtin: SimulationResult, mujoco: SimulationResult, axis: int | None = None) -> dict[str, Any]:
+    """Side-by-side contact-force metrics of the same scenario on both engines, with the reasons they differ.
+
+    Args:
+        builtin, mujoco: the two runs (same times).
+        axis: the force component to compare; default the one with the largest steady magnitude.
+    """
+    if axis is None:
+        axis = int(np.argmax(np.abs(builtin.settled("wrench"))))
+    a = _transient(builtin.t, builtin.wrench[:, axis])
+    b = _transient(mujoco.t, mujoco.wrench[:, axis])
+    diff = abs(b["steady"] - a["steady"]) / max(abs(a["steady"]), 1e-12)
+    fa, fb = builtin.wrench[:, axis], mujoco.wrench[:, axis]
+    shape = float(np.max(np.abs(fa - fb)) / max(np.max(np.abs(fa)), 1e-12))
+    return {
+        "axis": axis,
+        "builtin": a,
+        "mujoco": b,
+        "steady_force_difference_percent": 100.0 * diff,
+        "max_force_difference_over_peak_percent": 100.0 * shape,
+        "why_they_differ": list(DIFFERENCES),
+        "mujoco_parameters": mujoco.metadata.get("mujoco", {}),
+    }

@@ -1,0 +1,124 @@
+"""MuJoCo as an independent plant: same models, calibrated soft contact, same controller object, both engines compared."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+pytest.importorskip("pinocchio")
+
+import forcecontrol as fc  # noqa: E402
+from forcecontrol.controllers.spatial import SpatialImpedanceController  # noqa: E402
+from forcecontrol.engines.mujoco import DIFFERENCES, MujocoPlant, compare_engines  # noqa: E402
+from forcecontrol.environments.spatial import ConstantWrench, Table  # noqa: E402
+from forcecontrol.errors import ParameterError  # noqa: E402
+from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
+from forcecontrol.spatial import rotation_to_euler_xyz  # noqa: E402
+
+Q_CONTACT = np.array([math.pi / 3, -2 * math.pi / 3])
+
+
+@pytest.fixture(scope="module")
+def franka():
+    return panda()
+
+
+def test_mujoco_panda_has_pinocchios_inertia_and_gravity(franka):
+    """MuJoCo's Panda rebuilt from the same URDF has Pinocchio's B(q) and g(q) (fingers locked) to 1e-9."""
+    plant = MujocoPlant(franka, Table([0.3, 0.0, 0.0], stiffness=1e4))
+    m, d = plant.model, plant.data
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        q = PANDA_READY + rng.normal(0, 0.3, 7)
+        d.qpos[:] = q
+        d.qvel[:] = 0
+        mujoco.mj_forward(m, d)
+        M = np.zeros((7, 7))
+        mujoco.mj_fullM(m, d, M)
+        assert np.allclose(M, franka.mass_matrix(q), atol=1e-9)
+        assert np.allclose(d.qfrc_bias, franka.gravity(q), atol=1e-9)
+        R, p = franka.frame_pose(q)
+        assert np.allclose(d.xpos[plant.ee_body], p, atol=1e-12)
+
+
+def test_mujoco_chapter_arm_differs_only_by_the_rotor_coupling():
+    """The chapter arm in MuJoCo matches the closed form's B except b12, short by k_r2 I_m2 = 1 (documented)."""
+    arm = fc.PlanarTwoLink()
+    plant = MujocoPlant(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4))
+    m, d = plant.model, plant.data
+    q, qd = np.array([0.7, -1.3]), np.array([0.5, -0.8])
+    d.qpos[:], d.qvel[:] = q, qd
+    mujoco.mj_forward(m, d)
+    M = np.zeros((2, 2))
+    mujoco.mj_fullM(m, d, M)
+    assert np.allclose(arm.mass_matrix(q) - M, [[0, 1.0], [1.0, 0]], atol=1e-9)
+    # n = C q̇ + F q̇ + g: MuJoCo's bias minus its passive (joint damping) forces
+    assert np.allclose(d.qfrc_bias - d.qfrc_passive, arm.nonlinear_effects(q, qd), atol=1e-9)
+
+
+def test_calibrated_mujoco_contact_is_the_environment_spring_at_rest():
+    """With torques balancing k δ and gravity, MuJoCo's sensed contact force is k δ at several postures (static calibration)."""
+    arm = fc.PlanarTwoLink()
+    plant = MujocoPlant(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4))
+    m, d = plant.model, plant.data
+    for target in ([1.01, 0.0], [1.02, 0.3], [1.005, -0.4]):
+        q = arm.inverse_kinematics(target)
+        f = 1e4 * (target[0] - 1.0)
+        d.qpos[:], d.qvel[:] = q, 0.0
+        mujoco.mj_forward(m, d)
+        plant._reschedule()
+        d.qfrc_applied[:] = arm.gravity(q) + arm.jacobian(q).T @ np.array([f, 0.0])
+        mujoco.mj_forward(m, d)
+        assert np.allclose(plant.contact_wrench(), [f, 0.0], rtol=1e-6)
+        assert np.allclose(d.qacc, 0.0, atol=1e-6)
+
+
+def test_example_9_2_on_mujoco_matches_the_builtin_simulator():
+    """Example 9.2 (k = 1e4): the same ImpedanceController on MuJoCo: steady force within 2%, same peak time and overshoot."""
+    arm = fc.PlanarTwoLink()
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4)
+    ctrl = fc.ImpedanceController(arm, 100.0, 500.0, 2500.0)
+    ref = fc.Setpoint([1.1, 0.1])
+    a = fc.simulate(arm, env, ctrl, ref, q0=Q_CONTACT, duration=2.0)
+    b = MujocoPlant(arm, env).run(ctrl, ref, q0=Q_CONTACT, duration=2.0)
+    rep = compare_engines(a, b, axis=0)
+    assert rep["steady_force_difference_percent"] < 2.0
+    assert abs(rep["builtin"]["steady"] - 200.0) < 2.0  # the book's 200 N
+    assert abs(rep["mujoco"]["peak_time"] - rep["builtin"]["peak_time"]) <= 0.05 * rep["builtin"]["peak_time"]
+    assert abs(rep["mujoco"]["overshoot_percent"] - rep["builtin"]["overshoot_percent"]) < 3.0
+    assert rep["max_force_difference_over_peak_percent"] < 5.0
+    assert rep["why_they_differ"] == list(DIFFERENCES)
+
+
+def test_panda_pressing_a_table_on_mujoco_matches_the_builtin_simulator(franka):
+    """Panda, 6-D impedance pushing 5 cm into a table: steady force (9.22) within 2% on both engines, same transient."""
+    R, p = franka.frame_pose(PANDA_READY)
+    x0 = np.concatenate([p, rotation_to_euler_xyz(R)])
+    Md = np.diag([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
+    KP = np.diag([400.0] * 3 + [10.0] * 3)
+    KD = np.diag(2 * 0.7 * np.sqrt(np.diag(Md) * np.diag(KP)))
+    table = Table(p, [0, 0, 1], stiffness=1e4, damping=20.0)
+    ref = fc.Setpoint(x0 - np.array([0, 0, 0.05, 0, 0, 0]))
+    ctrl = SpatialImpedanceController(franka, Md, KD, KP, posture=PANDA_READY)
+    a = fc.simulate(franka, table, ctrl, ref, q0=PANDA_READY, duration=0.6, substeps=2)
+    b = MujocoPlant(franka, table).run(ctrl, ref, q0=PANDA_READY, duration=0.6)
+    rep = compare_engines(a, b)
+    assert rep["axis"] == 2
+    f_expected = 400.0 * 1e4 / (400.0 + 1e4) * 0.05  # (9.22) along z
+    for eng in ("builtin", "mujoco"):
+        assert abs(-rep[eng]["steady"] - f_expected) <= 0.02 * f_expected
+    assert rep["steady_force_difference_percent"] < 2.0
+    assert abs(rep["mujoco"]["peak_time"] - rep["builtin"]["peak_time"]) <= 0.05 * rep["builtin"]["peak_time"]
+    assert rep["max_force_difference_over_peak_percent"] < 5.0
+
+
+def test_unsupported_environment_and_robot_are_errors(franka):
+    """A constant-wrench environment or a robot without a URDF cannot be rebuilt in MuJoCo: ParameterError."""
+    with pytest.raises(ParameterError, match="supports ElasticPlane and Table"):
+        MujocoPlant(franka, ConstantWrench(np.zeros(6)))
+    bare = type(franka)(franka.model, franka.frame)
+    with pytest.raises(ParameterError, match="needs the built-in arm or a PinocchioRobot loaded from a URDF"):
+        MujocoPlant(bare, Table([0.3, 0, 0]))
