@@ -434,3 +434,40 @@ def test_compiled_law_equals_the_readable_functions(franka):
         u2 = c.step(0.0, m, ref)
         assert np.allclose(u1, u2, rtol=1e-10, atol=1e-9)
         assert lam_c == pytest.approx(c.last_damping, abs=1e-12)
+
+
+def test_hybrid_presses_20_newtons_on_a_table_while_tracing_a_line(franka):
+    """6-D hybrid (9.77)–(9.84): λ follows λ̈ + K_Dλ λ̇ + K_Pλ (λ − λ_d) = 0 within 3%, then holds 20 N while the tip traces a line."""
+    from forcecontrol.controllers.spatial import SpatialHybridController
+    from forcecontrol.trajectories import LinearPath
+
+    R, p = franka.frame_pose(PANDA_READY)
+    x0 = np.concatenate([p, rotation_to_euler_xyz(R)])
+    k = 1e4
+    table = Table(p, [0, 0, 1], stiffness=k)
+    x1 = x0 + np.array([0.1, 0.1, 0, 0, 0, 0])
+    ref = LinearPath(x0, x1, duration=0.6, start_time=0.5, force=[0, 0, -20.0, 0, 0, 0])
+    # the hand's z axis points down, into the table: force along the desired frame's z
+    c = SpatialHybridController(franka, [0, 0, 1, 0, 0, 0], 1 / k, 400.0, 40.0, 400.0, 40.0, posture=PANDA_READY)
+    res = simulate(franka, table, c, ref, q0=PANDA_READY, duration=1.3, substeps=2)
+    lam = -res.wrench[:, 2]
+    t = res.t
+    w = 20.0  # K_Pλ = 400, K_Dλ = 40: critically damped, ω = 20 rad/s
+    expected = 20.0 * (1 - (1 + w * t) * np.exp(-w * t))
+    early = t <= 0.5
+    assert np.max(np.abs(lam[early] - expected[early])) <= 0.03 * 20.0
+    late = t >= 0.5
+    assert np.max(np.abs(lam[late] - 20.0)) <= 0.01 * 20.0
+    xy_err = res.x[:, :2] - res.reference_block("position")[:, :2]
+    assert np.max(np.abs(xy_err)) < 1e-3
+    assert np.allclose(res.x[-1, :2], x1[:2], atol=1e-4)
+
+
+def test_hybrid_rejects_bad_force_directions(franka):
+    """Force directions that are not (6, k) or are linearly dependent raise ParameterError."""
+    from forcecontrol.controllers.spatial import SpatialHybridController
+
+    with pytest.raises(ParameterError, match=r"force_directions must be a \(6, k\) matrix"):
+        SpatialHybridController(franka, np.ones((3, 1)), 1e-4, 1.0, 1.0, 1.0, 1.0)
+    with pytest.raises(ParameterError, match="linearly independent"):
+        SpatialHybridController(franka, np.array([[1, 2], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0.0]]), 1e-4, 1.0, 1.0, 1.0, 1.0)

@@ -12,7 +12,7 @@ from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
 from .admittance import AdmittanceController
 from .redundant import NullSpacePosture, SingularityHandling
-from .spatial import SpatialComplianceController, SpatialImpedanceController
+from .spatial import SpatialComplianceController, SpatialHybridController, SpatialImpedanceController
 
 __all__ = [
     "Controller",
@@ -30,6 +30,7 @@ __all__ = [
     "HybridRigidController",
     "SpatialImpedanceController",
     "SpatialComplianceController",
+    "SpatialHybridController",
     "AdmittanceController",
     "NullSpacePosture",
     "SingularityHandling",

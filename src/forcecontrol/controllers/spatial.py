@@ -50,6 +50,7 @@ from .redundant import NullSpacePosture, SingularityHandling, redundant_accelera
 __all__ = [
     "SpatialImpedanceController",
     "SpatialComplianceController",
+    "SpatialHybridController",
     "DesiredFrameError",
     "desired_frame_error",
     "error_acceleration_bias",
@@ -461,3 +462,105 @@ class SpatialComplianceController(_SpatialBase):
 
     def gains(self) -> dict[str, Any]:
         return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist(), "orientation": self.orientation}
+
+
+class SpatialHybridController(_SpatialBase):
+    """Hybrid force/motion control on the desired frame, for a compliant environment (Sect. 9.7.1 in 6-D).
+
+    The 6-D form of (9.77)–(9.84) with a 6×k force selection ``S_f`` (orthonormal columns,
+    desired-frame coordinates) and ``S_v`` its orthogonal complement. Along ``S_v`` the pose error
+    on the desired frame (9.9) is servoed; along ``S_f`` the contact force is::
+
+        x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ,    P_v = I − S_f S_fᵀ
+        f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)                       (9.82)
+        J_Ad y = c − x̃̈*,   u = B y + n + Jᵀ h_e                              (9.30)
+
+    with ``λ = S_fᵀ h_e^d`` the measured force components, ``λ̇ = −C⁻¹ S_fᵀ x̃̇`` (the environment
+    of compliance C along S_f: ``λ = −C⁻¹ S_fᵀ x̃_P + const``), and the references
+    ``λ_d = S_fᵀ h_d^d`` from ``reference.force`` (base frame, rotated to the desired frame).
+    With the exact model and C: ``λ̈ + K_Dλ (λ̇ − λ̇_d) + K_Pλ (λ − λ_d) = λ̈_d`` (9.84) and the
+    motion error obeys ``x̃̈ + K_D x̃̇ + K_P x̃ = 0`` along S_v; at rest ``λ = λ_d`` even with an
+    inexact C.
+
+    Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` (6,) base frame about the
+    end-effector origin; ``reference`` with m = 6 (the pose components along S_f are ignored,
+    ``force`` gives h_d). Output: torques (n,) [N m].
+
+    Args:
+        robot: a 6-D robot with ``spatial_terms``.
+        force_directions: S_f, (6, k) desired-frame directions (orthonormalised), or a (6,) vector.
+        compliance: C, the environment's compliance along S_f (k, k) SPD [m/N] (scalar allowed).
+        stiffness, damping: K_P, K_D of the motion loop (6, 6) SPD [1/s², 1/s].
+        force_stiffness, force_damping: K_Pλ, K_Dλ (k, k) SPD [1/s², 1/s].
+        orientation, posture, singularity, sample_time: as for :class:`SpatialImpedanceController`.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        force_directions: Any,
+        compliance: Any,
+        stiffness: Any,
+        damping: Any,
+        force_stiffness: Any,
+        force_damping: Any,
+        *,
+        orientation: Orientation = "euler",
+        posture: Any = None,
+        singularity: SingularityHandling | None = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        S = np.array(force_directions, dtype=np.float64)
+        if S.ndim == 1:
+            S = S.reshape(-1, 1)
+        if S.ndim != 2 or S.shape[0] != 6 or not 1 <= S.shape[1] <= 6 or not np.all(np.isfinite(S)):
+            raise ParameterError(f"force_directions must be a (6, k) matrix with 1 <= k <= 6; got shape {S.shape}")
+        Q, Rq = np.linalg.qr(S)
+        if np.min(np.abs(np.diag(Rq))) < 1e-9:
+            raise ParameterError("force_directions must have linearly independent columns")
+        self.force_selection = Q
+        k = Q.shape[1]
+        self.compliance = as_gain_matrix("compliance", compliance, k)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
+        self.damping = as_gain_matrix("damping", damping, 6)
+        self.force_stiffness = as_gain_matrix("force_stiffness", force_stiffness, k)
+        self.force_damping = as_gain_matrix("force_damping", force_damping, k)
+        self._P_v = np.eye(6) - Q @ Q.T
+        self._C_inv = np.linalg.inv(self.compliance)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of the 6-D hybrid law for this sample."""
+        q, qd = measurement.q, measurement.qd
+        h = self._wrench(measurement.wrench)
+        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        RdT = err.R_d.T
+        S_f = self.force_selection
+
+        def to_d(w):
+            return np.concatenate([RdT @ w[:3], RdT @ w[3:]])
+
+        lam = S_f.T @ to_d(h)
+        lam_d = S_f.T @ to_d(reference.force)
+        lam_d_dot = S_f.T @ to_d(reference.force_rate)
+        lam_d_ddot = S_f.T @ to_d(reference.force_accel)
+        lam_dot = -self._C_inv @ (S_f.T @ err.xd)
+        f_lam = lam_d_ddot + self.force_damping @ (lam_d_dot - lam_dot) + self.force_stiffness @ (lam_d - lam)
+        xdd_star = self._P_v @ (-self.damping @ err.xd - self.stiffness @ err.x) - S_f @ (self.compliance @ f_lam)
+        r = err.c - xdd_star
+        y0 = self.posture.acceleration(q, qd) if self.posture is not None else None
+        s = self.singularity
+        y, self.last_damping = redundant_acceleration(err.JAd, r, y0, s.threshold, s.max_damping)
+        u = B @ y + nv + J.T @ h
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "force_directions": self.force_selection.tolist(),
+            "compliance": self.compliance.tolist(),
+            "stiffness": self.stiffness.tolist(),
+            "damping": self.damping.tolist(),
+            "force_stiffness": self.force_stiffness.tolist(),
+            "force_damping": self.force_damping.tolist(),
+        }
