@@ -107,15 +107,15 @@ def _wrench2(env_kind, p, x0, x1, v0, v1):  # pragma: no cover - compiled
 @njit(cache=True)
 def _terms2(K, q0, q1, w0, w1, T):  # pragma: no cover - compiled
     """Fill T = [x0, x1, xd0, xd1, J00, J01, J10, J11, Jdq0, Jdq1, B00, B01, B11, n0, n1, g0, g1]
-    (the expressions of ``planar_2r._terms_into``)."""
+    (the expressions of ``planar_2r._terms_into``; cos/sin(q1 + q2) by the angle-sum formulas)."""
     a1 = K[0]
     a2 = K[1]
     c1 = math.cos(q0)
     s1 = math.sin(q0)
     c2 = math.cos(q1)
     s2 = math.sin(q1)
-    c12 = math.cos(q0 + q1)
-    s12 = math.sin(q0 + q1)
+    c12 = c1 * c2 - s1 * s2  # cos(q1 + q2), four trigonometric calls instead of six
+    s12 = s1 * c2 + c1 * s2
     T[0] = a1 * c1 + a2 * c12
     T[1] = a1 * s1 + a2 * s12
     T[4] = -a1 * s1 - a2 * s12

@@ -1,8 +1,12 @@
 """The compiled closed loop for the chapter's arm (same semantics as the Python loop).
 
-Per control sample k: the true wrench h_e(x(t_k)), the sensor model, the controller (through
-the compiled dispatcher, i.e. the same law functions as the Python ``step``), logging, then the
-plant integrated over Ts with the torque held (zero-order hold) by ``nsub`` RK4 steps.
+Per control sample k: the true wrench h_e(x(t_k)), the sensor model, the controller, logging,
+then the plant integrated over Ts with the torque held (zero-order hold) by ``nsub`` RK4 steps.
+Everything runs on scalars with the allocation-free helpers of :mod:`forcecontrol._batch`
+(about 0.3 µs per step instead of 3): the built-in controllers (kinds 1-6) through their scalar
+transcriptions, which repeat the law functions' order of operations, the others (hybrid, kinds
+7+) through the compiled dispatcher, i.e. the law functions of the Python ``step``. The Python
+loop of :mod:`forcecontrol.simulation` is the reference (tests: agreement to round-off).
 
 Status codes returned: 0 ok, 1 non-finite state, 2 runaway joint speed, 3 singular Jacobian in
 the control law, 4 non-finite torque.
@@ -15,27 +19,11 @@ import math
 import numpy as np
 from numba import njit
 
-from ._linalg import solve_into
+from ._batch import _accel2, _control2, _terms2, _wrench2
 from .controllers.dispatch import controller_step
-from .environments.elastic import environment_wrench
 from .robots.planar_2r import _terms_into
 
 OK, NONFINITE_STATE, RUNAWAY, SINGULAR, NONFINITE_TORQUE = 0, 1, 2, 3, 4
-
-
-@njit(cache=True)
-def _accel(q, qd, u, K, env_kind, env_p, x, xd, J, Jdq, B, nv, g, out):  # pragma: no cover
-    """q̈ = B⁻¹ (u − n − Jᵀ h_e) for the arm in contact with the environment, (9.1)."""
-    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
-    h = environment_wrench(env_kind, env_p, x, xd)
-    n = q.shape[0]
-    rhs = np.empty(n)
-    for i in range(n):
-        s = u[i] - nv[i]
-        for j in range(x.shape[0]):
-            s -= J[j, i] * h[j]
-        rhs[i] = s
-    return solve_into(B, rhs, out)
 
 
 @njit(cache=True)
@@ -43,12 +31,17 @@ def run_planar_loop(
     K, env_kind, env_p, ctrl_kind, ctrl_p, ctrl_s, refs, bias, noise, alpha,
     q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
 ):  # pragma: no cover - compiled
-    """Run the sampled loop; fill the logs row by row. Returns (status, last_row)."""
+    """Run the sampled loop; fill the logs row by row. Returns (status, last_row).
+
+    The arm's terms, the environment, the sensor and the RK4 plant (q̈ from (9.1), 2x2 solve
+    with the pivoting of ``solve_into``) run on scalars and allocate nothing. Controller kinds
+    1-6 run their scalar transcriptions in :func:`forcecontrol._batch._control2` (same order of
+    operations as the law functions; checked against the Python loop); other kinds go through
+    the dispatcher, i.e. the law functions themselves.
+    """
     n = q0.shape[0]
     m = 2
     N = Q.shape[0] - 1
-    q = q0.copy()
-    qd = qd0.copy()
     x = np.empty(m)
     xd = np.empty(m)
     J = np.empty((m, n))
@@ -56,64 +49,74 @@ def run_planar_loop(
     B = np.empty((n, n))
     nv = np.empty(n)
     g = np.empty(n)
+    q = np.empty(n)
+    qd = np.empty(n)
     hm = np.zeros(m)
-    a1 = np.empty(n)
-    a2 = np.empty(n)
-    a3 = np.empty(n)
-    a4 = np.empty(n)
+    T = np.empty(17)
+    q_0, q_1, w_0, w_1 = q0[0], q0[1], qd0[0], qd0[1]
+    hm0 = 0.0
+    hm1 = 0.0
     dt = Ts / nsub
+    hdt = 0.5 * dt
+    sdt = dt / 6.0
+    scalar_law = ctrl_kind >= 1 and ctrl_kind <= 6
     for k in range(N + 1):
         t = k * Ts
-        _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
-        h = environment_wrench(env_kind, env_p, x, xd)
-        for i in range(m):
-            raw = h[i] + bias[i] + noise[k, i]
-            if k == 0:
-                hm[i] = raw
-            else:
-                hm[i] = hm[i] + alpha * (raw - hm[i])
-        u = controller_step(ctrl_kind, t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s)
-        for i in range(n):
-            Q[k, i] = q[i]
-            QD[k, i] = qd[i]
-            U[k, i] = u[i]
-        for i in range(m):
-            X[k, i] = x[i]
-            XD[k, i] = xd[i]
-            H[k, i] = h[i]
-            HM[k, i] = hm[i]
-        fin = True
-        for i in range(n):
-            if not math.isfinite(u[i]):
-                fin = False
-        if not fin:
-            det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
+        _terms2(K, q_0, q_1, w_0, w_1, T)
+        h0, h1 = _wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
+        raw0 = h0 + bias[0] + noise[k, 0]
+        raw1 = h1 + bias[1] + noise[k, 1]
+        if k == 0:
+            hm0 = raw0
+            hm1 = raw1
+        else:
+            hm0 = hm0 + alpha * (raw0 - hm0)
+            hm1 = hm1 + alpha * (raw1 - hm1)
+        if scalar_law:
+            u0, u1 = _control2(ctrl_kind, Ts, q_0, q_1, w_0, w_1, T, hm0, hm1, refs[k], ctrl_p, ctrl_s)
+        else:
+            q[0], q[1], qd[0], qd[1] = q_0, q_1, w_0, w_1
+            x[0], x[1], xd[0], xd[1] = T[0], T[1], T[2], T[3]
+            J[0, 0], J[0, 1], J[1, 0], J[1, 1] = T[4], T[5], T[6], T[7]
+            Jdq[0], Jdq[1] = T[8], T[9]
+            B[0, 0], B[0, 1], B[1, 0], B[1, 1] = T[10], T[11], T[11], T[12]
+            nv[0], nv[1], g[0], g[1] = T[13], T[14], T[15], T[16]
+            hm[0], hm[1] = hm0, hm1
+            u = controller_step(ctrl_kind, t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s)
+            u0 = u[0]
+            u1 = u[1]
+        Q[k, 0], Q[k, 1], QD[k, 0], QD[k, 1] = q_0, q_1, w_0, w_1
+        U[k, 0], U[k, 1] = u0, u1
+        X[k, 0], X[k, 1], XD[k, 0], XD[k, 1] = T[0], T[1], T[2], T[3]
+        H[k, 0], H[k, 1], HM[k, 0], HM[k, 1] = h0, h1, hm0, hm1
+        if not (math.isfinite(u0) and math.isfinite(u1)):
+            det = T[4] * T[7] - T[5] * T[6]
             if abs(det) < 1e-9:
                 return SINGULAR, k
             return NONFINITE_TORQUE, k
         if k == N:
             break
         for _ in range(nsub):
-            ok = _accel(q, qd, u, K, env_kind, env_p, x, xd, J, Jdq, B, nv, g, a1)
-            q2 = q + 0.5 * dt * qd
-            v2 = qd + 0.5 * dt * a1
-            ok = ok and _accel(q2, v2, u, K, env_kind, env_p, x, xd, J, Jdq, B, nv, g, a2)
-            q3 = q + 0.5 * dt * v2
-            v3 = qd + 0.5 * dt * a2
-            ok = ok and _accel(q3, v3, u, K, env_kind, env_p, x, xd, J, Jdq, B, nv, g, a3)
-            q4 = q + dt * v3
-            v4 = qd + dt * a3
-            ok = ok and _accel(q4, v4, u, K, env_kind, env_p, x, xd, J, Jdq, B, nv, g, a4)
-            if not ok:
+            ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T)  # T reused as scratch
+            v20 = w_0 + hdt * a10
+            v21 = w_1 + hdt * a11
+            ok2, a20, a21 = _accel2(K, env_kind, env_p, q_0 + hdt * w_0, q_1 + hdt * w_1, v20, v21, u0, u1, T)
+            v30 = w_0 + hdt * a20
+            v31 = w_1 + hdt * a21
+            ok3, a30, a31 = _accel2(K, env_kind, env_p, q_0 + hdt * v20, q_1 + hdt * v21, v30, v31, u0, u1, T)
+            v40 = w_0 + dt * a30
+            v41 = w_1 + dt * a31
+            ok4, a40, a41 = _accel2(K, env_kind, env_p, q_0 + dt * v30, q_1 + dt * v31, v40, v41, u0, u1, T)
+            if not (ok1 and ok2 and ok3 and ok4):
                 return NONFINITE_STATE, k
-            for i in range(n):
-                q[i] += dt / 6.0 * (qd[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i])
-                qd[i] += dt / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i])
-        for i in range(n):
-            if not (math.isfinite(q[i]) and math.isfinite(qd[i])):
-                return NONFINITE_STATE, k
-            if abs(qd[i]) > max_qd:
-                return RUNAWAY, k
+            q_0 += sdt * (w_0 + 2.0 * v20 + 2.0 * v30 + v40)
+            q_1 += sdt * (w_1 + 2.0 * v21 + 2.0 * v31 + v41)
+            w_0 += sdt * (a10 + 2.0 * a20 + 2.0 * a30 + a40)
+            w_1 += sdt * (a11 + 2.0 * a21 + 2.0 * a31 + a41)
+        if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
+            return NONFINITE_STATE, k
+        if abs(w_0) > max_qd or abs(w_1) > max_qd:
+            return RUNAWAY, k
     return OK, N
 
 
