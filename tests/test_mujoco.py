@@ -122,3 +122,37 @@ def test_unsupported_environment_and_robot_are_errors(franka):
     bare = type(franka)(franka.model, franka.frame)
     with pytest.raises(ParameterError, match="needs the built-in arm or a PinocchioRobot loaded from a URDF"):
         MujocoPlant(bare, Table([0.3, 0, 0]))
+
+
+def test_cli_run_with_mujoco_engine_and_compare_command(tmp_path):
+    """`forcecontrol run NAME --engine mujoco --json` and `forcecontrol compare NAME --json` report both engines."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["run", "panda-table-line", "--engine", "mujoco", "--json", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    assert out["cases"][0]["engine"] == "mujoco" and out["all_checks_pass"]
+    res = runner.invoke(app, ["compare", "panda-table-line", "--json"])
+    assert res.exit_code == 0, res.output
+    rep = json.loads(res.stdout)["cases"][0]
+    assert rep["engines"][1] == "mujoco" and rep["axis"] == 2
+    assert rep["steady_force_difference_percent"] < 2.0
+    assert rep["why_they_differ"]
+    res = runner.invoke(app, ["compare", "panda-table-line"])
+    assert res.exit_code == 0 and "why" in res.stdout
+
+
+def test_compare_on_a_scenario_mujoco_cannot_build_is_a_clear_error():
+    """A scenario whose environment MuJoCo cannot model (a 6-D spring) exits with code 2 and says why."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    res = CliRunner().invoke(app, ["compare", "panda-peg-in-hole"])
+    assert res.exit_code == 2
+    assert "supports ElasticPlane and Table" in res.output

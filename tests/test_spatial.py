@@ -437,7 +437,7 @@ def test_compiled_law_equals_the_readable_functions(franka):
 
 
 def test_hybrid_presses_20_newtons_on_a_table_while_tracing_a_line(franka):
-    """6-D hybrid (9.77)–(9.84): λ follows λ̈ + K_Dλ λ̇ + K_Pλ (λ − λ_d) = 0 within 3%, then holds 20 N while the tip traces a line."""
+    """6-D hybrid (9.77)–(9.84): λ follows λ̈ + K_Dλ λ̇ + K_Pλ (λ − λ_d) = 0 within 3%, then holds 20 N along a line."""
     from forcecontrol.controllers.spatial import SpatialHybridController
     from forcecontrol.trajectories import LinearPath
 
@@ -471,3 +471,24 @@ def test_hybrid_rejects_bad_force_directions(franka):
         SpatialHybridController(franka, np.ones((3, 1)), 1e-4, 1.0, 1.0, 1.0, 1.0)
     with pytest.raises(ParameterError, match="linearly independent"):
         SpatialHybridController(franka, np.array([[1, 2], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0.0]]), 1e-4, 1.0, 1.0, 1.0, 1.0)
+
+
+@pytest.mark.parametrize("name", ["panda-table-line", "panda-peg-in-hole", "panda-admittance-contact"])
+def test_panda_scenarios_run_by_name_and_meet_their_expected_values(name):
+    """The Panda scenarios (hybrid line on a table, peg-in-hole with Table 9.2, admittance contact) pass their checks."""
+    from forcecontrol.scenarios import run_scenario
+
+    run = run_scenario(name)
+    assert run.all_checks_pass, [c.checks for c in run.cases]
+
+
+def test_peg_follows_the_hole_axis_with_zero_lateral_wrench():
+    """Peg-in-hole: the tip ends on the hole's (offset, tilted) axis 3 cm deep with lateral forces and tilting moments near 0."""
+    from forcecontrol.scenarios import run_scenario
+
+    res = run_scenario("panda-peg-in-hole").cases[0].result
+    d = res.x[-1, :3] - res.x[0, :3]
+    assert d[0] == pytest.approx(0.002, abs=2e-5)  # the hole's axis is 2 mm along x
+    assert d[1] == pytest.approx(-0.03 * math.tan(math.radians(-1.0)), abs=2e-5)  # tilted 1° about x
+    assert d[2] == pytest.approx(-0.03, abs=1e-4)
+    assert np.all(np.abs(res.wrench[-1, [0, 1]]) < 0.01) and np.all(np.abs(res.wrench[-1, [3, 4]]) < 1e-3)

@@ -34,6 +34,7 @@ class Engine(str, Enum):
     auto = "auto"
     python = "python"
     compiled = "compiled"
+    mujoco = "mujoco"
 
 
 class DataFormat(str, Enum):
@@ -186,3 +187,4 @@ def main() -> None:  # pragma: no cover
 app.command("analyze")(__import__("forcecontrol.cli_analyze", fromlist=["analyze_command"]).analyze_command)
 app.command("task")(__import__("forcecontrol.cli_task", fromlist=["task_command"]).task_command)
 app.command("sweep")(__import__("forcecontrol.sweep.cli", fromlist=["sweep_command"]).sweep_command)
+app.command("compare")(__import__("forcecontrol.engines.cli", fromlist=["compare_command"]).compare_command)

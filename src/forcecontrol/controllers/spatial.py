@@ -488,7 +488,9 @@ class SpatialHybridController(_SpatialBase):
 
     Args:
         robot: a 6-D robot with ``spatial_terms``.
-        force_directions: S_f, (6, k) desired-frame directions (orthonormalised), or a (6,) vector.
+        force_directions: S_f, (6, k) desired-frame directions (orthonormalised), a (6,) vector, or a
+            :class:`~forcecontrol.task.Task` / :class:`~forcecontrol.task.SelectionMatrices` whose
+            constraint frame is the desired frame (e.g. ``task.peg_in_hole()``, Table 9.2).
         compliance: C, the environment's compliance along S_f (k, k) SPD [m/N] (scalar allowed).
         stiffness, damping: K_P, K_D of the motion loop (6, 6) SPD [1/s², 1/s].
         force_stiffness, force_damping: K_Pλ, K_Dλ (k, k) SPD [1/s², 1/s].
@@ -511,6 +513,10 @@ class SpatialHybridController(_SpatialBase):
         sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        if hasattr(force_directions, "selection"):  # a forcecontrol.task.Task (Tables 9.1-9.3)
+            force_directions = force_directions.selection()
+        if hasattr(force_directions, "force_selection"):  # forcecontrol.task.SelectionMatrices
+            force_directions = force_directions.force_selection
         S = np.array(force_directions, dtype=np.float64)
         if S.ndim == 1:
             S = S.reshape(-1, 1)

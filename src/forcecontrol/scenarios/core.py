@@ -59,7 +59,10 @@ TOP_FIELDS: dict[str, Field] = {
 }
 
 ROBOT_FIELDS: dict[str, Field] = {
-    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r")),
+    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "urdf")),
+    "urdf": Field("str", doc="model = 'urdf': path of the URDF file"),
+    "frame": Field("str", doc="panda/ur5/urdf: the controlled frame (default panda_hand_tcp / tool0)"),
+    "locked_joints": Field("strlist", doc="model = 'urdf': joints fixed at zero"),
     "q0": Field("vector", doc="initial joint positions [rad]"),
     "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),
     "elbow": Field("str", default="up", choices=("up", "down")),
@@ -204,6 +207,8 @@ def _column_metric(col: str):
     def fn(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
         cols = res.columns()
         sel = res.t >= res.t[-1] - window - 1e-12
+        if col not in cols and res.m == 6:  # 6-D pose logs name their axes 0..5 (x, y, z are 0, 1, 2)
+            return float(np.mean(cols[col.replace("x", "0").replace("y", "1").replace("z", "2")][sel]))
         return float(np.mean(cols[col][sel]))
 
     return fn
@@ -368,15 +373,20 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
     cfg = case.config
     rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
-    try:
-        if rt["model"] == "chapter-arm" and rt["parameters"]:
-            raise ScenarioError(f"{where}: [robot]: key 'parameters' needs model = 'planar-2r'")
-        params = PlanarTwoLinkParameters(**(rt["parameters"] or {}))
-        robot = PlanarTwoLink(params)
-    except TypeError as exc:
-        raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
-    except ForceControlError as exc:
-        raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+    if rt["model"] in ("panda", "ur5", "urdf"):
+        from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
+
+        robot = pinocchio_robot(where, rt)
+    else:
+        try:
+            if rt["model"] == "chapter-arm" and rt["parameters"]:
+                raise ScenarioError(f"{where}: [robot]: key 'parameters' needs model = 'planar-2r'")
+            params = PlanarTwoLinkParameters(**(rt["parameters"] or {}))
+            robot = PlanarTwoLink(params)
+        except TypeError as exc:
+            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+        except ForceControlError as exc:
+            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
     try:
         if rt["q0"] is not None and rt["start_position"] is not None:
             raise ScenarioError(f"{where}: [robot]: give q0 or start_position, not both")
@@ -385,6 +395,8 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
             if q0.shape != (robot.nq,):
                 raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
         elif rt["start_position"] is not None:
+            if not hasattr(robot, "inverse_kinematics"):
+                raise ScenarioError(f"{where}: [robot]: model '{rt['model']}' needs q0 (no closed-form inverse kinematics)")
             q0 = robot.inverse_kinematics(rt["start_position"], elbow=rt["elbow"])
         else:
             raise ScenarioError(f"{where}: [robot]: missing key 'q0' or 'start_position'")
@@ -398,7 +410,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
     if duration <= 0:
         raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
-    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts}
+    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0}
     env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx)
     ctx["environment"] = env
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
@@ -463,19 +475,30 @@ def run_scenario(
 
     Args:
         scenario: a loaded scenario, a built-in name or a TOML path.
-        engine: simulator engine (``"auto"``, ``"python"``, ``"compiled"``).
+        engine: simulator engine (``"auto"``, ``"python"``, ``"compiled"``), or ``"mujoco"``: MuJoCo as
+            the plant (optional extra; elastic planes and tables; exact force sensor).
         progress: called as ``progress(done, total, label)`` after each case.
     """
     scn = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     out = []
     for i, case in enumerate(scn.cases):
         parts = build_case(case, where=f"{scn.source}: [[case]] #{i + 1}")
-        res = simulate(
-            parts["robot"], parts["environment"], parts["controller"], parts["reference"],
-            q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"],
-            substeps=parts["substeps"], engine=engine, label=case.label,  # type: ignore[arg-type]
-            metadata={"scenario": scn.name, "source": scn.source},
-        )
+        if engine == "mujoco":
+            from ..engines.mujoco import MujocoPlant
+
+            plant = MujocoPlant(parts["robot"], parts["environment"], sample_time=parts["controller"].sample_time)
+            res = plant.run(
+                parts["controller"], parts["reference"], q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"],
+                label=case.label,
+            )
+            res.metadata.update({"scenario": scn.name, "source": scn.source})
+        else:
+            res = simulate(
+                parts["robot"], parts["environment"], parts["controller"], parts["reference"],
+                q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"],
+                substeps=parts["substeps"], engine=engine, label=case.label,  # type: ignore[arg-type]
+                metadata={"scenario": scn.name, "source": scn.source},
+            )
         window = parts["settle_window"]
         metrics = {}
         for name in ("x", "y", "fx", "fy"):

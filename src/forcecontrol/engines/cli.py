@@ -1,0 +1,67 @@
+"""``forcecontrol compare NAME``: a scenario on the built-in simulator and on MuJoCo, side by side."""
+
+from __future__ import annotations
+
+import json
+import sys
+from typing import Annotated, Any
+
+import typer
+
+__all__ = ["compare_command", "compare_scenario"]
+
+
+def compare_scenario(name: str) -> dict[str, Any]:
+    """Run every case of a scenario on both engines and compare the contact force (see ``compare_engines``)."""
+    from ..scenarios import load_scenario, run_scenario
+    from .mujoco import compare_engines
+
+    scn = load_scenario(name)
+    builtin = run_scenario(scn, engine="auto")
+    mujoco = run_scenario(scn, engine="mujoco")
+    cases = []
+    for a, b in zip(builtin.cases, mujoco.cases):
+        rep = compare_engines(a.result, b.result)
+        rep["label"] = a.label
+        rep["engines"] = [a.result.metadata.get("engine"), "mujoco"]
+        cases.append(rep)
+    return {"scenario": scn.name, "cases": cases}
+
+
+def compare_command(
+    scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+) -> None:
+    """Run a scenario on the built-in simulator and on MuJoCo; report both and why they differ."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from ..errors import ForceControlError
+
+    try:
+        report = compare_scenario(scenario)
+    except (ForceControlError, ImportError) as exc:
+        Console(stderr=True).print(f"[red]error:[/] {exc}")
+        raise typer.Exit(code=2) from exc
+    if json_out:
+        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        return
+    console = Console()
+    t = Table(title=f"{report['scenario']}: contact force, built-in simulator vs MuJoCo", title_justify="left")
+    for col in ("case", "axis", "engine", "steady [N]", "peak [N]", "peak time [s]", "overshoot [%]", "settling [s]"):
+        t.add_column(col, justify="left" if col in ("case", "engine") else "right")
+    for c in report["cases"]:
+        for eng, key in ((c["engines"][0], "builtin"), ("mujoco", "mujoco")):
+            m = c[key]
+            t.add_row(
+                c["label"], str(c["axis"]), str(eng), f"{m['steady']:.4f}", f"{m['peak']:.4f}", f"{m['peak_time']:.3f}",
+                f"{m['overshoot_percent']:.2f}", f"{m['settling_time_2pc']:.3f}",
+            )
+        t.add_row(
+            c["label"], "", "difference", f"{c['steady_force_difference_percent']:.3f} %", "",
+            "", "", f"max |Δf|/peak {c['max_force_difference_over_peak_percent']:.2f} %",
+        )
+    console.print(t)
+    console.print("[bold]Where the engines differ, and why:[/]")
+    for why in report["cases"][0]["why_they_differ"] if report["cases"] else ():
+        console.print(f"  • {why}")
