@@ -546,6 +546,7 @@ def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
         "samples": j.N,
         "substeps": j.nsub,
         "engine": engine,
+        "_steps": int(r["last_sample"]) if status == 0 else int(r["last_sample"]) + 1,
     }
 
 
@@ -612,7 +613,8 @@ class SweepResult:
         path: the Parquet table; table: it, as a pandas DataFrame (one row per case).
         metadata: the sweep definition stored with it.
         ran: cases simulated by this call; resumed: cases found already done.
-        seconds: wall time of the simulation phase; steps: arm-steps simulated by this call.
+        seconds: wall time of the simulation phase; steps: arm-steps (control samples, all cases)
+            simulated by this call; a diverged case counts the samples up to its divergence.
     """
 
     path: Path
@@ -709,13 +711,14 @@ def run_sweep(
     total = prep.n_cases
     if progress is not None:
         progress(resumed, total)
-    counter = {"done": resumed}
+    counter = {"done": resumed, "steps": 0}
 
     def store(block: list[CaseJob], rows: list[dict[str, Any]]) -> None:
         ids = [j.case_id for j in block]
         name = f"part-{min(ids):08d}-{max(ids):08d}-{len(ids)}.parquet"
         _write_atomic(_to_table(rows, prep), parts_dir / name)
         counter["done"] += len(block)
+        counter["steps"] += sum(r["_steps"] for r in rows)
         if progress is not None:
             progress(counter["done"], total)
 
@@ -732,7 +735,7 @@ def run_sweep(
     _write_atomic(table, out)
     shutil.rmtree(parts_dir, ignore_errors=True)
     df, meta = read_sweep(out)
-    return SweepResult(out, df, meta, len(todo), resumed, seconds, sum(j.N for j in todo), where)
+    return SweepResult(out, df, meta, len(todo), resumed, seconds, counter["steps"], where)
 
 
 def _done_ids(parts_dir: Path) -> set[int]:
