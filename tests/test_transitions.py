@@ -204,3 +204,18 @@ def test_own_loop_example_runs_the_stack_against_a_user_interface():
     stats = mod.run(robot, ctl, APPROACH, 400)
     assert stats["compute"].shape == (400,) and np.all(stats["compute"] > 0)
     assert robot.k == 400 and "contact" in [e["event"] for e in ctl.events]
+
+
+def test_impact_safety_scenario_trips_the_force_limit_only_for_the_naive_gains():
+    """'impact-safety': no stop with the documented gains; the naive ones stop at the first sample with |h_m| > 60 N."""
+    run = run_scenario("impact-safety")
+    assert run.all_checks_pass, [c.checks for c in run.cases]
+    doc, naive = run.cases
+    assert not [e for e in doc.result.events if e.get("cause") == "force limit"]
+    (stop,) = [e for e in naive.result.events if e.get("reaction") == "stop"]
+    r = naive.result
+    k = int(np.argmax(np.linalg.norm(r.wrench_measured, axis=1) > 60.0))
+    assert stop["cause"] == "force limit" and stop["t"] == pytest.approx(r.t[k])
+    events = [e["event"] for e in r.events]
+    assert events.index("contact") < [i for i, e in enumerate(r.events) if e.get("cause") == "force limit"][0]
+    assert naive.result.metadata["controller"]["type"] == "Safety"

@@ -10,7 +10,8 @@ Controller types:
 
 Metrics: ``impact_peak_force`` [N], ``bounce_count``, ``bounced`` (1 when the contact was lost
 after the first impact, else 0), ``first_contact_time`` [s] (from the true contact force, along
-the supervisor's direction when there is one), ``safety_events`` (number of logged reactions).
+the supervisor's direction when there is one), ``safety_events`` (number of logged reactions),
+``safety_stops`` (number of reactions that were a safe stop).
 """
 
 from __future__ import annotations
@@ -82,3 +83,4 @@ register_metric("bounce_count", lambda r, p, w: float(_report(r, p)["bounces"]))
 register_metric("bounced", lambda r, p, w: float(_report(r, p)["bounces"] > 0))
 register_metric("first_contact_time", lambda r, p, w: float(_report(r, p)["first_contact_time"]))
 register_metric("safety_events", lambda r, p, w: float(sum(1 for e in r.events if e.get("event") == "safety")))
+register_metric("safety_stops", lambda r, p, w: float(sum(1 for e in r.events if e.get("reaction") == "stop")))
