@@ -28,7 +28,7 @@ import warnings
 from typing import Any
 
 import numpy as np
-from scipy.linalg import expm
+from scipy.linalg import expm  # type: ignore[import-untyped]
 
 from .._validate import as_gain_matrix, positive_scalar
 from ..errors import BandwidthWarning
@@ -196,7 +196,7 @@ class AdmittanceController(_SpatialBase):
             u = self._compiled_torque(t, q, qd, h, ref_t, self._eye6, self.motion_damping, self.motion_stiffness, False)
             self.state[:] = self._Ad @ self.state + self._Gd @ h_d
             return self._check_output(t, u, measurement)
-        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref_t, self.orientation, t)
         r = err.c + self.motion_damping @ err.xd + self.motion_stiffness @ err.x
         y0 = self.posture.acceleration(q, qd) if self.posture is not None else None

@@ -301,6 +301,8 @@ class _SpatialBase(Controller):
     def __init__(self, robot, orientation, posture, singularity, sample_time, base_frame, ee_frame) -> None:
         super().__init__(robot, sample_time)
         _spatial_robot(robot)
+        #: the robot as a 6-D model (``spatial_terms``), for the type checker.
+        self._spatial: Any = robot
         if orientation not in ("euler", "rotvec"):
             raise ParameterError(f"orientation must be 'euler' or 'rotvec'; got {orientation!r}")
         self.orientation = orientation
@@ -323,7 +325,7 @@ class _SpatialBase(Controller):
         self._post = (np.array(p.posture), p.stiffness, p.damping, True) if p is not None else (np.zeros(n), 0.0, 0.0, False)
 
     def _compiled_torque(self, t, q, qd, h, reference, Md_inv, K_D, K_P, use_force) -> np.ndarray:
-        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         post, k_n, d_n, has = self._post
         s = self.singularity
         u, self.last_damping, c2 = spatial_step_kernel(
@@ -392,7 +394,7 @@ class SpatialImpedanceController(_SpatialBase):
         if self.compiled:
             u = self._compiled_torque(t, q, qd, h, reference, self._Md_inv, self.damping, self.stiffness, True)
             return self._check_output(t, u, measurement)
-        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         RdT = err.R_d.T
         h_d = np.concatenate([RdT @ h[:3], RdT @ h[3:]])
@@ -451,7 +453,7 @@ class SpatialComplianceController(_SpatialBase):
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.15) for this sample."""
         q, qd = measurement.q, measurement.qd
-        R_e, o_e, J, Jdq, B, _nv, g = self.robot.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, _nv, g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         JAd = err.JAd
         u = g + JAd.T @ (self.stiffness @ err.x - self.damping @ (JAd @ qd))
@@ -539,7 +541,7 @@ class SpatialHybridController(_SpatialBase):
         """Torques of the 6-D hybrid law for this sample."""
         q, qd = measurement.q, measurement.qd
         h = self._wrench(measurement.wrench)
-        R_e, o_e, J, Jdq, B, nv, _g = self.robot.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         RdT = err.R_d.T
         S_f = self.force_selection

@@ -60,7 +60,7 @@ DIFFERENCES = (
 
 def _mj():
     try:
-        import mujoco
+        import mujoco  # type: ignore[import-untyped]
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ImportError("the MuJoCo engine needs MuJoCo: pip install 'forcecontrol[mujoco]'") from exc
     return mujoco
@@ -363,7 +363,7 @@ class MujocoPlant:
             "substeps": self.substeps,
             "mujoco": self.describe(),
         }
-        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)
+        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)  # type: ignore[arg-type]
         if status_k is not None:
             raise SimulationDivergedError(
                 f"MuJoCo run '{label or 'case'}' diverged at t = {status_k * Ts:.4f} s",

@@ -41,7 +41,7 @@ _ROWS = {"pose": slice(0, 6), "position": slice(0, 3), "planar": slice(0, 2)}
 
 def _pin():
     try:
-        import pinocchio
+        import pinocchio  # type: ignore[import-untyped]
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ImportError(
             "forcecontrol.robots.pinocchio needs Pinocchio: pip install 'forcecontrol[pinocchio]'"
