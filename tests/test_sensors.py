@@ -230,6 +230,15 @@ def test_example_93_settles_through_a_realistic_sensor_and_encoders(scheme):
     assert abs(r.wrench[r.t >= 3.0, 0].mean() - 10.0) < 0.2
 
 
+def test_uncompensated_drift_shifts_the_true_force_by_drift_times_time():
+    """Drift ḃ = 0.05 N/s, no re-zeroing: the PI loop holds the measured force at f_d, so the true one is f_d − ḃ t (±0.05 N)."""
+    env, ctl, ref = _example_93("inner position", 1e4)
+    r = fc.simulate(ARM, env, ctl, ref, q0=Q0, duration=5.0, sensor=RealisticForceSensor(drift=[0.05, 0.0]))
+    sel = r.t >= 4.0
+    assert abs(r.wrench[sel, 0].mean() - (10.0 - 0.05 * r.t[sel].mean())) < 0.05
+    assert abs(r.wrench_measured[sel, 0].mean() - 10.0) < 0.05
+
+
 # ----------------------------------------------------------------------------- encoders
 
 

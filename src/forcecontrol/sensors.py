@@ -277,7 +277,9 @@ class RealisticForceSensor(ForceSensor):
     ``b̂`` comes from zeroing: at start, ``zeroing_samples`` readings of the arm at rest (in free
     space: contact at start gets zeroed away, as on a real arm) are averaged and the expected
     tool weight ``R_Sᵀ m̂ g`` is removed from the mean. ``m̂`` is ``tool_estimate.mass`` (from
-    :func:`identify_tool_gravity`), zero when not given.
+    :func:`identify_tool_gravity`), zero when not given. Zeroing does not remove drift: a force
+    loop regulates the measured force, so in contact the true force moves by about −ḃ t; on a
+    real arm re-zero in free space between contacts.
 
     The first-order filter is ForceSensor's ``y_k = y_{k−1} + α (x_k − y_{k−1})``,
     ``α = 1 − exp(−2π f_c Ts)``; ``"butterworth"`` is the second-order Butterworth low-pass by the
