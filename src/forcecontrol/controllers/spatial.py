@@ -361,7 +361,9 @@ class SpatialImpedanceController(_SpatialBase):
         robot: a 6-D robot with ``spatial_terms`` (:class:`~forcecontrol.robots.pinocchio.PinocchioRobot`).
         inertia: M_d, SPD (6, 6) [kg, kg m²]; damping: K_D, SPD (6, 6); stiffness: K_P, SPD (6, 6).
         orientation: ``"euler"`` (XYZ, the chapter's) or ``"rotvec"``.
-        posture: null-space posture (n > 6): a :class:`NullSpacePosture` or joint values.
+        posture: null-space posture (n > 6): a :class:`NullSpacePosture` or joint values. Without
+            one the joint acceleration is the minimum-norm solution and self-motion is only damped
+            by the joints' friction.
         singularity: damped-least-squares settings.
         sample_time: Ts [s]; base_frame, ee_frame: names a :class:`~forcecontrol.spatial.Wrench`
             measurement must carry.
