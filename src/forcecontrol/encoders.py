@@ -22,6 +22,7 @@ import numpy as np
 from ._validate import positive_scalar
 from .controllers.base import Controller, Measurement, Reference
 from .errors import ParameterError
+from .sensors import first_order_alpha
 
 __all__ = ["JointEncoder", "EncoderFeedback"]
 
@@ -49,15 +50,8 @@ class JointEncoder:
             self.velocity_cutoff = None
             self.alpha = 1.0
         else:
-            fc = positive_scalar("velocity_cutoff", velocity_cutoff)
-            nyquist = 0.5 / self.sample_time
-            if fc >= nyquist:
-                raise ParameterError(
-                    f"velocity_cutoff must be below the Nyquist frequency {nyquist:.6g} Hz for sample_time "
-                    f"{self.sample_time:.6g} s; got {fc:.6g} Hz"
-                )
-            self.velocity_cutoff = fc
-            self.alpha = 1.0 - math.exp(-2.0 * math.pi * fc * self.sample_time)
+            self.velocity_cutoff = positive_scalar("velocity_cutoff", velocity_cutoff)
+            self.alpha = first_order_alpha("velocity_cutoff", self.velocity_cutoff, self.sample_time)
         self._q_prev: np.ndarray | None = None
         self._v: np.ndarray | None = None
 

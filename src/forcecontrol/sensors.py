@@ -27,7 +27,29 @@ import numpy as np
 from ._validate import positive_scalar
 from .errors import DimensionError, ParameterError
 
-__all__ = ["ForceSensor", "RealisticForceSensor", "ToolGravity", "identify_tool_gravity", "planar_sensor_rotation"]
+__all__ = [
+    "ForceSensor",
+    "RealisticForceSensor",
+    "ToolGravity",
+    "identify_tool_gravity",
+    "planar_sensor_rotation",
+    "first_order_alpha",
+]
+
+
+def first_order_alpha(name: str, cutoff: float, sample_time: float) -> float:
+    """α = 1 − exp(−2π f_c Ts) of the first-order low-pass ``y_k = y_{k−1} + α (x_k − y_{k−1})``.
+
+    Raises:
+        ParameterError: the cut-off ``name`` is at or above the Nyquist frequency 1/(2 Ts).
+    """
+    nyquist = 0.5 / sample_time
+    if cutoff >= nyquist:
+        raise ParameterError(
+            f"{name} must be below the Nyquist frequency {nyquist:.6g} Hz for sample_time "
+            f"{sample_time:.6g} s; got {cutoff:.6g} Hz"
+        )
+    return 1.0 - math.exp(-2.0 * math.pi * cutoff * sample_time)
 
 
 class ForceSensor:
@@ -75,15 +97,7 @@ class ForceSensor:
         Raises:
             ParameterError: the cut-off is at or above the Nyquist frequency 1/(2 Ts).
         """
-        if self.cutoff is None:
-            return 1.0
-        nyquist = 0.5 / sample_time
-        if self.cutoff >= nyquist:
-            raise ParameterError(
-                f"cutoff must be below the Nyquist frequency {nyquist:.6g} Hz for sample_time "
-                f"{sample_time:.6g} s; got {self.cutoff:.6g} Hz"
-            )
-        return 1.0 - math.exp(-2.0 * math.pi * self.cutoff * sample_time)
+        return 1.0 if self.cutoff is None else first_order_alpha("cutoff", self.cutoff, sample_time)
 
     def sequences(self, n_samples: int, dim: int) -> tuple[np.ndarray, np.ndarray]:
         """The bias (dim,) and the noise (n_samples, dim) of one run."""
