@@ -400,3 +400,10 @@ def test_scenario_sensor_table_refuses_bad_values(sensor, match):
 
     with pytest.raises(ScenarioError, match=match):
         load_scenario(_scenario_with_sensor(sensor))
+
+
+def test_exact_only_without_any_imperfection():
+    """RealisticForceSensor() is exact; any one imperfection (resolution, delay, drift, tool) makes it inexact."""
+    assert RealisticForceSensor().exact
+    for kw in ({"resolution": 0.01}, {"delay_samples": 1}, {"drift": 0.1}, {"tool": ToolGravity(1.0)}):
+        assert not RealisticForceSensor(**kw).exact
