@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import signal
 
 from forcecontrol.controllers.base import Measurement, Reference
@@ -529,3 +531,23 @@ def test_ur5_impedance_step_matches_second_order_response():
     for i in range(6):
         y = _second_order(t, i, h_d)
         assert np.max(np.abs(xt[:, i] - y)) <= 0.02 * np.max(np.abs(y)), i
+
+
+_angles = st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3)
+_vec = st.lists(st.floats(-10.0, 10.0), min_size=3, max_size=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_angles, _vec, _vec, _vec, _vec, _vec)
+def test_frame_change_preserves_power_for_any_pose(phi, t, f, m, v, w):
+    """For any transform, hᵀv computed in the child frame equals the one in the parent frame (property)."""
+    X = Transform(euler_xyz_to_rotation(phi), t, parent="world", child="tool")
+    h, tw = Wrench(f, m, "tool", "tool"), Twist(v, w, "tool", "tool")
+    assert math.isclose(tw.transformed(X).power(h.transformed(X)), tw.power(h), rel_tol=1e-9, abs_tol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_angles)
+def test_euler_T_determinant_is_cos_phi2(phi):
+    """det T(φ) = cos φ₂ for XYZ angles: the representation singularity is exactly at cos φ₂ = 0 (property)."""
+    assert math.isclose(np.linalg.det(euler_xyz_T(phi)), math.cos(phi[1]), abs_tol=1e-12)

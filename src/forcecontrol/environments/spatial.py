@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
+from ..errors import ParameterError
 from ..spatial import check_rotation, euler_xyz_to_rotation, rotation_vector
 from .base import Environment
 
@@ -89,8 +90,6 @@ class Table(Environment):
         nrm = np.array(as_vector("normal", normal, 3))
         length = float(np.linalg.norm(nrm))
         if length < 1e-12:
-            from ..errors import ParameterError
-
             raise ParameterError(f"normal must be a non-zero vector; got {nrm.tolist()}")
         self.normal = nrm / length
         self.stiffness = positive_scalar("stiffness", stiffness)
