@@ -203,19 +203,54 @@ def test_simulated_stability_region_agrees_with_the_analytic_sampled_loop_bounda
 # ----------------------------------------------------------------------------- where it runs
 
 
-def test_local_run_and_dask_localcluster_give_identical_tables(tmp_path):
-    """The same sweep on this machine's threads and on a real dask.distributed.LocalCluster: identical tables."""
+@pytest.fixture(scope="module")
+def cluster():
+    """A real dask.distributed.LocalCluster: two worker processes, one thread each."""
     distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+        yield c
+
+
+def _cluster_sweep():
     d = SweepDefinition.from_options(
         {"environment.stiffness": "logspace(3, 5.5, 4)", "sensor.seed": "range(0, 2)", "sensor.noise_std": [0.3]},
     )
-    prep = prepare_sweep(_scenario(duration=1.0), d)
+    return prepare_sweep(_scenario(duration=1.0), d)
+
+
+def test_local_run_and_dask_localcluster_give_identical_tables(tmp_path, cluster):
+    """The same sweep on this machine's threads and on a real dask.distributed.LocalCluster: identical tables."""
+    prep = _cluster_sweep()
     local = run_sweep(prep, tmp_path / "local.parquet", workers=2, block_size=5)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        remote = run_sweep(prep, tmp_path / "cluster.parquet", scheduler=cluster.scheduler_address, block_size=3)
+    remote = run_sweep(prep, tmp_path / "cluster.parquet", scheduler=cluster.scheduler_address, block_size=3)
     assert remote.scheduler.startswith("tcp://") and local.scheduler == "local"
     pd.testing.assert_frame_equal(local.table, remote.table, check_exact=True)
     assert len(local.table) == 24 and local.table["case_id"].tolist() == list(range(24))
+
+
+def test_a_worker_killed_mid_sweep_loses_no_case(tmp_path, cluster):
+    """SIGKILL one Dask worker process while the sweep runs: its tasks rerun, the table equals the local one."""
+    import threading
+
+    from dask.distributed import Client
+
+    prep = _cluster_sweep()
+    local = run_sweep(prep, tmp_path / "local.parquet", workers=2)
+    with Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+        parts = tmp_path / "k.parquet.parts"
+        box = {}
+        t = threading.Thread(target=lambda: box.update(r=run_sweep(prep, tmp_path / "k.parquet", scheduler=client,
+                                                                     block_size=1)))
+        t.start()
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (parts.exists() and len(list(parts.glob("part-*"))) >= 2):
+            time.sleep(0.002)
+        done_at_kill = len(list(parts.glob("part-*")))
+        os.kill(pids[0], signal.SIGKILL)
+        t.join(120)
+    assert done_at_kill < 24 and "r" in box
+    pd.testing.assert_frame_equal(box["r"].table, local.table, check_exact=True)
 
 
 def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):

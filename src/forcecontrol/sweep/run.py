@@ -820,10 +820,19 @@ def _run_dask(scheduler: Any, todo: list[CaseJob], block_size: int | None, band,
         for b in _blocks(todo, workers, block_size):
             f = client.submit(run_block, b, *band, pure=False, retries=2)
             futures[f] = b
+        stored: set[Any] = set()
         try:
             for f in as_completed(list(futures), loop=client.loop):
                 store(futures[f], f.result())
+                stored.add(f)
         except BaseException:
+            # Ctrl-C: keep the blocks the cluster has already finished, cancel the rest
+            for f, b in futures.items():
+                if f not in stored and f.status == "finished":
+                    try:
+                        store(b, f.result(timeout=5))
+                    except Exception:  # pragma: no cover - result lost with its worker
+                        pass
             client.cancel(list(futures))
             raise
         return str(client.scheduler.address)
