@@ -189,8 +189,8 @@ def plot_sweep_map(
             if rho is not None:
                 ax.contour(fx, fy, rho, levels=[1.0], colors="black", linewidths=1.5)
                 ax.plot([], [], color="black", label="analytic ρ = 1")
-            for p, axis_set in ((xs, ax.set_xscale), (ys, ax.set_yscale)):
-                if p.size and p.min() > 0 and p.max() / p.min() > 100:
+            for vals_, axis_set in ((xs, ax.set_xscale), (ys, ax.set_yscale)):
+                if vals_.size and vals_.min() > 0 and vals_.max() / vals_.min() > 100:
                     axis_set("log")
             ax.set_xlabel(x)
             ax.set_ylabel(y)

@@ -554,7 +554,7 @@ def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
 
 
 def _schema(prep: PreparedSweep):
-    import pyarrow as pa
+    import pyarrow as pa  # type: ignore[import-untyped]
 
     kinds = {"int": pa.int64(), "float": pa.float64(), "bool": pa.bool_(), "str": pa.string(), "json": pa.string()}
     fields = [pa.field("case_id", pa.int64()), pa.field("case", pa.string())]
@@ -568,7 +568,7 @@ def _schema(prep: PreparedSweep):
 
 
 def _to_table(rows: list[dict[str, Any]], prep: PreparedSweep):
-    import pyarrow as pa
+    import pyarrow as pa  # type: ignore[import-untyped]
 
     schema = _schema(prep)
     cols: dict[str, list[Any]] = {f.name: [] for f in schema}
@@ -587,7 +587,7 @@ def _to_table(rows: list[dict[str, Any]], prep: PreparedSweep):
 
 
 def _write_atomic(table, path: Path) -> None:
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     pq.write_table(table, tmp)
@@ -598,7 +598,7 @@ def _write_atomic(table, path: Path) -> None:
 
 def read_sweep(path: str | Path):
     """A sweep table and its definition: ``(pandas.DataFrame, dict)``."""
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     table = pq.read_table(path)
     meta = json.loads((table.schema.metadata or {}).get(META_KEY, b"{}"))
@@ -739,7 +739,7 @@ def run_sweep(
 
 
 def _done_ids(parts_dir: Path) -> set[int]:
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     done: set[int] = set()
     for p in sorted(parts_dir.glob("part-*.parquet")):
@@ -748,9 +748,9 @@ def _done_ids(parts_dir: Path) -> set[int]:
 
 
 def _assemble(parts_dir: Path, prep: PreparedSweep):
-    import pyarrow as pa
-    import pyarrow.compute as pc
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.compute as pc  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     schema = _schema(prep)
     tables = [pq.read_table(p).cast(schema) for p in sorted(parts_dir.glob("part-*.parquet"))]

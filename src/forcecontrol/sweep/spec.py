@@ -26,7 +26,7 @@ import itertools
 import json
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -106,23 +106,28 @@ def parse_values(path: str, spec: Any) -> list[Any]:
         if m and m.group(1) in _GRID_FUNCS:
             name, body = m.group(1), m.group(2)
             if name == "range":
-                a = _args(path, name, body, (1, 2, 3))
-                if not all(float(v).is_integer() for v in a):
+                r = _args(path, name, body, (1, 2, 3))
+                if not all(float(v).is_integer() for v in r):
                     raise SweepError(f"parameter '{path}': range(...) takes integers; got range({body})")
-                ints = [int(v) for v in a]
+                ints = [int(v) for v in r]
                 if len(ints) == 3 and ints[2] == 0:
                     raise SweepError(f"parameter '{path}': range(...) step must not be 0; got range({body})")
                 values = list(range(*ints))
             else:
-                a, b, n = _args(path, name, body, (3,))
+                lo, hi, n = _args(path, name, body, (3,))
                 if not float(n).is_integer() or n < 1:
                     raise SweepError(
                         f"parameter '{path}': {name}(start, stop, num) needs a positive integer num; got {n!r}"
                     )
-                if name == "geomspace" and (a <= 0 or b <= 0):
+                if name == "geomspace" and (lo <= 0 or hi <= 0):
                     raise SweepError(f"parameter '{path}': geomspace(...) needs positive ends; got geomspace({body})")
-                fn = {"logspace": np.logspace, "linspace": np.linspace, "geomspace": np.geomspace}[name]
-                values = [float(v) for v in fn(a, b, int(n))]
+                if name == "logspace":
+                    spaced = np.logspace(lo, hi, int(n))
+                elif name == "linspace":
+                    spaced = np.linspace(lo, hi, int(n))
+                else:
+                    spaced = np.geomspace(lo, hi, int(n))
+                values = [float(v) for v in spaced]
         elif m and m.group(1) in _RANDOM_FUNCS:
             raise SweepError(
                 f"parameter '{path}': {m.group(1)}(...) is a distribution and needs design = 'random'; "
@@ -263,7 +268,6 @@ class SweepDefinition:
     cases: tuple[str, ...] = ()
     settle_band: float = 0.02
     stable_band: float = 0.05
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.design not in DESIGNS:
