@@ -10,6 +10,16 @@ contact lost) in a Parquet table with the sweep's definition in its metadata::
     result = run_sweep(prepare_sweep("example-9.3", d), "k-sweep.parquet")
     result.table.groupby("case").stable.mean()
 
+The same sweep as a table of a scenario file (``forcecontrol sweep FILE`` runs it)::
+
+    [sweep]
+    design = "grid"                 # or "random" with samples = N and seed = S
+    cases = ["1", "3", "5"]         # scenario cases (labels or 1-based indices); all by default
+    [sweep.parameters]
+    "environment.stiffness" = "logspace(3, 6, 40)"
+    "controller.force_gain[0]" = [0.0006, 0.0012, 0.0024]
+    "sensor.seed" = "range(0, 10)"
+
 Dask is imported only when a scheduler is given; matplotlib only by :func:`plot_sweep_map`.
 """
 

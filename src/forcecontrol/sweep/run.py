@@ -544,7 +544,7 @@ def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
         "status": _CAUSES.get(status, "unknown"),
         "diverged_at": math.nan if status == 0 else int(r["last_sample"]) * j.Ts,
         "samples": j.N,
-        "substeps": j.nsub,
+        "integration_substeps": j.nsub,
         "engine": engine,
         "_steps": int(r["last_sample"]) if status == 0 else int(r["last_sample"]) + 1,
     }
@@ -562,7 +562,8 @@ def _schema(prep: PreparedSweep):
     fields += [pa.field(c, pa.float64()) for c in METRIC_COLUMNS[:5]]
     fields += [pa.field("stable", pa.bool_()), pa.field("contact_lost", pa.bool_())]
     fields += [pa.field("status", pa.string()), pa.field("diverged_at", pa.float64()),
-               pa.field("samples", pa.int64()), pa.field("substeps", pa.int64()), pa.field("engine", pa.string())]
+               pa.field("samples", pa.int64()), pa.field("integration_substeps", pa.int64()),
+               pa.field("engine", pa.string())]
     meta = {META_KEY: json.dumps(prep.metadata, default=str).encode()}
     return pa.schema(fields, metadata=meta)
 
@@ -657,7 +658,8 @@ def run_sweep(
     per swept parameter (named by its path), ``settling_time`` [s], ``overshoot`` [%],
     ``steady_state_force_error`` [N], ``peak_force`` [N], ``settled_force`` [N], ``stable``,
     ``contact_lost``, ``status`` (``"ok"`` or the divergence cause), ``diverged_at`` [s],
-    ``samples``, ``substeps``, ``engine``. The definition is in the schema metadata
+    ``samples``, ``integration_substeps`` (RK4 steps per sample), ``engine`` (``"batch"``: the
+    compiled kernel, ``"simulate"``: one by one). The definition is in the schema metadata
     (:func:`read_sweep`).
 
     Args:
@@ -691,6 +693,8 @@ def run_sweep(
         out.unlink()
     if parts_dir.exists():
         old = json.loads(stamp.read_text()).get("sweep_id") if stamp.exists() else None
+        if old is None and not any(parts_dir.glob("part-*.parquet")):
+            old = prep.sweep_id  # killed before anything was stored: start afresh
         if old != prep.sweep_id:
             if not overwrite:
                 raise SweepError(
