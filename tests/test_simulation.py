@@ -53,10 +53,15 @@ def test_halving_the_integration_step_changes_no_force_by_more_than_0_1_percent(
 
 
 def test_substeps_grow_with_environment_stiffness():
-    """A stiffer environment gets more integration substeps (ω h <= 0.05)."""
-    soft = fc.simulation.choose_substeps(ARM, fc.ElasticPlane([1, 0], [-1, 0], 1e3), Q0, 1e-3)
-    steel = fc.simulation.choose_substeps(ARM, fc.ElasticPlane([1, 0], [-1, 0], 1e7), Q0, 1e-3)
-    assert soft == 1 and steel > 5
+    """A stiffer plane gets more substeps, each resolving ω² = k νᵀ J B⁻¹ Jᵀ ν with ω h <= 0.05."""
+    nu = np.array([-1.0, 0.0])
+    inv_mass = nu @ ARM.jacobian(Q0) @ np.linalg.solve(ARM.mass_matrix(Q0), ARM.jacobian(Q0).T) @ nu
+    counts = []
+    for k in (1e3, 1e5, 1e7, 1e8):
+        n = fc.simulation.choose_substeps(ARM, fc.ElasticPlane([1, 0], [-1, 0], k), Q0, 1e-3)
+        assert 1e-3 / n * math.sqrt(k * inv_mass) <= 0.05
+        counts.append(n)
+    assert counts[0] == 1 and counts == sorted(counts) and counts[-1] > counts[1]
 
 
 def test_divergence_stops_with_time_and_cause():
@@ -150,3 +155,23 @@ def test_dimension_mismatch_is_refused():
     env = fc.ElasticPlane([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], 1e3)
     with pytest.raises(DimensionError, match="environment must be 2-dimensional"):
         fc.simulate(ARM, env, fc.ImpedanceController(ARM, 1, 1, 1), fc.Setpoint([1, 0]), q0=Q0, duration=0.1)
+
+
+def test_substeps_resolve_the_contact_mode_of_a_redundant_arm():
+    """Panda (7 joints, 6×7 J) on a table: h·ω <= 0.05 with ω² = k νᵀ J B⁻¹ Jᵀ ν (effective mass along ν)."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.environments.spatial import Table
+    from forcecontrol.robots.pinocchio import panda
+
+    robot = panda()
+    q = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    k, c = 5e4, 50.0
+    table = Table(robot.forward_kinematics(q)[:3], (0.0, 0.0, 1.0), stiffness=k, damping=c)
+    J, B = robot.jacobian(q), robot.mass_matrix(q)
+    nu = np.zeros(6)
+    nu[2] = 1.0
+    inv_mass = nu @ J @ np.linalg.solve(B, J.T) @ nu  # 1 / m_eff along the normal
+    omega = math.sqrt(k * inv_mass)
+    nsub = fc.simulation.choose_substeps(robot, table, q, 1e-3)
+    assert 1e-3 / nsub * max(omega, c * inv_mass) <= 0.05
+    assert 1e-3 / (nsub - 1 if nsub > 1 else 0.5) * max(omega, c * inv_mass) > 0.05  # and not more than needed

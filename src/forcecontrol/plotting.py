@@ -23,6 +23,13 @@ SIGNAL_LABELS: dict[str, str] = {
     "fx": "f_x [N]",
     "fy": "f_y [N]",
     "fz": "f_z [N]",
+    "vz": "tip ż [m/s]",
+    "rx": "φ_x [rad]",
+    "ry": "φ_y [rad]",
+    "rz": "φ_z [rad]",
+    "mx": "μ_x [N m]",
+    "my": "μ_y [N m]",
+    "mz": "μ_z [N m]",
     "u1": "u_1 [N m]",
     "u2": "u_2 [N m]",
 }

@@ -107,22 +107,27 @@ class SimulationResult:
         return float(np.linalg.norm(self.wrench, axis=1).max())
 
     def columns(self) -> dict[str, np.ndarray]:
-        """Flat named columns (``q1``, ``x``, ``fx``, ``ref_x`` ...)."""
-        axes = "xyz"[: self.m] if self.m <= 3 else [f"{i}" for i in range(self.m)]
+        """Flat named columns: ``t``, joints ``q1 qd1 u1 ...``, pose, twist and wrench per axis.
+
+        Axis names: ``x y (z)`` for positions, ``vx vy (vz)`` velocities, ``fx fy (fz)`` forces;
+        a 6-D operational space adds ``rx ry rz`` (orientation coordinates), ``wx wy wz``
+        (angular velocity) and ``mx my mz`` (moments). References are ``ref_<field>_<axis>``.
+        """
+        pose, twist, wrench = _axis_names(self.m)
         cols: dict[str, np.ndarray] = {"t": self.t}
         for i in range(self.q.shape[1]):
             cols[f"q{i + 1}"] = self.q[:, i]
             cols[f"qd{i + 1}"] = self.qd[:, i]
             cols[f"u{i + 1}"] = self.torque[:, i]
-        for i, a in enumerate(axes):
-            cols[f"{a}"] = self.x[:, i]
-            cols[f"v{a}"] = self.xd[:, i]
-            cols[f"f{a}"] = self.wrench[:, i]
-            cols[f"f{a}_measured"] = self.wrench_measured[:, i]
+        for i in range(self.m):
+            cols[pose[i]] = self.x[:, i]
+            cols[twist[i]] = self.xd[:, i]
+            cols[wrench[i]] = self.wrench[:, i]
+            cols[f"{wrench[i]}_measured"] = self.wrench_measured[:, i]
         for name in REFERENCE_FIELDS:
             block = self.reference_block(name)
-            for i, a in enumerate(axes):
-                cols[f"ref_{name}_{a}"] = block[:, i]
+            for i in range(self.m):
+                cols[f"ref_{name}_{pose[i]}"] = block[:, i]
         return cols
 
     def to_dataframe(self):  # pragma: no cover - thin pandas wrapper
@@ -163,6 +168,17 @@ class SimulationResult:
         return data, meta
 
 
+def _axis_names(m: int) -> tuple[list[str], list[str], list[str]]:
+    """Column names of the pose, twist and wrench components for an m-dimensional task space."""
+    if m <= 3:
+        p = list("xyz"[:m])
+        return p, [f"v{a}" for a in p], [f"f{a}" for a in p]
+    if m == 6:
+        return (["x", "y", "z", "rx", "ry", "rz"], ["vx", "vy", "vz", "wx", "wy", "wz"],
+                ["fx", "fy", "fz", "mx", "my", "mz"])
+    return [f"x{i}" for i in range(m)], [f"v{i}" for i in range(m)], [f"f{i}" for i in range(m)]
+
+
 def _versions() -> dict[str, str]:
     import numba
 
@@ -177,20 +193,32 @@ def _versions() -> dict[str, str]:
 def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray, sample_time: float) -> int:
     """Integration substeps per sample so that the stiffest contact mode is resolved.
 
-    ``ω = sqrt(k_max / λ_min(B_x(q0)))`` with ``B_x = J⁻ᵀ B J⁻¹`` the operational inertia; the
-    RK4 step h is chosen with ``ω h <= 0.05`` (relative error per step below 1e-8), and at least 1.
+    ω is the fastest contact mode at q0: ``ω² = λ_max(B_x⁻¹ K)`` with ``B_x⁻¹ = J B⁻¹ Jᵀ`` (any
+    Jacobian shape) when the environment gives its stiffness matrix K, else the conservative
+    ``k_max / λ_min(B_x)``; the RK4 step h is chosen with ``ω h <= 0.05`` (relative error per
+    step below 1e-8), and at least 1.
     """
     k = float(environment.max_stiffness())
-    J = robot.jacobian(q0)
-    B = robot.mass_matrix(q0)
+    J = np.asarray(robot.jacobian(q0))
+    B = np.asarray(robot.mass_matrix(q0))
+    c = getattr(environment, "damping", 0.0)
+    c = float(c) if np.isscalar(c) else 0.0  # a scalar damping along the contact normal [N s/m]
     try:
-        Jinv = np.linalg.inv(J)
-        lam = float(np.linalg.eigvalsh(Jinv.T @ B @ Jinv).min())
-    except np.linalg.LinAlgError:
+        mobility = J @ np.linalg.solve(B, J.T)  # B_x⁻¹ = J B⁻¹ Jᵀ
+        lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
+        K = getattr(environment, "stiffness_matrix", None)
+        K = None if K is None else np.asarray(K(), dtype=np.float64)
+        if K is not None and K.shape == mobility.shape:
+            # the contact modes themselves: ω² = eigenvalues of B_x⁻¹ K (both PSD, so real, >= 0);
+            # a normal damping c acts on the same mode: rate c/m_eff = (c/k) ω²
+            w2 = max(float(np.max(np.linalg.eigvals(mobility @ K).real)), 0.0)
+            omega, damping_rate = math.sqrt(w2), (c / k * w2 if k > 0 else 0.0)
+        else:
+            omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
+    except (np.linalg.LinAlgError, ZeroDivisionError):
         lam = float(np.linalg.eigvalsh(B).min())
-    omega = math.sqrt(max(k, 0.0) / max(lam, 1e-9))
-    damping = float(getattr(environment, "damping", 0.0) if np.isscalar(getattr(environment, "damping", 0.0)) else 0.0)
-    rate = max(omega, damping / max(lam, 1e-9))
+        omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
+    rate = max(omega, damping_rate)
     return max(1, int(math.ceil(rate * sample_time / 0.05)))
 
 

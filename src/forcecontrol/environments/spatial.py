@@ -63,6 +63,10 @@ class SpatialSpring(Environment):
     def max_stiffness(self) -> float:
         return float(np.linalg.eigvalsh(self.stiffness).max())
 
+    def stiffness_matrix(self) -> np.ndarray:
+        """K in the base frame, (6, 6) (sets the simulator's integration step)."""
+        return np.array(self._K0)
+
     def describe(self) -> dict[str, Any]:
         return {
             "type": "SpatialSpring",
@@ -107,6 +111,12 @@ class Table(Environment):
 
     def max_stiffness(self) -> float:
         return self.stiffness
+
+    def stiffness_matrix(self) -> np.ndarray:
+        """The (6, 6) stiffness in contact: ``k ν νᵀ`` on the force block, zero elsewhere."""
+        K = np.zeros((6, 6))
+        K[:3, :3] = self.stiffness * np.outer(self.normal, self.normal)
+        return K
 
     def describe(self) -> dict[str, Any]:
         return {

@@ -207,14 +207,14 @@ def _column_metric(col: str):
     def fn(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
         cols = res.columns()
         sel = res.t >= res.t[-1] - window - 1e-12
-        if col not in cols and res.m == 6:  # 6-D pose logs name their axes 0..5 (x, y, z are 0, 1, 2)
-            return float(np.mean(cols[col.replace("x", "0").replace("y", "1").replace("z", "2")][sel]))
+        if col not in cols:
+            raise ScenarioError(f"metric {col!r} is not logged for a {res.m}-dimensional task space")
         return float(np.mean(cols[col][sel]))
 
     return fn
 
 
-for _c in ("x", "y", "z", "vx", "vy", "fx", "fy", "fz"):
+for _c in ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "fx", "fy", "fz", "mx", "my", "mz"):
     register_metric(_c, _column_metric(_c))
 
 
