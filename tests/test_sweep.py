@@ -253,9 +253,9 @@ def test_a_worker_killed_mid_sweep_loses_no_case(tmp_path, cluster):
     pd.testing.assert_frame_equal(box["r"].table, local.table, check_exact=True)
 
 
-def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
-    """A sweep SIGKILLed midway in a subprocess, then rerun, equals an uninterrupted run: no case lost or duplicated."""
-    scn = tmp_path / "scn.toml"
+def _sweep_file(folder):
+    """A scenario file with a [sweep] table: 60 Monte Carlo cases of 20 s (inner velocity loop)."""
+    scn = folder / "scn.toml"
     scn.write_text(textwrap.dedent("""
         name = "kill-test"
         duration = 20.0
@@ -284,6 +284,12 @@ def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
         "environment.stiffness" = "loguniform(1e3, 1e5)"
         "controller.force_gain[0]" = "uniform(0.001, 0.003)"
     """))
+    return scn
+
+
+def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
+    """A sweep SIGKILLed midway in a subprocess, then rerun, equals an uninterrupted run: no case lost or duplicated."""
+    scn = _sweep_file(tmp_path)
     out = tmp_path / "killed.parquet"
     parts = tmp_path / "killed.parquet.parts"
     code = (f"from forcecontrol.sweep import run_sweep, prepare_sweep; "
@@ -306,6 +312,31 @@ def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
     assert whole.ran == 60
     pd.testing.assert_frame_equal(resumed.table, whole.table, check_exact=True)
     assert resumed.table["case_id"].tolist() == list(range(60)) and not parts.exists()
+
+
+def test_ctrl_c_stops_the_cli_keeping_finished_cases_and_the_same_command_resumes(tmp_path):
+    """SIGINT to `forcecontrol sweep`: exit 130 with a resume hint, stored cases kept; rerun completes all 60 once."""
+    scn = _sweep_file(tmp_path)
+    out = tmp_path / "ctrl-c.parquet"
+    parts = tmp_path / "ctrl-c.parquet.parts"
+    cmd = [sys.executable, "-c", "from forcecontrol.cli import app; app()", "sweep", str(scn), "--out", str(out),
+           "--workers", "1", "--block-size", "1", "--no-figure", "--json"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if parts.exists() and len(list(parts.glob("part-*.parquet"))) >= 2:
+            proc.send_signal(signal.SIGINT)
+            break
+        time.sleep(0.001)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "run the same command again to resume" in " ".join(err.split())
+    kept = len(list(parts.glob("part-*.parquet")))
+    assert 2 <= kept < 60 and not list(parts.glob(".*.tmp"))
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    summary = json.loads(again.stdout)
+    assert again.returncode == 0 and summary["resumed"] == kept and summary["ran"] == 60 - kept
+    df = pd.read_parquet(out)
+    assert df["case_id"].tolist() == list(range(60))
 
 
 def test_rerun_of_a_finished_sweep_runs_nothing_and_a_different_sweep_is_refused(tmp_path):

@@ -15,12 +15,15 @@ same command again reads the parts, runs only the missing cases and assembles th
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import math
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -587,6 +590,22 @@ def _to_table(rows: list[dict[str, Any]], prep: PreparedSweep):
     return pa.Table.from_pydict(cols, schema=schema)
 
 
+@contextlib.contextmanager
+def _sigint_deferred():
+    """Hold SIGINT (Ctrl-C) back until the block ends, then raise KeyboardInterrupt (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
 def _write_atomic(table, path: Path) -> None:
     import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
@@ -720,7 +739,8 @@ def run_sweep(
     def store(block: list[CaseJob], rows: list[dict[str, Any]]) -> None:
         ids = [j.case_id for j in block]
         name = f"part-{min(ids):08d}-{max(ids):08d}-{len(ids)}.parquet"
-        _write_atomic(_to_table(rows, prep), parts_dir / name)
+        with _sigint_deferred():  # a Ctrl-C during the write takes effect once the part is in place
+            _write_atomic(_to_table(rows, prep), parts_dir / name)
         counter["done"] += len(block)
         counter["steps"] += sum(r["_steps"] for r in rows)
         if progress is not None:
