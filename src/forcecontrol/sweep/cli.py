@@ -75,7 +75,11 @@ def sweep_command(
                 definition = replace(definition, cases=tuple(case))
         else:
             definition = None
-        prep = prepare_sweep(scn, definition)
+        with Progress(TextColumn("[bold]checking and building cases"), BarColumn(),
+                      TextColumn("{task.completed}/{task.total}"), console=err_console, transient=True,
+                      disable=json_out) as checking:
+            job = checking.add_task("build", total=None)
+            prep = prepare_sweep(scn, definition, progress=lambda d, n: checking.update(job, completed=d, total=n))
     except ForceControlError as exc:
         _fail(exc)
         return

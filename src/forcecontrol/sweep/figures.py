@@ -125,7 +125,7 @@ def plot_sweep_map(
 ) -> Path:
     """One figure: a row per scenario case, a column per metric, over swept parameters x and y.
 
-    Cells are the simulated metric (grid designs; random designs are scattered); a white ``×``
+    Cells are the simulated metric (grid designs; random designs are scattered); a red ``×``
     marks a case the simulation found unstable; the black line is the analytic sampled-loop
     boundary ρ = 1 (on a ``resolution``² grid, a few ms per point), drawn when the analysis applies.
 
@@ -184,7 +184,7 @@ def plot_sweep_map(
                 mesh = ax.scatter(sub[x], sub[y], c=vals, cmap="viridis", s=12)
             fig.colorbar(mesh, ax=ax)
             bad = ~sub["stable"].to_numpy(dtype=bool)
-            ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="white", s=18, linewidths=1.0,
+            ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="red", s=18, linewidths=1.0,
                        label="unstable (simulated)")
             if rho is not None:
                 ax.contour(fx, fy, rho, levels=[1.0], colors="black", linewidths=1.5)

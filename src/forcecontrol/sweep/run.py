@@ -353,13 +353,18 @@ def _select_cases(scn: Any, wanted: tuple[str, ...]) -> list[tuple[int, Any]]:
     return out
 
 
-def prepare_sweep(scenario: Any, definition: SweepDefinition | None = None) -> PreparedSweep:
+def prepare_sweep(
+    scenario: Any,
+    definition: SweepDefinition | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> PreparedSweep:
     """Check a sweep whole and build every case, before anything runs.
 
     Args:
         scenario: a loaded scenario, a built-in name, a TOML path (may hold a ``[sweep]`` table)
             or a dict.
         definition: the sweep; by default the scenario file's ``[sweep]`` table.
+        progress: ``progress(built, total)`` every 100 cases (building costs about 1 ms a case).
 
     Raises:
         SweepError: no definition, unknown parameter path, empty range, malformed value, a case
@@ -385,6 +390,7 @@ def prepare_sweep(scenario: Any, definition: SweepDefinition | None = None) -> P
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     jobs: list[CaseJob] = []
     cid = 0
+    total = len(selected) * len(assignments)
     for _, case in selected:
         for values in assignments:
             cfg = copy.deepcopy(case.config)
@@ -400,6 +406,8 @@ def prepare_sweep(scenario: Any, definition: SweepDefinition | None = None) -> P
             except ForceControlError as exc:
                 raise SweepError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from exc
             cid += 1
+            if progress is not None and (cid % 100 == 0 or cid == total):
+                progress(cid, total)
     payload = {
         "scenario": scn.name,
         "cases": [{"index": ci + 1, "label": c.label, "config": c.config} for ci, c in selected],
