@@ -139,13 +139,19 @@ def _terms2(K, q0, q1, w0, w1, T):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _accel_terms2(T, h0, h1, u0, u1):  # pragma: no cover - compiled
+    """q̈ = B⁻¹ (u − n − Jᵀ h_e) from filled terms T and the wrench; returns (ok, a0, a1)."""
+    r0 = u0 - T[13] - T[4] * h0 - T[6] * h1
+    r1 = u1 - T[14] - T[5] * h0 - T[7] * h1
+    return _solve2(T[10], T[11], T[11], T[12], r0, r1)
+
+
+@njit(cache=True)
 def _accel2(K, env_kind, env_p, q0, q1, w0, w1, u0, u1, T):  # pragma: no cover - compiled
     """q̈ = B⁻¹ (u − n − Jᵀ h_e) of the arm on the environment; returns (ok, a0, a1)."""
     _terms2(K, q0, q1, w0, w1, T)
     h0, h1 = _wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
-    r0 = u0 - T[13] - T[4] * h0 - T[6] * h1
-    r1 = u1 - T[14] - T[5] * h0 - T[7] * h1
-    return _solve2(T[10], T[11], T[11], T[12], r0, r1)
+    return _accel_terms2(T, h0, h1, u0, u1)
 
 
 @njit(cache=True)
@@ -296,8 +302,11 @@ def run_case(K, env_kind, env_p, ctrl_kind, ctrl_p, ctrl_s, refs, bias, noise, a
             return NONFINITE_TORQUE, k, peak, lost
         if k == N:
             break
-        for _ in range(nsub):
-            ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, U)
+        for j in range(nsub):
+            if j == 0:  # the state of the sample: its terms and wrench are already in T, h
+                ok1, a10, a11 = _accel_terms2(T, h0, h1, u0, u1)
+            else:
+                ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, U)
             v20 = w_0 + hdt * a10
             v21 = w_1 + hdt * a11
             ok2, a20, a21 = _accel2(K, env_kind, env_p, q_0 + hdt * w_0, q_1 + hdt * w_1, v20, v21, u0, u1, U)

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._batch import _accel2, _control2, _terms2, _wrench2
+from ._batch import _accel2, _accel_terms2, _control2, _terms2, _wrench2
 from .controllers.dispatch import controller_step
 from .robots.planar_2r import _terms_into
 
@@ -96,8 +96,11 @@ def run_planar_loop(
             return NONFINITE_TORQUE, k
         if k == N:
             break
-        for _ in range(nsub):
-            ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T)  # T reused as scratch
+        for j in range(nsub):
+            if j == 0:  # the state of the sample: its terms and wrench are already in T, h
+                ok1, a10, a11 = _accel_terms2(T, h0, h1, u0, u1)
+            else:
+                ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T)  # T reused as scratch
             v20 = w_0 + hdt * a10
             v21 = w_1 + hdt * a11
             ok2, a20, a21 = _accel2(K, env_kind, env_p, q_0 + hdt * w_0, q_1 + hdt * w_1, v20, v21, u0, u1, T)
