@@ -402,6 +402,15 @@ def test_scenario_sensor_table_refuses_bad_values(sensor, match):
         load_scenario(_scenario_with_sensor(sensor))
 
 
+def test_measuring_beyond_the_prepared_samples_is_refused():
+    """start(n) prepares n samples of noise; asking for sample n is a clear error, not an IndexError."""
+    s = RealisticForceSensor(noise_std=0.1)
+    s.start(2, 2, TS, np.zeros(2))
+    s.measure(1, TS, np.zeros(2))
+    with pytest.raises(ParameterError, match=r"measure: sample 2 is beyond the 2 samples prepared by start\(\)"):
+        s.measure(2, 2 * TS, np.zeros(2))
+
+
 def test_exact_only_without_any_imperfection():
     """RealisticForceSensor() is exact; any one imperfection (resolution, delay, drift, tool) makes it inexact."""
     assert RealisticForceSensor().exact

@@ -412,7 +412,7 @@ class RealisticForceSensor(ForceSensor):
     def _quantise(self, x: np.ndarray) -> np.ndarray:
         return self.resolution * np.round(x / self.resolution) if self.resolution > 0.0 else x
 
-    def _raw(self, k: int, t: float, h: np.ndarray, R: np.ndarray, noise: np.ndarray) -> np.ndarray:
+    def _raw(self, t: float, h: np.ndarray, R: np.ndarray, noise: np.ndarray) -> np.ndarray:
         w = np.asarray(h, dtype=np.float64)
         if self.tool is not None:
             w = w + self.tool.mass * _gravity_vector(w.shape[0], self.tool.gravity)
@@ -439,7 +439,7 @@ class RealisticForceSensor(ForceSensor):
         self._m_hat = self.tool_estimate.mass if self.tool_estimate is not None else 0.0
         self._g = g
         if self.zeroing_samples:
-            z = np.array([self._raw(0, 0.0, h0, R0, noise[j]) for j in range(self.zeroing_samples)])
+            z = np.array([self._raw(0.0, h0, R0, noise[j]) for j in range(self.zeroing_samples)])
             self.bias_estimate = z.mean(axis=0) - R0.T @ (self._m_hat * g)
         else:
             self.bias_estimate = np.zeros(dim)
@@ -460,13 +460,15 @@ class RealisticForceSensor(ForceSensor):
             return self._last.copy()
         if k != self._k + 1:
             raise ParameterError(f"measure must be called for samples 0, 1, 2, ... in order; got {k} after {self._k}")
+        if k >= len(self._noise):
+            raise ParameterError(f"measure: sample {k} is beyond the {len(self._noise)} samples prepared by start()")
         qa = None if q is None else np.asarray(q, dtype=np.float64)
         R = self._rotation(qa, self._dim)
-        x = self._raw(k, t, h, R, self._noise[k])
+        x = self._raw(t, h, R, self._noise[k])
         b, a = self._b_num, self._a_den
         if k == 0:  # start at rest on the first sample
             self._x_hist = [x] * len(b)
-            self._y_hist = [x] * len(a)
+            self._y_hist = [x] * (len(a) - 1)  # y_{k−1}, y_{k−2}, ...
         self._x_hist = [x, *self._x_hist[:-1]]
         y = sum(b[i] * self._x_hist[i] for i in range(len(b))) - sum(a[i] * self._y_hist[i - 1] for i in range(1, len(a)))
         self._y_hist = [y, *self._y_hist[:-1]]
