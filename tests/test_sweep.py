@@ -380,6 +380,26 @@ def test_top_level_sample_time_and_substeps_can_be_swept_and_match_simulate(tmp_
         assert row["peak_force"] == pytest.approx(r.peak_contact_force_norm(), rel=1e-9)
 
 
+def test_cases_outside_the_kernel_run_through_simulate_with_the_same_metrics(tmp_path):
+    """A realistic sensor (delay, Python loop only) makes the case run through simulate(); metrics as by hand."""
+    d = SweepDefinition.from_options({"sensor.delay_samples": [0, 3]}, cases=["inner velocity"])
+    res = run_sweep(prepare_sweep(_scenario(duration=1.0), d), tmp_path / "r.parquet")
+    assert list(res.table["engine"]) == ["simulate", "simulate"]
+    from forcecontrol.scenarios import CaseSpec, build_case
+
+    base = [c for c in prepare_sweep(_scenario(duration=1.0), d).scenario.cases if c.label == "inner velocity"][0]
+    for _, row in res.table.iterrows():
+        cfg = json.loads(json.dumps(base.config))
+        cfg["sensor"] = {"delay_samples": int(row["sensor.delay_samples"])}
+        p = build_case(CaseSpec("x", cfg, {}))
+        r = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=1.0,
+                        sensor=p["sensor"])
+        st, ov, err = _reference_metrics(r.wrench[:, 0], 1e-3, 100, 10.0)
+        assert row["overshoot"] == pytest.approx(ov, rel=1e-9, abs=1e-12)
+        assert row["steady_state_force_error"] == pytest.approx(err, abs=1e-9)
+        assert row["settling_time"] == pytest.approx(st, abs=1e-12, nan_ok=True)
+
+
 def test_random_design_is_reproducible_and_within_its_distributions():
     """Monte Carlo draws depend only on the seed and stay inside their ranges; seeds give distinct noise."""
     spec = {"environment.stiffness": "loguniform(1e3, 1e5)", "sensor.seed": "randint(0, 1000)"}

@@ -267,7 +267,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
     fast = (
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "kind", 0) in FAST_KINDS
-        and robot.task_dim == 2
+        and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
     )
     job = CaseJob(
         case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
