@@ -254,11 +254,11 @@ def test_a_worker_killed_mid_sweep_loses_no_case(tmp_path, cluster):
 
 
 def _sweep_file(folder):
-    """A scenario file with a [sweep] table: 60 Monte Carlo cases of 20 s (inner velocity loop)."""
+    """A scenario file with a [sweep] table: 80 Monte Carlo cases of 40 s (inner velocity loop)."""
     scn = folder / "scn.toml"
     scn.write_text(textwrap.dedent("""
         name = "kill-test"
-        duration = 20.0
+        duration = 40.0
         [robot]
         start_position = [1.0, 0.0]
         [environment]
@@ -278,7 +278,7 @@ def _sweep_file(folder):
         force = [10.0, 0.0]
         [sweep]
         design = "random"
-        samples = 60
+        samples = 80
         seed = 7
         [sweep.parameters]
         "environment.stiffness" = "loguniform(1e3, 1e5)"
@@ -305,17 +305,17 @@ def test_kill_midway_then_resume_gives_the_uninterrupted_table(tmp_path):
         time.sleep(0.001)
     proc.wait()
     assert proc.returncode == -signal.SIGKILL and not out.exists()
-    assert 2 <= n_at_kill < 60
+    assert 2 <= n_at_kill < 80
     resumed = run_sweep(prepare_sweep(str(scn)), out, workers=2)
-    assert resumed.resumed >= n_at_kill and resumed.ran == 60 - resumed.resumed
+    assert resumed.resumed >= n_at_kill and resumed.ran == 80 - resumed.resumed
     whole = run_sweep(prepare_sweep(str(scn)), tmp_path / "whole.parquet", workers=2)
-    assert whole.ran == 60
+    assert whole.ran == 80
     pd.testing.assert_frame_equal(resumed.table, whole.table, check_exact=True)
-    assert resumed.table["case_id"].tolist() == list(range(60)) and not parts.exists()
+    assert resumed.table["case_id"].tolist() == list(range(80)) and not parts.exists()
 
 
 def test_ctrl_c_stops_the_cli_keeping_finished_cases_and_the_same_command_resumes(tmp_path):
-    """SIGINT to `forcecontrol sweep`: exit 130 with a resume hint, stored cases kept; rerun completes all 60 once."""
+    """SIGINT to `forcecontrol sweep`: exit 130 with a resume hint, stored cases kept; rerun completes all 80 once."""
     scn = _sweep_file(tmp_path)
     out = tmp_path / "ctrl-c.parquet"
     parts = tmp_path / "ctrl-c.parquet.parts"
@@ -331,12 +331,12 @@ def test_ctrl_c_stops_the_cli_keeping_finished_cases_and_the_same_command_resume
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and "run the same command again to resume" in " ".join(err.split())
     kept = len(list(parts.glob("part-*.parquet")))
-    assert 2 <= kept < 60 and not list(parts.glob(".*.tmp"))
+    assert 2 <= kept < 80 and not list(parts.glob(".*.tmp"))
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     summary = json.loads(again.stdout)
-    assert again.returncode == 0 and summary["resumed"] == kept and summary["ran"] == 60 - kept
+    assert again.returncode == 0 and summary["resumed"] == kept and summary["ran"] == 80 - kept
     df = pd.read_parquet(out)
-    assert df["case_id"].tolist() == list(range(60))
+    assert df["case_id"].tolist() == list(range(80))
 
 
 def test_rerun_of_a_finished_sweep_runs_nothing_and_a_different_sweep_is_refused(tmp_path):
