@@ -213,9 +213,15 @@ def test_impact_safety_scenario_trips_the_force_limit_only_for_the_naive_gains()
     doc, naive = run.cases
     assert not [e for e in doc.result.events if e.get("cause") == "force limit"]
     (stop,) = [e for e in naive.result.events if e.get("reaction") == "stop"]
+    later = [e["reaction"] for e in naive.result.events if e.get("cause") == "force limit" and e is not stop]
+    assert all(x == "holding" for x in later)  # further crossings while the stop holds
     r = naive.result
     k = int(np.argmax(np.linalg.norm(r.wrench_measured, axis=1) > 60.0))
     assert stop["cause"] == "force limit" and stop["t"] == pytest.approx(r.t[k])
     events = [e["event"] for e in r.events]
     assert events.index("contact") < [i for i, e in enumerate(r.events) if e.get("cause") == "force limit"][0]
     assert naive.result.metadata["controller"]["type"] == "Safety"
+    # the default (stiff) hold brakes the arm: the stop does not make the impact worse than no layer
+    bare = fc.simulate(ARM, PLANE, _supervisor(500.0), APPROACH, q0=Q_FREE, duration=1.0,
+                       sensor=fc.ForceSensor(noise_std=0.5, cutoff=100.0, seed=1))
+    assert impact_report(r, [1.0, 0.0])["peak_force"] < impact_report(bare, [1.0, 0.0])["peak_force"]
