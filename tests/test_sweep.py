@@ -211,11 +211,11 @@ def cluster():
         yield c
 
 
-def _cluster_sweep():
+def _cluster_sweep(duration=1.0):
     d = SweepDefinition.from_options(
         {"environment.stiffness": "logspace(3, 5.5, 4)", "sensor.seed": "range(0, 2)", "sensor.noise_std": [0.3]},
     )
-    return prepare_sweep(_scenario(duration=1.0), d)
+    return prepare_sweep(_scenario(duration=duration), d)
 
 
 def test_local_run_and_dask_localcluster_give_identical_tables(tmp_path, cluster):
@@ -234,7 +234,7 @@ def test_a_worker_killed_mid_sweep_loses_no_case(tmp_path, cluster):
 
     from dask.distributed import Client
 
-    prep = _cluster_sweep()
+    prep = _cluster_sweep(duration=5.0)
     local = run_sweep(prep, tmp_path / "local.parquet", workers=2)
     with Client(cluster) as client:
         pids = list(client.run(os.getpid).values())
