@@ -11,7 +11,8 @@ from . import _numba_cache  # noqa: E402  (must precede every @njit(cache=True) 
 
 _numba_cache.configure()
 
-from .controllers import (  # noqa: E402
+from .controllers import (  # noqa: E402  # noqa: E402
+    AdmittanceController,
     Controller,
     HybridCompliantController,
     HybridRigidController,
@@ -23,13 +24,26 @@ from .controllers import (  # noqa: E402
     OperationalSpacePD,
     ParallelForcePositionController,
     Reference,
+    SpatialComplianceController,
+    SpatialImpedanceController,
 )
-from .environments import ElasticPlane, Environment, LinearSpring  # noqa: E402
-from .environments import PlaneConstraint, RigidEnvironment  # noqa: E402
-from .errors import (  # noqa: E402
+from .encoders import EncoderFeedback, JointEncoder  # noqa: E402
+from .environments import (  # noqa: E402  # noqa: E402  # noqa: E402
+    ConstantWrench,
+    ElasticPlane,
+    Environment,
+    LinearSpring,
+    PlaneConstraint,
+    RigidEnvironment,
+    SpatialSpring,
+    Table,
+)
+from .errors import (  # noqa: E402  # noqa: E402
+    BandwidthWarning,
     DimensionError,
     DriftWarning,
     ForceControlError,
+    FrameError,
     MeasurementError,
     ParameterError,
     ScenarioError,
@@ -38,17 +52,13 @@ from .errors import (  # noqa: E402
     WorkspaceError,
 )
 from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel  # noqa: E402
-from .encoders import EncoderFeedback, JointEncoder  # noqa: E402
 from .safety import Safety  # noqa: E402
 from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity  # noqa: E402
-from .transitions import ContactSupervisor, critical_damping, impact_report  # noqa: E402
 from .simulation import SimulationResult, simulate  # noqa: E402
-from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
-from .task import SelectionMatrices, Task  # noqa: E402
-from .controllers import AdmittanceController, SpatialComplianceController, SpatialImpedanceController  # noqa: E402
-from .environments import ConstantWrench, SpatialSpring, Table  # noqa: E402
-from .errors import BandwidthWarning, FrameError  # noqa: E402
 from .spatial import Transform, Twist, Wrench  # noqa: E402
+from .task import SelectionMatrices, Task  # noqa: E402
+from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
+from .transitions import ContactSupervisor, critical_damping, impact_report  # noqa: E402
 
 __all__ = [
     "__version__",
