@@ -55,3 +55,17 @@ def test_impedance_tracks_the_path_end_point():
     ctl = fc.ImpedanceController(arm, 100, 1000, 2500)
     r = fc.simulate(arm, env, ctl, path, q0=arm.inverse_kinematics([1.0, 0.0]), duration=3.0)
     np.testing.assert_allclose(r.x[-1], [1.2, 0.2], atol=1e-4)
+
+
+@pytest.mark.parametrize("signal", [
+    fc.LinearPath([1.0, 0.0], [1.2, 0.3], 1.0, accel_time=0.3, start_time=0.25, force=[5.0, -1.0]),
+    fc.Setpoint([1.1, 0.1], force=[10.0, 0.0]),
+])
+def test_at_equals_the_packed_samples(signal):
+    """The scalar `at(t)` gives exactly the numbers of the vectorised `sample` (used by the compiled loop)."""
+    from forcecontrol.controllers.base import pack_reference
+
+    times = np.array([-0.1, 0.0, 0.1, 0.25, 0.3, 0.55, 0.9, 1.24, 1.25, 1.3, 3.0])
+    rows = signal.sample(times)
+    for t, row in zip(times, rows):
+        np.testing.assert_allclose(pack_reference(signal.at(t)), row, rtol=0, atol=1e-15)

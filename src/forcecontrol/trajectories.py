@@ -40,7 +40,9 @@ class ReferenceSignal(ABC):
 
 def _force(force: Any, dim: int) -> np.ndarray:
     if force is None:
-        return np.zeros(dim)
+        z = np.zeros(dim)
+        z.flags.writeable = False
+        return z
     return as_vector("force", force, dim)
 
 
@@ -64,6 +66,16 @@ class Setpoint(ReferenceSignal):
         out[:, 0:m] = self.position
         out[:, 3 * m : 4 * m] = self.force
         return out
+
+    def at(self, t: float) -> Reference:
+        """The constant reference (the same read-only arrays every call: no work per sample)."""
+        ref = getattr(self, "_ref", None)
+        if ref is None:
+            z = np.zeros(self.dim)
+            z.flags.writeable = False
+            ref = Reference(self.position, z, z, self.force, z, z)
+            self._ref = ref
+        return ref
 
     def describe(self) -> dict[str, Any]:
         return {"type": "setpoint", "position": self.position.tolist(), "force": self.force.tolist()}
@@ -108,6 +120,21 @@ def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tu
     sd[d] = sdd_c * r
     sdd[d] = -sdd_c
     return s, sd, sdd
+
+
+def _trapezoid_scalar(t: float, tf: float, tc: float) -> tuple[float, float, float]:
+    """:func:`trapezoidal_profile` at one time, with plain floats (the hot path of ``at``)."""
+    if t < 0.0:
+        return 0.0, 0.0, 0.0
+    if t >= tf:
+        return 1.0, 0.0, 0.0
+    sdd_c = 1.0 / (tc * (tf - tc))
+    if t < tc:
+        return 0.5 * sdd_c * t * t, sdd_c * t, sdd_c
+    if t <= tf - tc:
+        return sdd_c * tc * (t - 0.5 * tc), sdd_c * tc, 0.0
+    r = tf - t
+    return 1.0 - 0.5 * sdd_c * r * r, sdd_c * r, -sdd_c
 
 
 class LinearPath(ReferenceSignal):
@@ -165,6 +192,13 @@ class LinearPath(ReferenceSignal):
         out[:, 2 * m : 3 * m] = sdd[:, None] * d
         out[:, 3 * m : 4 * m] = self.force
         return out
+
+    def at(self, t: float) -> Reference:
+        """The reference at time t [s], evaluated with scalars (same numbers as ``sample``)."""
+        s, sd, sdd = _trapezoid_scalar(float(t) - self.start_time, self.duration, self.accel_time)
+        d = self.end - self.start
+        z = np.zeros(self.dim)
+        return Reference(self.start + s * d, sd * d, sdd * d, self.force, z, z)
 
     def describe(self) -> dict[str, Any]:
         return {
