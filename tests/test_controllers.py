@@ -158,3 +158,40 @@ def test_controller_works_in_a_users_own_loop():
             qd = qd + 1e-4 * qdd
             q = q + 1e-4 * qd
     assert math.isclose(env.wrench(ARM.forward_kinematics(q), np.zeros(2))[0], 71.43, rel_tol=5e-3)
+
+
+def test_wrong_shapes_are_refused_before_the_compiled_law_reads_them():
+    """A (1,) or (3,) wrench, or a short reference block, is a DimensionError (no out-of-bounds read)."""
+    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    q, qd, _ = _random_state()
+    ref = fc.Reference.setpoint([1.1, 0.1])
+    for bad in (np.array([5.0, 999.0])[:1], np.zeros(3)):
+        with pytest.raises(DimensionError, match=r"measurement.wrench must have shape \(2,\); got shape"):
+            ctl.step(0.0, fc.Measurement(q, qd, bad), ref)
+    short = fc.Reference(np.array([1.1]), *(np.zeros(2) for _ in range(5)))
+    with pytest.raises(DimensionError, match=r"reference.position must have shape \(2,\); got shape \(1,\)"):
+        ctl.step(0.0, fc.Measurement(q, qd, np.zeros(2)), short)
+
+
+def test_nan_reference_is_named_not_reported_as_a_singularity():
+    """A NaN force reference raises ParameterError naming reference.force, not a 'singular Jacobian'."""
+    ctl = fc.ImpedanceController(ARM, 100, 500, 2500)
+    q, qd, h = _random_state()
+    ref = fc.Reference.setpoint([1.1, 0.1], force=[np.nan, 0.0])
+    with pytest.raises(ParameterError, match=r"reference.force is not finite at t = 0.5 s"):
+        ctl.step(0.5, fc.Measurement(q, qd, h), ref)
+
+
+def test_a_nan_sample_does_not_corrupt_the_integrator():
+    """A NaN wrench is refused before the PI integrator moves; the next finite sample works normally."""
+    ctl = fc.InnerPositionForceController(ARM, 100, 500, 2500, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0])
+    q = ARM.inverse_kinematics([1.0, 0.0])
+    ref = fc.Reference.setpoint([1.0, 0.0], force=[10.0, 0.0])
+    ctl.reset(fc.Measurement(q, np.zeros(2), np.zeros(2)), ref)
+    before = ctl.state.copy()
+    with pytest.raises(MeasurementError, match=r"measurement.wrench is not finite at t = 0.001 s"):
+        ctl.step(0.001, fc.Measurement(q, np.zeros(2), np.array([np.nan, 0.0])), ref)
+    np.testing.assert_array_equal(ctl.state, before)
+    assert np.all(np.isfinite(ctl.step(0.002, fc.Measurement(q, np.zeros(2), np.zeros(2)), ref)))
+    with pytest.raises(MeasurementError, match="measurement.wrench is not finite"):
+        ctl.reset(fc.Measurement(q, np.zeros(2), np.array([np.inf, 0.0])), ref)
