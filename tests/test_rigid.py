@@ -24,23 +24,6 @@ P0 = np.array([1.0, 0.0])
 LAMBDA_D = -50.0
 
 
-class RestingPath(LinearPath):
-    """A LinearPath whose acceleration reference is zero while the path rests (before and after the motion).
-
-    Test double: ``LinearPath.sample`` in this tree returns ``s̈ = ±1/(t_c (t_f − t_c))`` outside
-    ``[start_time, start_time + duration]`` (the clamped time falls in its first or last phase),
-    although its docstring says the reference rests there. Reported; without it a position-mode
-    hybrid run ends 0.7 mm short (``r̈_d/K_Pr`` of the spurious feedforward).
-    """
-
-    def sample(self, times):
-        out = super().sample(times)
-        t = np.asarray(times, dtype=np.float64) - self.start_time
-        rest = (t < 0.0) | (t >= self.duration)  # the sample at t_f holds [t_f, t_f + Ts]: at rest
-        out[rest, 2 * self.dim : 3 * self.dim] = 0.0
-        return out
-
-
 @pytest.fixture(scope="module")
 def plane_env():
     """The π/4 plane of Example 9.4, rigid and unilateral."""
@@ -70,6 +53,15 @@ def test_rigid_hybrid_run_keeps_constraint_and_reaches_force(hybrid_run, plane_e
     late = res.t >= 0.5
     assert np.all(np.abs(lam[late] - LAMBDA_D) < 0.01 * abs(LAMBDA_D))
     assert lam[-1] == pytest.approx(LAMBDA_D, rel=1e-6)
+
+
+def test_first_reaction_is_that_of_an_arm_at_rest(hybrid_run):
+    """At t = 0 the arm rests on the plane under gravity compensation: the reaction is ~0, not a falling arm's."""
+    res, sel = hybrid_run
+    lam0 = float((res.wrench[0] @ sel.force_pinv.T).ravel()[0])
+    assert abs(lam0) < 1e-6 * abs(LAMBDA_D)
+    lam = (res.wrench @ sel.force_pinv.T).ravel()
+    assert np.all(lam[:20] <= 1e-6)  # pushes into the plane from the start, never a spurious pull
 
 
 def test_reciprocity_along_rigid_run(hybrid_run):
@@ -181,7 +173,7 @@ def test_position_mode_reaches_position_on_plane(plane_env):
     task = inclined_plane()
     sel = task.selection("base")
     end = P0 + 0.2 * np.array([1.0, 1.0])
-    ref = RestingPath(P0, end, 1.0, force=sel.wrench([LAMBDA_D]))
+    ref = LinearPath(P0, end, 1.0, force=sel.wrench([LAMBDA_D]))
     ctrl = HybridRigidController(
         CHAPTER_ARM, task, motion="position", velocity_gain=100.0, position_gain=2500.0,
         force_law="proportional", force_gain=0.5,

@@ -305,7 +305,10 @@ def simulate(
     use_compiled = compiled_ok and engine != "python"
 
     # initial measurement for controllers whose reset depends on it
-    h0 = environment.sampled_wrench(robot, q0, qd0, np.zeros(n))
+    # before t = 0 the arm is held at rest by gravity compensation (the torque a rigid
+    # environment's first reaction is computed under)
+    u_before = np.asarray(robot.gravity(q0), dtype=np.float64)
+    h0 = environment.sampled_wrench(robot, q0, qd0, u_before)
     rich = None if sensor.compiled_ok else sensor
     hm0 = h0 + bias + noise[0] if rich is None else rich.start(N + 1, m, Ts, h0, q0)
     controller.reset(Measurement(q0, qd0, hm0), reference.at(0.0))
@@ -388,7 +391,7 @@ def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, q
     def accel(q, qd, u):
         return environment.acceleration(robot, q, qd, u)[0]
 
-    u = np.zeros(robot.nq)
+    u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see simulate)
     for k in range(N + 1):
         t = k * Ts
         T = robot.terms(q, qd)
