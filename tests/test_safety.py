@@ -115,7 +115,9 @@ def test_torque_reaction_stop_holds_position_with_clamped_torques():
     assert "safe stop" in r.events[0]["detail"]
     k = 200
     q, qd = r.q[k], r.qd[k]
-    hold = ARM.gravity(q) + s.hold_stiffness @ (s.q_hold - q) - s.hold_damping @ qd
+    b = np.diag(ARM.mass_matrix(s.q_hold))  # the documented default: gains scaled by the joint inertias
+    K_hold, D_hold = np.diag(b * 18.0**2), np.diag(b * 2 * 1.5 * 18.0)
+    hold = ARM.gravity(q) + K_hold @ (s.q_hold - q) - D_hold @ qd
     np.testing.assert_allclose(r.torque[k], np.clip(hold, -800, 800), atol=1e-9)
     assert np.abs(r.q[-1] - s.q_hold).max() < 1e-2
 
@@ -158,7 +160,9 @@ def test_causes_are_listed():
         ({"max_path_deviation": -0.01}, ParameterError, r"max_path_deviation must be positive and finite \[m\]"),
         ({"deviation_axes": [True]}, DimensionError, r"deviation_axes must have shape \(2,\)"),
         ({"torque_reaction": "ignore"}, ParameterError, "torque_reaction must be 'clamp' or 'stop'; got 'ignore'"),
-        ({"hold_stiffness": -1.0}, ParameterError, "hold_stiffness must be a symmetric positive definite"),
+        ({"hold_stiffness": -1.0, "hold_damping": 1.0}, ParameterError, "hold_stiffness must be a symmetric positive definite"),
+        ({"hold_stiffness": 1e4}, ParameterError, "hold_stiffness and hold_damping must be given together"),
+        ({"hold_frequency": -18.0}, ParameterError, "hold_frequency must be a positive number; got -18.0"),
     ],
 )
 def test_bad_limits_are_refused(kw, exc, match):
@@ -182,3 +186,20 @@ def test_saved_log_metadata_carries_the_events(tmp_path):
     _, meta = r.save(tmp_path / "run")
     (e,) = json.loads(meta.read_text())["events"]
     assert e["cause"] == "force limit" and e["t"] == pytest.approx(r.events[0]["t"]) and "N > 50 N" in e["detail"]
+
+
+def test_default_hold_is_stable_on_a_panda():
+    """The inertia-scaled safe stop holds a Panda still (fixed 5e4/8000 joint gains diverged on its wrist)."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.controllers.spatial import SpatialImpedanceController
+    from forcecontrol.environments.spatial import ConstantWrench
+    from forcecontrol.robots.pinocchio import panda
+
+    robot = panda()
+    q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    ctl = SpatialImpedanceController(robot, inertia=5.0, damping=100.0, stiffness=500.0)
+    s = Safety(ctl, max_force=5.0)
+    push = ConstantWrench([0.0, 0.0, 10.0, 0.0, 0.0, 0.0])
+    r = fc.simulate(robot, push, s, fc.Setpoint(robot.forward_kinematics(q0)), q0=q0, duration=0.5, substeps=2)
+    assert s.stopped and r.events[0]["cause"] == "force limit"
+    assert np.abs(r.qd[-1]).max() < 0.05 and np.abs(r.q[-1] - s.q_hold).max() < 0.05

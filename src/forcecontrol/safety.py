@@ -33,7 +33,7 @@ from typing import Any, ClassVar, Literal, cast
 
 import numpy as np
 
-from ._validate import as_gain_matrix
+from ._validate import as_gain_matrix, positive_scalar
 from .controllers.base import Controller, Measurement, Reference
 from .errors import DimensionError, ParameterError
 
@@ -83,11 +83,18 @@ class Safety(Controller):
         deviation_axes: (m,) booleans, the motion-controlled axes S the deviation is measured on
             (all axes by default; leave force-controlled axes out).
         torque_reaction: ``"clamp"`` (saturate, default) or ``"stop"`` for the actuator limits.
-        hold_stiffness: K_hold of the safe stop, (n, n) or scalar [N m/rad]. The default is stiff
-            on purpose: a stop during an impact must brake the arm; with 5000 N m/rad and 1000 N m s/rad
-            on the chapter's arm a 60 N force-limit stop lets the impact reach 116 N, more than
-            without the layer (81 N, scenario ``impact-safety``); with the defaults it stays at 76 N.
-        hold_damping: D_hold of the safe stop, (n, n) or scalar [N m s/rad].
+        hold_stiffness: K_hold of the safe stop, (n, n) or scalar [N m/rad]. By default it is
+            scaled to the arm: ``K_hold = diag(b_ii) ω²`` with b_ii the joint inertias B(q) at the
+            stop posture and ``ω = hold_frequency``, so the hold is equally stiff, and stable at
+            1 kHz, on the chapter's arm (b_ii ≈ 120–180 kg m²: about 5e4 N m/rad) and on a Panda
+            wrist (0.007 kg m²), where fixed gains of that size diverge within a few samples.
+            A stop during an impact must brake the arm: with 5000 N m/rad and 1000 N m s/rad on
+            the chapter's arm a 60 N force-limit stop lets the impact reach 116 N, more than
+            without the layer (81 N, scenario ``impact-safety``); with the defaults it stays lower.
+        hold_damping: D_hold of the safe stop, (n, n) or scalar [N m s/rad]; by default
+            ``diag(b_ii) 2 ζ ω`` with ``ζ = hold_damping_ratio``.
+        hold_frequency: ω of the default hold law [rad/s].
+        hold_damping_ratio: ζ of the default hold law.
 
     Raises:
         ParameterError: a limit is zero, negative or not finite; an unknown reaction.
@@ -107,8 +114,10 @@ class Safety(Controller):
         max_path_deviation: float | None = None,
         deviation_axes: Any = None,
         torque_reaction: Literal["clamp", "stop"] = "clamp",
-        hold_stiffness: Any = 50000.0,
-        hold_damping: Any = 8000.0,
+        hold_stiffness: Any = None,
+        hold_damping: Any = None,
+        hold_frequency: float = 18.0,
+        hold_damping_ratio: float = 1.5,
     ) -> None:
         if not isinstance(controller, Controller):
             raise ParameterError(f"controller must be a forcecontrol Controller; got {type(controller).__name__}")
@@ -127,8 +136,17 @@ class Safety(Controller):
         if torque_reaction not in ("clamp", "stop"):
             raise ParameterError(f"torque_reaction must be 'clamp' or 'stop'; got {torque_reaction!r}")
         self.torque_reaction = torque_reaction
-        self.hold_stiffness = as_gain_matrix("hold_stiffness", hold_stiffness, n)
-        self.hold_damping = as_gain_matrix("hold_damping", hold_damping, n)
+        if (hold_stiffness is None) != (hold_damping is None):
+            raise ParameterError("hold_stiffness and hold_damping must be given together (or neither, for the scaled default)")
+        self.hold_frequency = positive_scalar("hold_frequency", hold_frequency)
+        self.hold_damping_ratio = positive_scalar("hold_damping_ratio", hold_damping_ratio)
+        self.hold_stiffness: np.ndarray | None = (
+            None if hold_stiffness is None else as_gain_matrix("hold_stiffness", hold_stiffness, n)
+        )
+        self.hold_damping: np.ndarray | None = (
+            None if hold_damping is None else as_gain_matrix("hold_damping", hold_damping, n)
+        )
+        self._hold_gains: tuple[np.ndarray, np.ndarray] | None = None
         self.uses_force = controller.uses_force  # type: ignore[misc]
         self._events: list[dict[str, Any]] = []
         self.counts: dict[str, int] = {c: 0 for c in SAFETY_CAUSES}
@@ -206,13 +224,20 @@ class Safety(Controller):
         if self.q_hold is None:
             self.q_hold = np.array(q, dtype=np.float64)
             self.stop_time = float(t)
+            if self.hold_stiffness is not None and self.hold_damping is not None:
+                self._hold_gains = (self.hold_stiffness, self.hold_damping)
+            else:  # scaled to the joint inertias at the stop posture
+                b = np.diag(np.asarray(self.robot.mass_matrix(self.q_hold), dtype=np.float64))
+                w, z = self.hold_frequency, self.hold_damping_ratio
+                self._hold_gains = (np.diag(b * w * w), np.diag(b * 2.0 * z * w))
 
     # ------------------------------------------------------------------ the law
     def _hold_torque(self, measurement: Measurement) -> np.ndarray:
         q = np.asarray(measurement.q, dtype=np.float64)
         qd = np.asarray(measurement.qd, dtype=np.float64)
         q_hold = cast(np.ndarray, self.q_hold)  # set by _stop before any call
-        return self.robot.gravity(q) + self.hold_stiffness @ (q_hold - q) - self.hold_damping @ qd
+        K, D = cast(tuple[np.ndarray, np.ndarray], self._hold_gains)
+        return self.robot.gravity(q) + K @ (q_hold - q) - D @ qd
 
     def _cartesian(self, t: float, measurement: Measurement, reference: Reference) -> None:
         q = np.asarray(measurement.q, dtype=np.float64)
