@@ -132,15 +132,27 @@ def test_zeroing_estimates_the_bias_within_its_standard_error():
 
 
 def test_tool_weight_is_measured_in_the_rotating_sensor_frame_and_compensated():
-    """Raw: R_S(R_Sᵀ(h + m g)) = h + m g; compensated with the right tool and zeroing: h exactly (no noise)."""
+    """Raw = h − m g (free body of the tool: sensor force + m g − h_e = 0); compensated: h exactly (no noise).
+
+    Pressing [10, 3] N with a 1.5 kg tool (gravity −y): the sensor also holds the tool up, so it
+    reads [10, 3 + 1.5 · 9.81] N.
+    """
     tool = ToolGravity(1.5, force_bias=[0.0, 0.0])
     q = np.array([0.4, -1.1])
     h = np.array([10.0, 3.0])
     raw = _feed(RealisticForceSensor(tool=tool), [h, h], q)
-    np.testing.assert_allclose(raw[1], h + [0.0, -1.5 * 9.81], atol=1e-12)
+    np.testing.assert_allclose(raw[1], [10.0, 3.0 + 1.5 * 9.81], atol=1e-12)
     comp = _feed(RealisticForceSensor(bias=[1.0, 2.0], tool=tool, tool_estimate=tool, zeroing_samples=10),
                  [np.zeros(2), h], q)
     np.testing.assert_allclose(comp[1], h, atol=1e-12)
+
+
+def test_hanging_tool_reading_is_the_holding_force():
+    """A 2 kg tool hanging from a sensor aligned with the base reads +2 · 9.81 N up (it is held up), and
+    its centre of mass 0.1 m along x_S gives the moment −c × w = −(0.1 · (−19.62)) = +1.962 N m."""
+    f, tau = ToolGravity(2.0, com=[0.1, 0.0]).reading(np.eye(2))
+    np.testing.assert_allclose(f, [0.0, 2.0 * 9.81], atol=1e-12)
+    np.testing.assert_allclose(tau, [0.1 * 2.0 * 9.81], atol=1e-12)
 
 
 def test_sensor_frame_bias_rotates_with_the_tool():

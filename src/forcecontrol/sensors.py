@@ -151,10 +151,13 @@ def _skew(w: np.ndarray) -> np.ndarray:
 class ToolGravity:
     """The tool mounted after the sensor: mass, centre of mass and the sensor's bias.
 
-    The force the tool's weight puts on the sensor, in the sensor frame S, is ``w_S = m R_Sᵀ g``
-    (g the gravity vector in the base frame, R_S the sensor's orientation); its moment about
-    the sensor origin is ``c × w_S`` (3-D) or ``c_x w_y − c_y w_x`` (planar), c the centre of mass
-    in S. A reading is ``f_S = w_S + b_f`` and ``τ_S = c × w_S + b_τ``.
+    Sign convention (the library's): with no tool the sensor reads h_e, the force the
+    end-effector exerts on the environment. A static tool is held by the sensor against its
+    weight ``w = m g`` and the environment's push ``−h_e``: ``f_sensor→tool + m g − h_e = 0``, so
+    the sensor reads ``h_e − m g``, and in free space ``−m R_Sᵀ g`` (it holds the tool up).
+    With ``w_S = m R_Sᵀ g`` (g the gravity vector in the base frame, R_S the sensor's orientation)
+    and c the centre of mass in S, a free-space reading is ``f_S = −w_S + b_f`` and
+    ``τ_S = −c × w_S + b_τ`` (3-D) or ``−(c_x w_y − c_y w_x) + b_τ`` (planar).
 
     Args:
         mass: tool mass m [kg], >= 0.
@@ -193,17 +196,17 @@ class ToolGravity:
         return a
 
     def weight_in_sensor(self, R: np.ndarray) -> np.ndarray:
-        """w_S = m R_Sᵀ g, the tool's weight on the sensor in the sensor frame, (d,) [N]."""
+        """w_S = m R_Sᵀ g, the tool's weight (the gravity force on it) in the sensor frame, (d,) [N]."""
         return self.mass * (np.asarray(R).T @ _gravity_vector(self.dim, self.gravity))
 
     def reading(self, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The static reading (force (d,) [N], moment (1,) or (3,) [N m]) with no contact."""
         w = self.weight_in_sensor(R)
         if self.dim == 2:
-            tau = np.array([self.com[0] * w[1] - self.com[1] * w[0]])
+            tau = np.array([-(self.com[0] * w[1] - self.com[1] * w[0])])
         else:
-            tau = np.cross(self.com, w)
-        return w + self.force_bias, tau + self.torque_bias
+            tau = -np.cross(self.com, w)
+        return -w + self.force_bias, tau + self.torque_bias
 
     def describe(self) -> dict[str, Any]:
         return {"mass": self.mass, "com": self.com.tolist(), "force_bias": self.force_bias.tolist(),
@@ -213,8 +216,9 @@ class ToolGravity:
 def identify_tool_gravity(rotations: Any, forces: Any, torques: Any = None, *, gravity: float = 9.81) -> ToolGravity:
     """Tool mass, centre of mass and sensor bias from static readings in a few poses (least squares).
 
-    Forces first, linear in (m, b_f): ``f_i = (R_iᵀ g) m + b_f``. Then, with ``w_i = m R_iᵀ g``,
-    moments linear in (c, b_τ): ``τ_i = −[w_i]× c + b_τ`` (3-D) or ``τ_i = w_y c_x − w_x c_y + b_τ``
+    The readings follow :class:`ToolGravity`'s convention (the sensor holds the tool up). Forces
+    first, linear in (m, b_f): ``f_i = −(R_iᵀ g) m + b_f``. Then, with ``w_i = m R_iᵀ g``, moments
+    linear in (c, b_τ): ``τ_i = [w_i]× c + b_τ`` (3-D) or ``τ_i = w_x c_y − w_y c_x + b_τ``
     (planar). Needs at least two tool orientations relative to gravity for the forces and, for
     the centre of mass, three in 3-D (two in the plane).
 
@@ -238,7 +242,7 @@ def identify_tool_gravity(rotations: Any, forces: Any, torques: Any = None, *, g
     g = _gravity_vector(d, positive_scalar("gravity", gravity))
     A = np.zeros((k * d, 1 + d))
     for i in range(k):
-        A[i * d : (i + 1) * d, 0] = R[i].T @ g
+        A[i * d : (i + 1) * d, 0] = -(R[i].T @ g)
         A[i * d : (i + 1) * d, 1:] = np.eye(d)
     if np.linalg.matrix_rank(A) < 1 + d:
         raise ParameterError(
@@ -261,10 +265,10 @@ def identify_tool_gravity(rotations: Any, forces: Any, torques: Any = None, *, g
     for i in range(k):
         w = tool.weight_in_sensor(R[i])
         if d == 2:
-            At[i, 0:2] = [w[1], -w[0]]
+            At[i, 0:2] = [-w[1], w[0]]
             At[i, 2] = 1.0
         else:
-            At[3 * i : 3 * i + 3, 0:3] = -_skew(w)
+            At[3 * i : 3 * i + 3, 0:3] = _skew(w)
             At[3 * i : 3 * i + 3, 3:] = np.eye(3)
     if np.linalg.matrix_rank(At) < d + nt:
         need = "two" if d == 2 else "three"
@@ -282,15 +286,16 @@ class RealisticForceSensor(ForceSensor):
     At sample k (t_k = k Ts), with R_S(q) the sensor orientation and h_e the true contact force
     (base frame), the chain is::
 
-        raw_k  = R_Sᵀ (h_e + m_tool g) + b + ḃ t_k + n_k                 (sensor frame)
+        raw_k  = R_Sᵀ (h_e − m_tool g) + b + ḃ t_k + n_k                 (sensor frame)
         qnt_k  = Δ round(raw_k / Δ)                                      (converter, Δ = resolution)
         flt_k  = filter(qnt_k)                                           (none | first-order | butterworth)
         out_k  = flt_{k−d}  (d = delay_samples; flt_0 before the first d samples)
-        h_m,k  = R_S out_k − m̂_tool g − R_S b̂                           (base frame, compensated)
+        h_m,k  = R_S out_k + m̂_tool g − R_S b̂                           (base frame, compensated)
 
     ``b̂`` comes from zeroing: at start, ``zeroing_samples`` readings of the arm at rest (in free
     space: contact at start gets zeroed away, as on a real arm) are averaged and the expected
-    tool weight ``R_Sᵀ m̂ g`` is removed from the mean. ``m̂`` is ``tool_estimate.mass`` (from
+    tool reading ``−R_Sᵀ m̂ g`` is removed from the mean. The tool's sign convention is
+    :class:`ToolGravity`'s (the sensor holds the tool up against gravity). ``m̂`` is ``tool_estimate.mass`` (from
     :func:`identify_tool_gravity`), zero when not given. Zeroing does not remove drift: a force
     loop regulates the measured force, so in contact the true force moves by about −ḃ t; on a
     real arm re-zero in free space between contacts.
@@ -415,7 +420,7 @@ class RealisticForceSensor(ForceSensor):
     def _raw(self, t: float, h: np.ndarray, R: np.ndarray, noise: np.ndarray) -> np.ndarray:
         w = np.asarray(h, dtype=np.float64)
         if self.tool is not None:
-            w = w + self.tool.mass * _gravity_vector(w.shape[0], self.tool.gravity)
+            w = w - self.tool.mass * _gravity_vector(w.shape[0], self.tool.gravity)
         return self._quantise(R.T @ w + self._b + self._drift * t + noise)
 
     def start(self, n_samples: int, dim: int, sample_time: float, h0: Any, q0: Any = None) -> np.ndarray:
@@ -440,7 +445,7 @@ class RealisticForceSensor(ForceSensor):
         self._g = g
         if self.zeroing_samples:
             z = np.array([self._raw(0.0, h0, R0, noise[j]) for j in range(self.zeroing_samples)])
-            self.bias_estimate = z.mean(axis=0) - R0.T @ (self._m_hat * g)
+            self.bias_estimate = z.mean(axis=0) + R0.T @ (self._m_hat * g)
         else:
             self.bias_estimate = np.zeros(dim)
         self._x_hist: list[np.ndarray] = []
@@ -474,7 +479,7 @@ class RealisticForceSensor(ForceSensor):
         self._y_hist = [y, *self._y_hist[:-1]]
         self._out.append(y)  # holds flt_{k−d} ... flt_k (flt_0 ... flt_k while k < d)
         out_s = self._out[0]
-        hm = R @ out_s - self._m_hat * self._g - R @ self.bias_estimate
+        hm = R @ out_s + self._m_hat * self._g - R @ self.bias_estimate
         self._k = k
         self._last = hm
         return hm.copy()
