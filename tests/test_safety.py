@@ -203,3 +203,22 @@ def test_default_hold_is_stable_on_a_panda():
     r = fc.simulate(robot, push, s, fc.Setpoint(robot.forward_kinematics(q0)), q0=q0, duration=0.5, substeps=2)
     assert s.stopped and r.events[0]["cause"] == "force limit"
     assert np.abs(r.qd[-1]).max() < 0.05 and np.abs(r.q[-1] - s.q_hold).max() < 0.05
+
+
+def test_6d_limits_ignore_euler_angle_wrap():
+    """Panda hand pointing down (φ₁ = ±π): moving the wrist 2 mrad does not trip a 1 cm deviation limit."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.controllers.spatial import SpatialImpedanceController
+    from forcecontrol.robots.pinocchio import panda
+
+    robot = panda()
+    q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    s = Safety(SpatialImpedanceController(robot, inertia=5.0, damping=100.0, stiffness=500.0),
+               max_path_deviation=0.01, max_speed=1.0)
+    x_d = robot.forward_kinematics(q0)
+    for dq in (2e-3, -2e-3):
+        q = q0.copy()
+        q[4] += dq
+        s.reset(fc.Measurement(q, np.zeros(7), np.zeros(6)), fc.Reference.setpoint(x_d))
+        s.step(0.0, fc.Measurement(q, np.zeros(7), np.zeros(6)), fc.Reference.setpoint(x_d))
+        assert not s.stopped and not s.events

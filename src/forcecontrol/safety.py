@@ -79,7 +79,8 @@ class Safety(Controller):
         max_torque_rate: τ̇_max per joint [N m/s], scalar or (n,); None = no limit.
         max_force: largest contact force norm ‖h_e‖ [N]; None = no limit.
         max_speed: largest tip speed ‖ẋ_e‖ [m/s]; None = no limit.
-        max_path_deviation: largest ‖S (x_d − x_e)‖ [m]; None = no limit.
+        max_path_deviation: largest ‖S (x_d − x_e)‖ [m]; None = no limit. In a 6-D task space
+            these three act on the linear parts only (‖f_e‖, ‖ȯ_e‖, the position error).
         deviation_axes: (m,) booleans, the motion-controlled axes S the deviation is measured on
             (all axes by default; leave force-controlled axes out).
         torque_reaction: ``"clamp"`` (saturate, default) or ``"stop"`` for the actuator limits.
@@ -241,15 +242,19 @@ class Safety(Controller):
 
     def _cartesian(self, t: float, measurement: Measurement, reference: Reference) -> None:
         q = np.asarray(measurement.q, dtype=np.float64)
+        # a 6-D task space: the limits act on the linear parts (force, linear velocity, position);
+        # moments and angles have other units, and Euler angles wrap at ±π
+        lin = slice(0, 3) if self.m == 6 else slice(0, self.m)
         checks: list[tuple[str, float, float, str, str]] = []
         if self.max_force is not None:
-            w = np.asarray(measurement.wrench, dtype=np.float64)
+            w = np.asarray(getattr(measurement.wrench, "vector", measurement.wrench), dtype=np.float64)[lin]
             checks.append(("force limit", math.sqrt(float(w @ w)), self.max_force, "contact force |h_e|", "N"))
         if self.max_speed is not None:
-            v = self.robot.jacobian(q) @ np.asarray(measurement.qd, dtype=np.float64)
+            v = (self.robot.jacobian(q) @ np.asarray(measurement.qd, dtype=np.float64))[lin]
             checks.append(("speed limit", math.sqrt(float(v @ v)), self.max_speed, "tip speed |xdot_e|", "m/s"))
         if self.max_path_deviation is not None:
-            e = np.where(self.deviation_axes, np.asarray(reference.position) - self.robot.forward_kinematics(q), 0.0)
+            d = (np.asarray(reference.position) - self.robot.forward_kinematics(q))[lin]
+            e = np.where(self.deviation_axes[lin], d, 0.0)
             checks.append(("path deviation limit", math.sqrt(float(e @ e)), self.max_path_deviation,
                            "deviation |S (x_d - x_e)|", "m"))
         for cause, value, limit, what, unit in checks:
