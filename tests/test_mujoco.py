@@ -12,7 +12,7 @@ pytest.importorskip("pinocchio")
 
 import forcecontrol as fc  # noqa: E402
 from forcecontrol.controllers.spatial import SpatialImpedanceController  # noqa: E402
-from forcecontrol.engines.mujoco import DIFFERENCES, MujocoPlant, compare_engines  # noqa: E402
+from forcecontrol.engines.mujoco import DIFFERENCES, MujocoPlant, compare_engines, simulate_mujoco  # noqa: E402
 from forcecontrol.environments.spatial import ConstantWrench, Table  # noqa: E402
 from forcecontrol.errors import ParameterError  # noqa: E402
 from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
@@ -156,3 +156,22 @@ def test_compare_on_a_scenario_mujoco_cannot_build_is_a_clear_error():
     res = CliRunner().invoke(app, ["compare", "panda-peg-in-hole"])
     assert res.exit_code == 2
     assert "supports ElasticPlane and Table" in res.output
+
+
+def test_mujoco_refuses_an_arm_it_would_not_model():
+    """A planar arm with other link data cannot be silently swapped for the chapter's URDF arm."""
+    arm = fc.PlanarTwoLink(fc.PlanarTwoLinkParameters(m_l2=20.0, a1=0.8))
+    with pytest.raises(ParameterError, match=r"parameters a1, m_l2 must keep the chapter's values; got a1 = 0.8, m_l2 = 20.0"):
+        simulate_mujoco(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e3), fc.ImpedanceController(arm, 100, 500, 2500),
+                        fc.Setpoint([1.1, 0.1]), q0=[1.0, -2.0], duration=0.01)
+
+
+def test_logged_mujoco_twist_is_the_tip_velocity():
+    """The MuJoCo log's ẋ is J(q) q̇ of the closed-form arm at the tip (not at a body's inertial frame)."""
+    arm = fc.PlanarTwoLink()
+    q0 = arm.inverse_kinematics([1.0, 0.0])
+    res = simulate_mujoco(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e3), fc.ImpedanceController(arm, 100, 500, 2500),
+                          fc.Setpoint([1.1, 0.1]), q0=q0, duration=0.3)
+    for k in (50, 150, 300):
+        np.testing.assert_allclose(res.xd[k], arm.jacobian(res.q[k]) @ res.qd[k], atol=1e-9)
+        np.testing.assert_allclose(res.x[k], arm.forward_kinematics(res.q[k]), atol=1e-9)

@@ -72,8 +72,20 @@ def _robot_source(robot) -> tuple[Path, str, tuple[str, ...], np.ndarray, np.nda
 
     if isinstance(robot, PlanarTwoLink):
         from ..robots.pinocchio import model_path
+        from ..robots.planar_2r import PlanarTwoLinkParameters
 
         p = robot.parameters
+        # the MuJoCo model is built from the shipped URDF of the chapter's arm: only the motor
+        # data and gravity can differ from it; anything else would silently simulate another arm
+        fixed = ("a1", "a2", "l1", "l2", "m_l1", "m_l2", "I_l1", "I_l2", "m_m2", "F1", "F2")
+        ref = PlanarTwoLinkParameters()
+        changed = [f for f in fixed if p is not None and getattr(p, f) != getattr(ref, f)]
+        if changed:
+            raise ParameterError(
+                "the MuJoCo engine models the chapter's arm from its URDF: parameters "
+                f"{', '.join(changed)} must keep the chapter's values; got "
+                + ", ".join(f"{f} = {getattr(p, f)!r}" for f in changed)
+            )
         kr1, Im1, kr2, Im2 = (100.0, 0.01, 100.0, 0.01) if p is None else (p.k_r1, p.I_m1, p.k_r2, p.I_m2)
         g = 9.81 if p is None else p.gravity
         armature = np.array([kr1**2 * Im1, kr2**2 * Im2])
@@ -269,7 +281,7 @@ class MujocoPlant:
         mujoco, m, d = self._mujoco, self.model, self.data
         p = d.xpos[self.ee_body].copy()
         v6 = np.zeros(6)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.ee_body, v6, 0)
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, self.ee_body, v6, 0)  # at the frame origin, like xpos
         twist = np.concatenate([v6[3:], v6[:3]])
         if self.task == "planar":
             return p[:2], twist[:2]
