@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import hashlib
 import json
 import math
 import os
@@ -269,16 +270,19 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "kind", 0) in FAST_KINDS
         and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
     )
+    # cases share a sampled reference only when the samples themselves are equal (a describe()
+    # of a user's reference type need not say everything that shapes it)
+    samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
     job = CaseJob(
         case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
-        json.dumps(ref.describe(), sort_keys=True, default=str),
+        hashlib.sha256(samples.tobytes()).hexdigest(),
     )
     if not fast:
         job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0")}
         return job
     # the controller's reset exactly as simulate() does it (same first noise sample)
     bias, noise0 = sensor.sequences(1, robot.task_dim)
-    h0 = env.sampled_wrench(robot, q0, qd0, np.zeros(robot.nq))
+    h0 = env.sampled_wrench(robot, q0, qd0, np.asarray(robot.gravity(q0), dtype=np.float64))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DriftWarning)
         ctl.reset(Measurement(q0, qd0, h0 + bias + noise0[0]), ref.at(0.0))
