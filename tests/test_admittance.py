@@ -124,7 +124,10 @@ def test_admittance_contact_with_a_table_reaches_series_spring_force(franka):
     res = simulate(franka, table, c, ref, q0=q0, duration=1.5, substeps=2)
     f_expected = k_env * Kpt[2, 2] / (k_env + Kpt[2, 2]) * d
     assert abs(-res.wrench[-1, 2] - f_expected) <= 0.02 * f_expected
-    assert np.allclose(res.wrench[-1, [0, 1, 3, 4, 5]], 0.0, atol=1e-9)
+    # the table pushes along z only: the tip holds its lateral position and orientation meanwhile
+    assert np.abs(res.x[-1, :2] - x0[:2]).max() < 1e-3
+    dphi = np.angle(np.exp(1j * (res.x[-1, 3:] - x0[3:])))  # Euler angles compared modulo 2π (φ₁ = ±π here)
+    assert np.abs(dphi).max() < 1e-2
 
 
 def test_slow_motion_loop_warns_about_bandwidth(franka):
