@@ -255,7 +255,9 @@ BAD = [
      r"stiffness must be a symmetric positive definite \(2, 2\) matrix; got eigenvalues"),
     (dict(damping=np.ones(3)), DimensionError,
      r"damping must be a symmetric positive definite \(2, 2\) matrix; got shape \(3,\)"),
-    (dict(integral_limit=-0.1), ParameterError, r"integral_limit must be positive and finite \[m\]"),
+    (dict(integral_limit=-0.1), ParameterError, r"integral_limit must be positive \[m\] \(inf or 0 on an axis = no clamping"),
+    (dict(integral_limit=[float("nan"), 0.1]), ParameterError, r"integral_limit must be positive \[m\]"),
+    (dict(integral_limit=[float("inf"), 0.0]), ParameterError, r"not on all axes\); got \[inf, 0.0\]"),
     (dict(integral_limit=[0.1, 0.1, 0.1]), DimensionError, r"integral_limit must be a scalar or have shape \(2,\)"),
     (dict(integrator_start="middle"), ParameterError, r"integrator_start must be 'tip' or 'zero'; got 'middle'"),
     (dict(environment_stiffness=np.ones((3, 3))), DimensionError, r"environment_stiffness must be .*got shape \(3, 3\)"),
@@ -305,3 +307,28 @@ def test_every_law_docstring_opens_with_its_equation_numbers(obj, equations):
     first = obj.__doc__.strip().splitlines()[0]
     for eq in equations:
         assert eq in first
+
+
+def test_anti_windup_can_clamp_one_axis_alone():
+    """integral_limit = [0.002, inf]: x is clamped around ξ₀ while y integrates freely (9.43)."""
+    ctl = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.00064], [0.0016, 0.0016],
+                                          integral_limit=[0.002, np.inf])
+    q = ARM.inverse_kinematics([1.0, 0.0])
+    ref = fc.Reference.setpoint([1.0, 0.0], force=[10.0, 10.0])
+    meas = fc.Measurement(q, np.zeros(2), np.zeros(2))
+    ctl.reset(meas, ref)
+    xi0 = ctl.state[:2].copy()
+    for k in range(2000):  # 2 s of a 10 N error on both axes
+        ctl.step(k * 1e-3, meas, ref)
+    assert abs(ctl.state[0] - xi0[0]) == pytest.approx(0.002, abs=1e-15)
+    assert ctl.state[1] - xi0[1] == pytest.approx(2.0 * 0.0016 * 10.0, rel=1e-9)
+
+
+def test_force_reference_check_refuses_nan_and_names_the_force_on_a_shape_mismatch():
+    """check_force_reference: NaN f_d is an error, and a wrong-length f_d is blamed on the force."""
+    from forcecontrol.controllers.force import check_force_reference
+
+    with pytest.raises(ParameterError, match=r"force must be finite \[N\]; got \[nan, 0.0\]"):
+        check_force_reference([np.nan, 0.0], np.diag([1e3, 0.0]), [True, False])
+    with pytest.raises(DimensionError, match=r"force must have shape \(2,\) like environment_stiffness \(2, 2\); got shape \(1,\)"):
+        check_force_reference([10.0], np.diag([1e3, 0.0]), [True, False])

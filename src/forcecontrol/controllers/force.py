@@ -230,7 +230,11 @@ def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
 
 
 def _limit(value: Any, m: int) -> np.ndarray:
-    """The anti-windup bound (m,) [m]; zeros (no clamping) for None."""
+    """The anti-windup bound (m,) [m]; zeros (no clamping) for None.
+
+    Per axis, a positive bound clamps; ``inf`` (or 0) leaves that axis unclamped, so that one
+    axis can be clamped alone (e.g. ``[0.02, inf]``). Negative or NaN bounds are refused.
+    """
     if value is None:
         return np.zeros(m)
     a = np.asarray(value, dtype=np.float64)
@@ -238,9 +242,12 @@ def _limit(value: Any, m: int) -> np.ndarray:
         a = np.full(m, float(a))
     if a.shape != (m,):
         raise DimensionError(f"integral_limit must be a scalar or have shape ({m},) [m]; got shape {a.shape}")
-    if not np.all(np.isfinite(a)) or np.any(a <= 0.0):
-        raise ParameterError(f"integral_limit must be positive and finite [m]; got {a.tolist()}")
-    return a.copy()
+    if np.any(np.isnan(a)) or np.any(a < 0.0) or np.all((a == 0.0) | np.isinf(a)):
+        raise ParameterError(
+            f"integral_limit must be positive [m] (inf or 0 on an axis = no clamping there, not on all axes); "
+            f"got {a.tolist()}"
+        )
+    return np.where(np.isinf(a), 0.0, a)
 
 
 def check_force_reference(
@@ -270,6 +277,13 @@ def check_force_reference(
         True when f_d is consistent (no warning issued).
     """
     f = np.asarray(force, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(f)):
+        raise ParameterError(f"force must be finite [N]; got {f.tolist()}")
+    Kshape = np.shape(environment_stiffness)
+    if len(Kshape) == 2 and Kshape[0] != f.shape[0]:
+        raise DimensionError(
+            f"force must have shape ({Kshape[0]},) like environment_stiffness {Kshape}; got shape {f.shape}"
+        )
     m = f.shape[0]
     K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
     axes = np.asarray(force_axes, dtype=bool).reshape(-1)

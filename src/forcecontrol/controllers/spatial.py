@@ -460,6 +460,9 @@ class SpatialComplianceController(_SpatialBase):
         JAd = err.JAd
         u = g + JAd.T @ (self.stiffness @ err.x - self.damping @ (JAd @ qd))
         if self.posture is not None:
+            # Euclidean (not dynamically consistent) null-space projection of the posture torque:
+            # it leaves the equilibrium (9.16) unchanged but can disturb task transients
+            # (J B⁻¹ N τ₀ ≠ 0); the inverse-dynamics controllers project at acceleration level instead
             tau0 = B @ self.posture.acceleration(q, qd)
             u = u + tau0 - JAd.T @ np.linalg.lstsq(JAd.T, tau0, rcond=None)[0]
         return self._check_output(t, u, measurement)
