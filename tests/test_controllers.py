@@ -195,3 +195,8 @@ def test_a_nan_sample_does_not_corrupt_the_integrator():
     assert np.all(np.isfinite(ctl.step(0.002, fc.Measurement(q, np.zeros(2), np.zeros(2)), ref)))
     with pytest.raises(MeasurementError, match="measurement.wrench is not finite"):
         ctl.reset(fc.Measurement(q, np.zeros(2), np.array([np.inf, 0.0])), ref)
+    ctl.reset(fc.Measurement(q, np.zeros(2), np.zeros(2)), ref)
+    before = ctl.state.copy()
+    with pytest.raises(ParameterError, match=r"reference.force is not finite at t = 0.003 s"):
+        ctl.step(0.003, fc.Measurement(q, np.zeros(2), np.zeros(2)), fc.Reference.setpoint([1.0, 0.0], [np.nan, 0.0]))
+    np.testing.assert_array_equal(ctl.state, before)  # a NaN reference leaves the integrator as it was

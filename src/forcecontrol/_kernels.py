@@ -147,4 +147,9 @@ def planar_controller_step(kind, K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, f
     ref[3 * m : 4 * m] = f_d
     ref[4 * m : 5 * m] = fd_d
     ref[5 * m : 6 * m] = fdd_d
+    for i in range(6 * m):  # a non-finite reference, used by the law or not, is refused before any state moves
+        if not math.isfinite(ref[i]):
+            u = np.empty(n)
+            u[:] = np.nan
+            return u
     return controller_step(kind, t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s)

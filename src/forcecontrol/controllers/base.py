@@ -22,7 +22,7 @@ from numba import njit
 
 from .._linalg import mtv, solve_into
 from .._validate import positive_scalar
-from ..errors import DimensionError, MeasurementError, ParameterError, SingularityError
+from ..errors import DimensionError, ForceControlError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
 
 
@@ -144,57 +144,85 @@ def inverse_dynamics_torque(B, n, J, Jdq, a, h, compensate_wrench):  # pragma: n
     return u
 
 
+def _shape(v: Any) -> tuple[int, ...]:
+    return v.shape if type(v) is np.ndarray else np.shape(v)
+
+
 def _flat_sum(v: Any) -> float:
     """Sum of a vector's entries as a Python float (inf/NaN propagate); cheap for small vectors."""
-    return math.fsum(v.tolist()) if type(v) is np.ndarray else math.fsum(np.asarray(v, dtype=np.float64).ravel().tolist())
+    return sum(v.tolist()) if type(v) is np.ndarray else sum(np.asarray(v, dtype=np.float64).ravel().tolist())
+
+
+def _frozen(ref: Reference) -> bool:
+    """True when every array of the reference is read-only (so a checked reference stays valid)."""
+    return all(type(a) is np.ndarray and not a.flags.writeable for a in (getattr(ref, f) for f in REFERENCE_FIELDS))
 
 
 def _check_inputs(ctl: Controller, t: float, measurement: Measurement | None, reference: Reference | None) -> None:
     """Shapes and finiteness of a controller's inputs, before any state is touched.
 
+    A reference whose arrays are all read-only (such as ``Setpoint.at``'s) is checked once and
+    then recognised by identity, so a constant reference costs nothing per sample. A NaN in a
+    reference makes the torque non-finite; the step wrapper then restores the controller's state
+    and names the field (:func:`_check_reference_finite`), so it costs nothing when all is well.
+
     Raises:
         DimensionError: a signal has the wrong shape (the compiled laws do no bounds checks).
         MeasurementError: a measured signal is NaN or infinite (named, with the time).
-        ParameterError: a reference signal is NaN or infinite.
     """
-    n, m = int(ctl.robot.nq), int(ctl.robot.task_dim)
+    shapes = ctl.__dict__.get("_io_shapes")
+    if shapes is None:
+        shapes = ((int(ctl.robot.nq),), (int(ctl.robot.task_dim),))
+        ctl.__dict__["_io_shapes"] = shapes
+    ns, ms = shapes
     if measurement is not None:
-        w = measurement.wrench
-        if hasattr(w, "frame") and hasattr(w, "vector"):  # a frame-tagged Wrench: its frame is the law's to check
-            w = w.vector
-        signals = {"q": measurement.q, "qd": measurement.qd, "wrench": w}
-        for name, size in (("q", n), ("qd", n), ("wrench", m)):
-            v = signals[name]
-            if np.shape(v) != (size,):
-                raise DimensionError(f"measurement.{name} must have shape ({size},); got shape {np.shape(v)}")
+        q, qd, w = measurement.q, measurement.qd, measurement.wrench
+        if type(w) is not np.ndarray and hasattr(w, "frame") and hasattr(w, "vector"):
+            w = w.vector  # a frame-tagged Wrench: its frame is the law's to check
+        signals = (("q", q, ns), ("qd", qd, ns), ("wrench", w, ms))
+        if _shape(q) != ns or _shape(qd) != ns or _shape(w) != ms:
+            for name, v, shape in signals:
+                if _shape(v) != shape:
+                    raise DimensionError(f"measurement.{name} must have shape {shape}; got shape {_shape(v)}")
         try:
-            ok = math.isfinite(_flat_sum(signals["q"]) + _flat_sum(signals["qd"]) + _flat_sum(w))
+            ok = math.isfinite(_flat_sum(q) + _flat_sum(qd) + _flat_sum(w))
         except (TypeError, ValueError):
             ok = False
         if not ok:
-            for name in ("q", "qd", "wrench"):
-                v = np.asarray(signals[name])
-                if not (v.dtype.kind in "fiu" and np.all(np.isfinite(v))):
-                    raise MeasurementError(f"measurement.{name} is not finite at t = {t:.6g} s: {v.tolist()}")
-    if reference is not None:
-        total = 0.0
+            for name, v, _ in signals:
+                a = np.asarray(v)
+                if not (a.dtype.kind in "fiu" and np.all(np.isfinite(a))):
+                    raise MeasurementError(f"measurement.{name} is not finite at t = {t:.6g} s: {a.tolist()}")
+    if reference is not None and reference is not ctl.__dict__.get("_checked_reference"):
         for name in REFERENCE_FIELDS:
             v = getattr(reference, name)
-            if np.shape(v) != (m,):
-                raise DimensionError(f"reference.{name} must have shape ({m},); got shape {np.shape(v)}")
-            total += _flat_sum(v)
-        if not math.isfinite(total):
-            for name in REFERENCE_FIELDS:
-                v = np.asarray(getattr(reference, name))
-                if not np.all(np.isfinite(v)):
-                    raise ParameterError(f"reference.{name} is not finite at t = {t:.6g} s: {v.tolist()}")
+            if _shape(v) != ms:
+                raise DimensionError(f"reference.{name} must have shape {ms}; got shape {_shape(v)}")
+        if _frozen(reference):
+            ctl.__dict__["_checked_reference"] = reference
+
+
+def _check_reference_finite(t: float, reference: Reference) -> None:
+    """Name the reference field that is NaN or infinite (called when a step has failed)."""
+    for name in REFERENCE_FIELDS:
+        a = np.asarray(getattr(reference, name))
+        if not np.all(np.isfinite(a)):
+            raise ParameterError(f"reference.{name} is not finite at t = {t:.6g} s: {a.tolist()}")
 
 
 def _validated_step(fn: Any) -> Any:
     @functools.wraps(fn)
     def step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         _check_inputs(self, t, measurement, reference)
-        return fn(self, t, measurement, reference)
+        state = self.state
+        saved = state.copy() if state.size else None
+        try:
+            return fn(self, t, measurement, reference)
+        except ForceControlError:
+            if saved is not None:
+                state[:] = saved  # a failed sample leaves the integrators as they were
+            _check_reference_finite(t, reference)
+            raise
 
     step._validates_inputs = True  # type: ignore[attr-defined]
     return step
@@ -274,12 +302,16 @@ class Controller(ABC):
         Returns None when the robot is not the built-in arm or the kind is not compiled; the
         subclass then runs its generic path (any :class:`RobotModel`).
         """
-        if self._fused_K is None or self.kind not in _compiled_kinds():
+        fused = self.__dict__.get("_fused_fn", False)
+        if fused is False:  # resolved once: the compiled kernel, or None for the generic path
+            fused = None
+            if self._fused_K is not None and self.kind in _compiled_kinds():
+                from .._kernels import planar_controller_step as fused
+            self.__dict__["_fused_fn"] = fused
+        if fused is None:
             return None
-        from .._kernels import planar_controller_step
-
         r = reference
-        u = planar_controller_step(
+        u = fused(
             self.kind, self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
             _f64(measurement.wrench), _f64(r.position), _f64(r.velocity), _f64(r.acceleration), _f64(r.force),
             _f64(r.force_rate), _f64(r.force_accel), self._params, self.state,
