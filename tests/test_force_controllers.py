@@ -330,5 +330,6 @@ def test_force_reference_check_refuses_nan_and_names_the_force_on_a_shape_mismat
 
     with pytest.raises(ParameterError, match=r"force must be finite \[N\]; got \[nan, 0.0\]"):
         check_force_reference([np.nan, 0.0], np.diag([1e3, 0.0]), [True, False])
-    with pytest.raises(DimensionError, match=r"force must have shape \(2,\) like environment_stiffness \(2, 2\); got shape \(1,\)"):
+    msg = r"force must have shape \(2,\) like environment_stiffness \(2, 2\); got shape \(1,\)"
+    with pytest.raises(DimensionError, match=msg):
         check_force_reference([10.0], np.diag([1e3, 0.0]), [True, False])

@@ -42,6 +42,6 @@ def configure() -> str | None:
         os.makedirs(folder, exist_ok=True)
     except OSError:  # pragma: no cover - read-only home: keep Numba's own default
         return None
-    setattr(numba.config, "CACHE_DIR", folder)  # read by Numba when a cached function is compiled
+    numba.config.CACHE_DIR = folder  # type: ignore[attr-defined]  # read when a cached function compiles
     CACHE_DIR = folder
     return folder

@@ -34,7 +34,7 @@ from .environments.base import Environment
 from .errors import DimensionError, ParameterError, SimulationDivergedError, SingularityError
 from .robots.base import RobotModel
 from .robots.planar_2r import PlanarTwoLink
-from .sensors import ForceSensor
+from .sensors import ForceSensor, RealisticForceSensor
 from .trajectories import ReferenceSignal
 
 __all__ = ["simulate", "SimulationResult", "choose_substeps"]
@@ -201,8 +201,8 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
     k = float(environment.max_stiffness())
     J = np.asarray(robot.jacobian(q0))
     B = np.asarray(robot.mass_matrix(q0))
-    c = getattr(environment, "damping", 0.0)
-    c = float(c) if np.isscalar(c) else 0.0  # a scalar damping along the contact normal [N s/m]
+    c_attr = getattr(environment, "damping", 0.0)
+    c = float(c_attr) if isinstance(c_attr, (int, float)) else 0.0  # a scalar damping along the normal [N s/m]
     try:
         mobility = J @ np.linalg.solve(B, J.T)  # B_x⁻¹ = J B⁻¹ Jᵀ
         lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
@@ -309,7 +309,7 @@ def simulate(
     # environment's first reaction is computed under)
     u_before = np.asarray(robot.gravity(q0), dtype=np.float64)
     h0 = environment.sampled_wrench(robot, q0, qd0, u_before)
-    rich = None if sensor.compiled_ok else sensor
+    rich = None if sensor.compiled_ok else cast("RealisticForceSensor", sensor)  # the stateful kind
     hm0 = h0 + bias + noise[0] if rich is None else rich.start(N + 1, m, Ts, h0, q0)
     controller.reset(Measurement(q0, qd0, hm0), reference.at(0.0))
 

@@ -1,5 +1,6 @@
 """Controllers of the chapter. Each states its law and equation number in its docstring."""
 
+from .admittance import AdmittanceController
 from .base import Controller, Measurement, Reference, inverse_dynamics_torque
 from .compliance import JointSpacePD, OperationalSpacePD
 from .force import (
@@ -10,7 +11,6 @@ from .force import (
 )
 from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
-from .admittance import AdmittanceController
 from .redundant import NullSpacePosture, SingularityHandling
 from .spatial import SpatialComplianceController, SpatialHybridController, SpatialImpedanceController
 

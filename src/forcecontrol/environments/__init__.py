@@ -2,7 +2,6 @@
 
 from .base import Environment
 from .elastic import ElasticPlane, LinearSpring
-from .spatial import ConstantWrench, SpatialSpring, Table
 from .rigid import (
     CircleConstraint,
     HolonomicConstraint,
@@ -11,6 +10,7 @@ from .rigid import (
     PlaneConstraint,
     RigidEnvironment,
 )
+from .spatial import ConstantWrench, SpatialSpring, Table
 
 __all__ = [
     "Environment",

@@ -416,6 +416,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
     ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
     st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
+    sensor: ForceSensor
     try:
         if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
             from ..sensors import RealisticForceSensor, ToolGravity
