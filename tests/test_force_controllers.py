@@ -333,3 +333,53 @@ def test_force_reference_check_refuses_nan_and_names_the_force_on_a_shape_mismat
     msg = r"force must have shape \(2,\) like environment_stiffness \(2, 2\); got shape \(1,\)"
     with pytest.raises(DimensionError, match=msg):
         check_force_reference([10.0], np.diag([1e3, 0.0]), [True, False])
+
+
+@pytest.mark.parametrize("scheme", ["inner-velocity", "inner-position", "parallel"])
+def test_direct_force_control_on_a_redundant_arm(scheme):
+    """A 7-joint Panda (3-D position task, 3×7 J) presses 10 N on a plane with the chapter's schemes.
+
+    The inner loop goes through damped least squares with a null-space posture; the force settles
+    to f_d with x_e from (9.44). Along the free axes (zero C_F) each scheme does what the chapter
+    says: the inner velocity loop stops the tip where it is, the inner position loop takes it to
+    x = 0 (remark after (9.47)), the parallel scheme to x_d (9.49).
+    """
+    pytest.importorskip("pinocchio")
+    from forcecontrol.controllers.redundant import NullSpacePosture
+    from forcecontrol.robots.pinocchio import panda
+
+    robot = panda(task="position")
+    q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    x0 = robot.forward_kinematics(q0)
+    k_env, f_d = 5e3, np.array([0.0, 0.0, -10.0])  # pushing down on the plane z = z0
+    plane = fc.ElasticPlane(x0, [0.0, 0.0, 1.0], k_env)
+    motion = dict(inertia=10.0, damping=200.0, stiffness=1000.0)
+    posture = NullSpacePosture(q0, stiffness=25.0, damping=10.0)
+    pi = dict(force_gain=[0.0, 0.0, 2e-5], integral_gain=[0.0, 0.0, 4e-4], posture=posture)
+    x_d = x0 + np.array([0.05, -0.03, 0.0])
+    if scheme == "inner-velocity":  # ω_n = sqrt(k_P k_F k / m_d) = 10 rad/s, ζ = 1
+        ctl = fc.InnerVelocityForceController(robot, **motion, force_gain=[0.0, 0.0, 2e-4], posture=posture)
+        free_xy = x0[:2]
+    elif scheme == "inner-position":
+        ctl = fc.InnerPositionForceController(robot, **motion, **pi)
+        free_xy = np.zeros(2)
+    else:
+        ctl = fc.ParallelForcePositionController(robot, **motion, **pi)
+        free_xy = x_d[:2]
+    r = fc.simulate(robot, plane, ctl, fc.Setpoint(x_d, force=f_d), q0=q0, duration=4.0)
+    assert r.settled("wrench")[2] == pytest.approx(-10.0, rel=5e-3)
+    assert r.settled("x")[2] == pytest.approx(x0[2] - 10.0 / k_env, abs=5e-5)  # (9.44)
+    np.testing.assert_allclose(r.settled("x")[:2], free_xy, atol=1e-3)
+
+
+def test_bad_posture_and_singularity_options_are_refused():
+    """posture and singularity must be the library's types, and the posture must have one entry per joint."""
+    from forcecontrol.controllers.redundant import NullSpacePosture
+
+    gains = dict(inertia=100, damping=500, stiffness=2500, force_gain=[0.0024, 0.0])
+    with pytest.raises(ParameterError, match="posture must be a NullSpacePosture or None; got list"):
+        fc.InnerVelocityForceController(ARM, **gains, posture=[0.1, 0.2])
+    with pytest.raises(ParameterError, match="singularity must be a SingularityHandling or None; got float"):
+        fc.InnerVelocityForceController(ARM, **gains, singularity=0.05)
+    with pytest.raises(DimensionError, match=r"posture.posture must have shape \(2,\); got shape \(3,\)"):
+        fc.InnerVelocityForceController(ARM, **gains, posture=NullSpacePosture([0.0, 0.0, 0.0]))

@@ -296,6 +296,29 @@ class Controller(ABC):
         return {}
 
     # -- shared helpers
+    def _inverse_dynamics(self, T: Any, q: Any, qd: Any, a: np.ndarray, h: Any, compensate: bool) -> np.ndarray:
+        """The inner loop (9.30) for this controller's robot.
+
+        A square J uses the shared :func:`inverse_dynamics_torque`. A redundant arm (J of shape
+        (m, n), m < n) uses the damped-least-squares loop of :mod:`.redundant` with the
+        controller's ``posture`` (a :class:`~.redundant.NullSpacePosture`, acting in the null
+        space of J; None: minimum-norm accelerations) and ``singularity`` handling (None: the exact
+        pseudo-inverse). Away from singularities the task-space closed loop is the same.
+        """
+        J = T.J
+        h = np.asarray(h, dtype=np.float64)
+        if J.shape[0] == J.shape[1]:
+            return inverse_dynamics_torque(T.B, T.n, J, T.Jdq, a, h, compensate)
+        from .redundant import redundant_acceleration
+
+        posture = getattr(self, "posture", None)
+        y0 = None if posture is None else posture.acceleration(np.asarray(q), np.asarray(qd))
+        sing = getattr(self, "singularity", None)
+        threshold, max_damping = (sing.threshold, sing.max_damping) if sing is not None else (1.0, 0.0)
+        y, _ = redundant_acceleration(J, a - T.Jdq, y0, threshold, max_damping)
+        u = T.B @ y + T.n
+        return u + J.T @ h if compensate else u
+
     def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
         """Torques through the compiled dispatcher in one call, for the built-in arm.
 

@@ -339,10 +339,22 @@ class _DirectForceController(Controller):
         integral_limit: Any = None,
         integrator_start: Literal["tip", "zero"] | None = None,
         environment_stiffness: Any = None,
+        posture: Any = None,
+        singularity: Any = None,
         sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
+        from .redundant import NullSpacePosture, SingularityHandling
+
+        if posture is not None and not isinstance(posture, NullSpacePosture):
+            raise ParameterError(f"posture must be a NullSpacePosture or None; got {type(posture).__name__}")
+        if singularity is not None and not isinstance(singularity, SingularityHandling):
+            raise ParameterError(f"singularity must be a SingularityHandling or None; got {type(singularity).__name__}")
+        if posture is not None and np.shape(posture.posture) != (int(robot.nq),):
+            raise DimensionError(f"posture.posture must have shape ({int(robot.nq)},); got shape {np.shape(posture.posture)}")
+        self.posture = posture
+        self.singularity = singularity
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
@@ -463,6 +475,9 @@ class InnerPositionForceController(_DirectForceController):
         integrator_start: ``"tip"`` (default): ξ₀ makes x_F equal the tip position at t = 0;
             ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0 along integral axes).
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
+        posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
+            the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
+            Both unused with a square J.
         sample_time: Ts [s].
 
     Raises:
@@ -477,7 +492,7 @@ class InnerPositionForceController(_DirectForceController):
         T = self.robot.terms(measurement.q, measurement.qd)
         x_F = self._pi_force_reference(measurement, reference)
         a = inner_position_acceleration(T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, np.asarray(measurement.wrench, dtype=np.float64), True)
+        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
         return self._check_output(t, u, measurement)
 
 
@@ -497,6 +512,9 @@ class InnerVelocityForceController(_DirectForceController):
         inertia: M_d (m, m) [kg]; damping: K_D (m, m) [N s/m]; stiffness: K_P (m, m) [N/m].
         force_gain: K_F = C_F, scalar, (m,) or diagonal (m, m) [m/N], >= 0, not all zero.
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
+        posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
+            the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
+            Both unused with a square J.
         sample_time: Ts [s].
     """
 
@@ -512,11 +530,14 @@ class InnerVelocityForceController(_DirectForceController):
         force_gain: Any,
         *,
         environment_stiffness: Any = None,
+        posture: Any = None,
+        singularity: Any = None,
         sample_time: float = 1e-3,
     ) -> None:
         super().__init__(
             robot, inertia, damping, stiffness, force_gain, 0.0,
-            environment_stiffness=environment_stiffness, sample_time=sample_time,
+            environment_stiffness=environment_stiffness, posture=posture, singularity=singularity,
+            sample_time=sample_time,
         )
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
@@ -525,7 +546,7 @@ class InnerVelocityForceController(_DirectForceController):
         h = np.asarray(measurement.wrench, dtype=np.float64)
         x_F = force_reference(np.asarray(reference.force, dtype=np.float64), h, self.force_gain, np.zeros(self.m))
         a = inner_velocity_acceleration(T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, True)
+        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, h, True)
         return self._check_output(t, u, measurement)
 
 
@@ -561,5 +582,5 @@ class ParallelForcePositionController(_DirectForceController):
         a = parallel_acceleration(
             np.asarray(reference.position, dtype=np.float64), T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness
         )
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, np.asarray(measurement.wrench, dtype=np.float64), True)
+        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
         return self._check_output(t, u, measurement)
