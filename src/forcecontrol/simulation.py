@@ -37,7 +37,7 @@ from .robots.planar_2r import PlanarTwoLink
 from .sensors import ForceSensor, RealisticForceSensor
 from .trajectories import ReferenceSignal
 
-__all__ = ["simulate", "SimulationResult", "choose_substeps"]
+__all__ = ["simulate", "SimulationResult", "choose_substeps", "pre_start_wrench"]
 
 _CAUSES = {
     1: "non-finite state",
@@ -222,6 +222,15 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
     return max(1, int(math.ceil(rate * sample_time / 0.05)))
 
 
+def pre_start_wrench(robot: RobotModel, environment: Environment, q0: np.ndarray, qd0: np.ndarray) -> np.ndarray:
+    """The true contact wrench at t = 0 (what a controller's ``reset`` is shown, before the sensor).
+
+    Before t = 0 the arm is held at rest by gravity compensation: a rigid environment's first
+    reaction is computed under that torque (elastic environments ignore it).
+    """
+    return environment.sampled_wrench(robot, q0, qd0, np.asarray(robot.gravity(q0), dtype=np.float64))
+
+
 def simulate(
     robot: RobotModel,
     environment: Environment,
@@ -305,10 +314,7 @@ def simulate(
     use_compiled = compiled_ok and engine != "python"
 
     # initial measurement for controllers whose reset depends on it
-    # before t = 0 the arm is held at rest by gravity compensation (the torque a rigid
-    # environment's first reaction is computed under)
-    u_before = np.asarray(robot.gravity(q0), dtype=np.float64)
-    h0 = environment.sampled_wrench(robot, q0, qd0, u_before)
+    h0 = pre_start_wrench(robot, environment, q0, qd0)
     rich = None if sensor.compiled_ok else cast("RealisticForceSensor", sensor)  # the stateful kind
     hm0 = h0 + bias + noise[0] if rich is None else rich.start(N + 1, m, Ts, h0, q0)
     controller.reset(Measurement(q0, qd0, hm0), reference.at(0.0))
@@ -391,7 +397,7 @@ def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, q
     def accel(q, qd, u):
         return environment.acceleration(robot, q, qd, u)[0]
 
-    u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see simulate)
+    u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see pre_start_wrench)
     for k in range(N + 1):
         t = k * Ts
         T = robot.terms(q, qd)

@@ -199,12 +199,7 @@ class AdmittanceController(_SpatialBase):
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref_t, self.orientation, t)
         r = err.c + self.motion_damping @ err.xd + self.motion_stiffness @ err.x
-        y0 = self.posture.acceleration(q, qd) if self.posture is not None else None
-        s = self.singularity
-        from .redundant import redundant_acceleration
-
-        y, self.last_damping = redundant_acceleration(err.JAd, r, y0, s.threshold, s.max_damping)
-        u = B @ y + nv + J.T @ h
+        u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         self.state[:] = self._Ad @ self.state + self._Gd @ h_d
         return self._check_output(t, u, measurement)
 

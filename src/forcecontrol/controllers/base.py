@@ -299,25 +299,35 @@ class Controller(ABC):
     def _inverse_dynamics(self, T: Any, q: Any, qd: Any, a: np.ndarray, h: Any, compensate: bool) -> np.ndarray:
         """The inner loop (9.30) for this controller's robot.
 
-        A square J uses the shared :func:`inverse_dynamics_torque`. A redundant arm (J of shape
-        (m, n), m < n) uses the damped-least-squares loop of :mod:`.redundant` with the
-        controller's ``posture`` (a :class:`~.redundant.NullSpacePosture`, acting in the null
-        space of J; None: minimum-norm accelerations) and ``singularity`` handling (None: the exact
-        pseudo-inverse). Away from singularities the task-space closed loop is the same.
+        A square J uses the shared :func:`inverse_dynamics_torque`; a redundant arm (J of shape
+        (m, n), m < n) goes through :meth:`_redundant_torque` with ``r = a − J̇q̇``. Away from
+        singularities the task-space closed loop is the same.
         """
         J = T.J
         h = np.asarray(h, dtype=np.float64)
         if J.shape[0] == J.shape[1]:
             return inverse_dynamics_torque(T.B, T.n, J, T.Jdq, a, h, compensate)
+        return self._redundant_torque(J, a - T.Jdq, q, qd, T.B, T.n, J if compensate else None, h)
+
+    def _redundant_torque(
+        self, J_task: np.ndarray, r: np.ndarray, q: Any, qd: Any, B: np.ndarray, n: np.ndarray,
+        J_wrench: np.ndarray | None = None, h: Any = None,
+    ) -> np.ndarray:
+        """``u = B y + n [+ J_wrenchᵀ h]`` with ``J_task y = r`` solved by :mod:`.redundant`.
+
+        Uses the controller's ``posture`` (a ``NullSpacePosture`` acting in the null space of
+        J_task; None: minimum-norm accelerations) and ``singularity`` (a ``SingularityHandling``;
+        None: the exact pseudo-inverse). The damping used is kept in ``last_damping``.
+        """
         from .redundant import redundant_acceleration
 
         posture = getattr(self, "posture", None)
         y0 = None if posture is None else posture.acceleration(np.asarray(q), np.asarray(qd))
         sing = getattr(self, "singularity", None)
         threshold, max_damping = (sing.threshold, sing.max_damping) if sing is not None else (1.0, 0.0)
-        y, _ = redundant_acceleration(J, a - T.Jdq, y0, threshold, max_damping)
-        u = T.B @ y + T.n
-        return u + J.T @ h if compensate else u
+        y, self.last_damping = redundant_acceleration(J_task, r, y0, threshold, max_damping)
+        u = B @ y + n
+        return u + J_wrench.T @ np.asarray(h, dtype=np.float64) if J_wrench is not None else u
 
     def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
         """Torques through the compiled dispatcher in one call, for the built-in arm.

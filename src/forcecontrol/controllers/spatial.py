@@ -45,7 +45,7 @@ from ..spatial import (
     rotvec_T,
 )
 from .base import Controller, Measurement, Reference
-from .redundant import NullSpacePosture, SingularityHandling, redundant_acceleration
+from .redundant import NullSpacePosture, SingularityHandling
 
 __all__ = [
     "SpatialImpedanceController",
@@ -402,10 +402,7 @@ class SpatialImpedanceController(_SpatialBase):
         h_d = np.concatenate([RdT @ h[:3], RdT @ h[3:]])
         r = spatial_impedance_acceleration(err, h_d, self._Md_inv, self.damping, self.stiffness)
         # x̃̈ = −J_Ad q̈ + c  ⇒  J_Ad q̈ = c − x̃̈*  (= r)
-        y0 = self.posture.acceleration(q, qd) if self.posture is not None else None
-        s = self.singularity
-        y, self.last_damping = redundant_acceleration(err.JAd, r, y0, s.threshold, s.max_damping)
-        u = B @ y + nv + J.T @ h
+        u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:
@@ -562,10 +559,7 @@ class SpatialHybridController(_SpatialBase):
         f_lam = lam_d_ddot + self.force_damping @ (lam_d_dot - lam_dot) + self.force_stiffness @ (lam_d - lam)
         xdd_star = self._P_v @ (-self.damping @ err.xd - self.stiffness @ err.x) - S_f @ (self.compliance @ f_lam)
         r = err.c - xdd_star
-        y0 = self.posture.acceleration(q, qd) if self.posture is not None else None
-        s = self.singularity
-        y, self.last_damping = redundant_acceleration(err.JAd, r, y0, s.threshold, s.max_damping)
-        u = B @ y + nv + J.T @ h
+        u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:

@@ -253,7 +253,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     from .._batch import FAST_KINDS
     from ..controllers.base import Measurement
     from ..robots import PlanarTwoLink
-    from ..simulation import choose_substeps
+    from ..simulation import choose_substeps, pre_start_wrench
 
     robot, env, ctl, ref, sensor = (parts[k] for k in ("robot", "environment", "controller", "reference", "sensor"))
     Ts = float(ctl.sample_time)
@@ -282,7 +282,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
         return job
     # the controller's reset exactly as simulate() does it (same first noise sample)
     bias, noise0 = sensor.sequences(1, robot.task_dim)
-    h0 = env.sampled_wrench(robot, q0, qd0, np.asarray(robot.gravity(q0), dtype=np.float64))
+    h0 = pre_start_wrench(robot, env, q0, qd0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DriftWarning)
         ctl.reset(Measurement(q0, qd0, h0 + bias + noise0[0]), ref.at(0.0))
