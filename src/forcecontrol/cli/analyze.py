@@ -33,14 +33,14 @@ def analyze_command(
     from rich.console import Console
     from rich.table import Table
 
-    from .errors import ForceControlError
+    from ..errors import ForceControlError
 
     try:
-        from .analysis.report import analyze_scenario
+        from ..analysis.report import analyze_scenario
 
         report = analyze_scenario(scenario)
         if figures:
-            from .analysis.report import plot_scheme_figures
+            from ..analysis.report import plot_scheme_figures
 
             folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
             report["files"] = [str(p) for p in plot_scheme_figures(scenario, folder)]

@@ -51,7 +51,7 @@ def format_matrix(name: str, M: np.ndarray) -> str:
 
 def task_report(name: str, frame: str = "constraint", t: float = 0.0, pinv: bool = False) -> dict[str, Any]:
     """The task's table and matrices as plain data (the ``--json`` output)."""
-    from .task import SYMBOLS, named_task
+    from ..task import SYMBOLS, named_task
 
     task = named_task(name)
     sel = task.selection(frame, t)  # type: ignore[arg-type]
@@ -84,8 +84,8 @@ def task_command(
     from rich.console import Console
     from rich.table import Table
 
-    from .errors import ForceControlError
-    from .task import TASKS, named_task
+    from ..errors import ForceControlError
+    from ..task import TASKS, named_task
 
     console = Console(width=None if sys.stdout.isatty() else 132)
     if name == "list":

@@ -14,7 +14,7 @@ __all__ = ["compare_command", "compare_scenario"]
 def compare_scenario(name: str) -> dict[str, Any]:
     """Run every case of a scenario on both engines and compare the contact force (see ``compare_engines``)."""
     from ..scenarios import load_scenario, run_scenario
-    from .mujoco import compare_engines
+    from ..engines.mujoco import compare_engines
 
     scn = load_scenario(name)
     builtin = run_scenario(scn, engine="auto")

@@ -1,4 +1,4 @@
-"""The ``forcecontrol sweep`` command (registered at the bottom of :mod:`forcecontrol.cli`)."""
+"""The ``forcecontrol sweep`` command (registered in :mod:`forcecontrol.cli`)."""
 
 from __future__ import annotations
 
@@ -51,10 +51,10 @@ def sweep_command(
     from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
     from rich.text import Text
 
-    from ..cli import _fail, _slug, console, err_console
+    from .app import _fail, _slug, console, err_console
     from ..errors import ForceControlError
-    from .run import load_sweep_scenario, prepare_sweep, run_sweep
-    from .spec import SweepDefinition
+    from ..sweep.run import load_sweep_scenario, prepare_sweep, run_sweep
+    from ..sweep.spec import SweepDefinition
 
     class Rate(ProgressColumn):
         def render(self, task) -> Text:  # type: ignore[override]

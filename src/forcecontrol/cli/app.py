@@ -1,7 +1,7 @@
-"""The ``forcecontrol`` command: a thin layer over the public API.
+"""The ``forcecontrol`` application and the commands ``list``, ``run``, ``show`` and ``schema``.
 
-Commands: ``list``, ``run NAME|FILE``, ``show NAME``, ``schema`` (and the ones other modules
-register at the bottom of this file).
+The other commands live in one module each in this package and register on :data:`app`
+(see :mod:`forcecontrol.cli`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import ForceControlError
+from ..errors import ForceControlError
 
 app = typer.Typer(
     name="forcecontrol",
@@ -55,7 +55,7 @@ def _fail(exc: Exception) -> None:
 @app.command("list")
 def list_command() -> None:
     """List the built-in scenarios (the chapter's examples and problems)."""
-    from .scenarios import list_scenarios
+    from ..scenarios import list_scenarios
 
     table = Table(title="Built-in scenarios")
     table.add_column("name", style="bold")
@@ -68,7 +68,7 @@ def list_command() -> None:
 @app.command("show")
 def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario name")]) -> None:
     """Print a built-in scenario's TOML (a template for your own scenario files)."""
-    from .scenarios import scenario_source
+    from ..scenarios import scenario_source
 
     try:
         sys.stdout.write(scenario_source(scenario).read_text())
@@ -79,8 +79,8 @@ def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario
 @app.command("schema")
 def schema_command() -> None:
     """Print the scenario file schema: every table, type and key."""
-    from .scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
-    from .scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
+    from ..scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
+    from ..scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
 
     def dump(title: str, fields) -> None:
         t = Table(title=title, title_justify="left")
@@ -114,7 +114,7 @@ def run_command(
     """Simulate a scenario: summary table, figure like the chapter's, optional data files."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .scenarios import load_scenario, run_scenario
+    from ..scenarios import load_scenario, run_scenario
 
     try:
         scn = load_scenario(scenario)
@@ -132,7 +132,7 @@ def run_command(
         return
     folder = out / _slug(scn.name)
     if figure:
-        from .plotting import plot_run_figures
+        from ..plotting import plot_run_figures
 
         paths = plot_run_figures(run, folder, _slug(scn.name))
         run.files["figure"] = str(paths[0])
@@ -181,10 +181,3 @@ def _print_summary(run) -> None:
 
 def main() -> None:  # pragma: no cover
     app()
-
-
-# Commands contributed by other modules are registered below (one line each).
-app.command("analyze")(__import__("forcecontrol.cli_analyze", fromlist=["analyze_command"]).analyze_command)
-app.command("task")(__import__("forcecontrol.cli_task", fromlist=["task_command"]).task_command)
-app.command("sweep")(__import__("forcecontrol.sweep.cli", fromlist=["sweep_command"]).sweep_command)
-app.command("compare")(__import__("forcecontrol.engines.cli", fromlist=["compare_command"]).compare_command)

@@ -1,0 +1,17 @@
+"""The ``forcecontrol`` command line: one module per command, the only importer of typer and rich.
+
+``forcecontrol.cli.app`` is the typer application (the console script); each command module
+registers its command on it when imported here.
+"""
+
+from __future__ import annotations
+
+from . import analyze, compare, sweep, task
+from .app import app, main
+
+app.command("analyze")(analyze.analyze_command)
+app.command("task")(task.task_command)
+app.command("sweep")(sweep.sweep_command)
+app.command("compare")(compare.compare_command)
+
+__all__ = ["app", "main"]
