@@ -132,3 +132,28 @@ def test_wrong_state_shape_is_dimension_error(franka):
     """q of the wrong length raises DimensionError."""
     with pytest.raises(DimensionError, match=r"q must have shape \(7,\)"):
         franka.mass_matrix(np.zeros(6))
+
+
+def test_aba_contact_dynamics_equals_mass_matrix_solve(franka):
+    """elastic_acceleration (ABA on u − F q̇ − Jᵀh) equals solve(B, u − n − Jᵀh) from computeAllTerms, in and out of contact."""
+    from forcecontrol.environments.spatial import SpatialSpring
+
+    rng = np.random.default_rng(7)
+    spring = SpatialSpring(np.diag([3e3, 2e3, 1e4, 30.0, 20.0, 10.0]), [0.3, 0.0, 0.5], damping=np.eye(6) * 5.0)
+    robots = [franka, PinocchioRobot(franka.model, franka.frame, task="pose",
+                                     armature=rng.uniform(0.1, 1.0, 7), friction=rng.uniform(0, 2, 7))]
+    for robot in robots:
+        for _ in range(50):
+            q = rng.uniform(-1.5, 1.5, 7)
+            qd = rng.uniform(-2, 2, 7)
+            u = rng.uniform(-20, 20, 7)
+            T = robot.terms(q, qd)
+            for wrench in (spring.wrench, lambda x, xd: np.zeros(6)):
+                h = wrench(T.x, T.xd)
+                want = np.linalg.solve(T.B, u - T.n - T.J.T @ h)
+                got, h_got = robot.elastic_acceleration(q, qd, u, wrench)
+                np.testing.assert_allclose(h_got, h, atol=1e-9 * max(1.0, np.abs(h).max()))
+                np.testing.assert_allclose(got, want, atol=1e-8 * max(1.0, np.abs(want).max()))
+            x, xd = robot.pose_twist(q, qd)
+            np.testing.assert_allclose(x, T.x, atol=1e-12)
+            np.testing.assert_allclose(xd, T.xd, atol=1e-12)

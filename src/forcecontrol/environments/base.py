@@ -43,6 +43,9 @@ class Environment(ABC):
         Returns:
             q̈ (n,) [rad/s²] and h_e (m,) [N].
         """
+        fast = getattr(robot, "elastic_acceleration", None)
+        if fast is not None:  # a robot with its own forward dynamics (Pinocchio's ABA)
+            return fast(q, qd, u, self.wrench)
         T = robot.terms(q, qd)
         h = self.wrench(T.x, T.xd)
         return np.linalg.solve(T.B, u - T.n - T.J.T @ h), h
@@ -52,6 +55,9 @@ class Environment(ABC):
 
         Elastic environments ignore ``u_prev``; a rigid one returns the reaction (9.87) under it.
         """
+        pose_twist = getattr(robot, "pose_twist", None)
+        if pose_twist is not None:  # kinematics only, where the robot offers it
+            return self.wrench(*pose_twist(q, qd))
         T = robot.terms(q, qd)
         return self.wrench(T.x, T.xd)
 

@@ -21,6 +21,7 @@ constant symmetric matrix added to B (constant, so it adds nothing to C q̇).
 from __future__ import annotations
 
 import importlib.metadata
+from collections.abc import Callable
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -261,6 +262,46 @@ class PinocchioRobot:
         else:
             nv = data.nle + self.friction @ qd
         return M.rotation.copy(), M.translation.copy(), J6, Jdq6, B, nv, data.g.copy()
+
+    def pose_twist(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x_e, ẋ_e) of the task from forward kinematics alone (no Jacobian, no dynamics).
+
+        ẋ_e is the frame's twist ``[ȯ_e; ω_e]`` in the base frame restricted to the task rows,
+        the same as ``terms(q, qd).xd`` (``J q̇``) at a fraction of the cost.
+        """
+        pin, model, data, fid = self._pin, self.model, self.data, self.frame_id
+        pin.forwardKinematics(model, data, q, qd)
+        pin.updateFramePlacement(model, data, fid)
+        M = data.oMf[fid]
+        v = pin.getFrameVelocity(model, data, fid, self._lwa).vector
+        return self._x(M.rotation, M.translation), v[self._rows]
+
+    def elastic_acceleration(
+        self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The plant (9.1) in contact with an elastic environment: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)``.
+
+        ``h_e = wrench(x_e, ẋ_e)``. Solved by Pinocchio's articulated-body algorithm (``aba``,
+        armature included) on ``τ = u − F q̇ − Jᵀ h_e``, which avoids forming and factorising B;
+        the Jacobian is computed only while the wrench is non-zero. A model with a rotor coupling
+        (a term of B that ABA does not know) takes ``terms`` and a linear solve instead. Equal to
+        ``solve(B, u − n − Jᵀ h)`` to round-off (tested).
+
+        Returns:
+            q̈ (n,) [rad/s²] and h_e (m,) [N].
+        """
+        if self.rotor_coupling is not None:
+            T = self.terms(q, qd)
+            h = np.asarray(wrench(T.x, T.xd), dtype=np.float64)
+            return np.linalg.solve(T.B, u - T.n - T.J.T @ h), h
+        pin, model, data, fid = self._pin, self.model, self.data, self.frame_id
+        x, xd = self.pose_twist(q, qd)
+        h = np.asarray(wrench(x, xd), dtype=np.float64)
+        tau = u - (self._F_diag * qd if self._F_diag is not None else self.friction @ qd)
+        if h.any():
+            J = pin.computeFrameJacobian(model, data, q, fid, self._lwa)
+            tau = tau - J[self._rows].T @ h
+        return pin.aba(model, data, q, qd, tau), h
 
     def _q(self, v: Any, name: str = "q") -> np.ndarray:
         a = np.asarray(v, dtype=np.float64)
