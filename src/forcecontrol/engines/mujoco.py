@@ -175,6 +175,8 @@ class MujocoPlant:
         self.ee_body = self.model.body(frame).id
         self.ee_geom = self.model.geom("ee_contact").id
         self.nq = int(self.model.nq)
+        self._frictionless = int(mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS)
+        self._scheduled_R = math.nan
         if self._has_contact:
             self._calibrate()
 
@@ -266,15 +268,31 @@ class MujocoPlant:
 
     def _schedule(self, R: float) -> None:
         # both geoms carry the same parameters (MuJoCo mixes the two geoms' solref/solimp)
+        self._scheduled_R = R
         self.model.geom_solref[self._gid] = self.model.geom_solref[self.ee_geom] = [-self._k_scale * R, -self._b_scale * R]
 
     def _reschedule(self) -> None:
-        """Solref for the current configuration, from R of the live contact (when there is one)."""
+        """Solref for the current configuration, from R of the live contact (when there is one).
+
+        Called before every MuJoCo step: the first frictionless-contact row is found with one
+        vectorised comparison, and the model is written only when R has changed.
+        """
         d = self.data
-        for i in range(d.nefc):
-            if d.efc_type[i] == self._mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS:
-                self._schedule(float(d.efc_R[i]))
+        ncon = d.ncon
+        if ncon == 0:  # no contact, no contact row
+            return
+        if ncon == 1:  # the usual case: the contact's own row is the only candidate
+            a = int(d.contact.efc_address[0])
+            if a < 0 or d.efc_type[a] != self._frictionless:
                 return
+        else:
+            rows = np.flatnonzero(d.efc_type[: d.nefc] == self._frictionless)
+            if not rows.size:
+                return
+            a = int(rows[0])
+        R = float(d.efc_R[a])
+        if R != self._scheduled_R:
+            self._schedule(R)
 
     # -- measuring
     def _pose_twist(self) -> tuple[np.ndarray, np.ndarray]:
@@ -306,7 +324,10 @@ class MujocoPlant:
             f = frame.T @ buf[:3]  # force geom1 exerts on geom2... in world axes
             on_ee = f if con.geom2 == self.ee_geom else -f
             f_ee += on_ee
-            mu_ee += np.cross(con.pos - o, on_ee)
+            r = con.pos - o
+            mu_ee[0] += r[1] * on_ee[2] - r[2] * on_ee[1]  # r × f (np.cross costs 15 µs a call here)
+            mu_ee[1] += r[2] * on_ee[0] - r[0] * on_ee[2]
+            mu_ee[2] += r[0] * on_ee[1] - r[1] * on_ee[0]
         h = -np.concatenate([f_ee, mu_ee])
         if self.task == "planar":
             return h[:2]
@@ -361,7 +382,7 @@ class MujocoPlant:
                 if self._has_contact:
                     self._reschedule()
                 mujoco.mj_step(m, d)
-            if not np.all(np.isfinite(d.qpos)) or np.max(np.abs(d.qvel)) > max_joint_speed:
+            if not math.isfinite(float(d.qpos.sum())) or not float(np.abs(d.qvel).max()) <= max_joint_speed:  # NaN fails too
                 status_k = k
                 break
         meta = {
