@@ -35,13 +35,10 @@ from ..errors import BandwidthWarning
 from ..robots.base import RobotModel
 from ..spatial import euler_xyz_T, euler_xyz_T_dot, euler_xyz_to_rotation, rotation_to_euler_xyz
 from .base import Measurement, Reference
-from .spatial import _SpatialBase, desired_frame_error
+from .spatial import _cross, _SpatialBase, desired_frame_error
 
 __all__ = ["AdmittanceController", "compliant_frame"]
 
-
-def _cross(a, b):
-    return np.cross(a, b)
 
 
 def compliant_frame(reference: Reference, z: np.ndarray, zd: np.ndarray, zdd: np.ndarray) -> Reference:
