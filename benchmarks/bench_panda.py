@@ -11,6 +11,11 @@ Measures:
 * a 1 s closed loop at 1 ms (Panda, constant external wrench, ``simulate`` with the Python
   engine, RK4, one substep) against real time. Target: faster than real time.
 
+* the built-in engine's closed loop on the three Panda scenarios (impedance-like admittance,
+  hybrid on a table, hybrid on a 6-D spring) against a plain loop a user would write around the
+  same controller object: Pinocchio's ``aba`` for the plant, the environment's ``wrench``, RK4
+  with the same substeps, logs of q, q̇ and the wrench. Target (issue 14): engine / plain <= 0.5.
+
 Run: ``python benchmarks/bench_panda.py`` (prints a table and the ratios; asserts nothing).
 """
 
@@ -127,5 +132,83 @@ def main() -> dict[str, float]:
     return rows
 
 
+def plain_loop(robot, env, ctrl, ref_sig, q0, duration, nsub):
+    """A plain Python + Pinocchio closed loop around the same controller (the baseline)."""
+    from forcecontrol.controllers.base import REFERENCE_FIELDS
+
+    model, data, fid = robot.model, robot.model.createData(), robot.frame_id
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    rows = robot._rows
+    F = np.diag(robot.friction)
+    Ts = ctrl.sample_time
+    N = int(round(duration / Ts))
+    refs = ref_sig.sample(np.arange(N + 1) * Ts)
+    m = refs.shape[1] // len(REFERENCE_FIELDS)
+
+    def x_of(q, qd):
+        pin.forwardKinematics(model, data, q, qd)
+        pin.updateFramePlacement(model, data, fid)
+        M = data.oMf[fid]
+        v = pin.getFrameVelocity(model, data, fid, lwa).vector[rows]
+        if m == 6:
+            return np.concatenate([M.translation, rotation_to_euler_xyz(M.rotation)]), v
+        return M.translation[rows].copy(), v
+
+    def acc(q, qd, u):
+        h = env.wrench(*x_of(q, qd))
+        J = pin.computeFrameJacobian(model, data, q, fid, lwa)[rows]
+        return pin.aba(model, data, q, qd, u - F * qd - J.T @ h)
+
+    q, qd = q0.copy(), np.zeros(robot.nq)
+    log_q, log_h = np.empty((N + 1, robot.nq)), np.empty((N + 1, m))
+    h = env.wrench(*x_of(q, qd))
+    ctrl.reset(Measurement(q, qd, h), ref_sig.at(0.0))
+    dt = Ts / nsub
+    for k in range(N + 1):
+        h = env.wrench(*x_of(q, qd))
+        row = refs[k]
+        u = ctrl.step(k * Ts, Measurement(q, qd, h), Reference(*(row[i * m:(i + 1) * m] for i in range(6))))
+        log_q[k], log_h[k] = q, h
+        for _ in range(nsub):
+            a1 = acc(q, qd, u)
+            v2 = qd + 0.5 * dt * a1
+            a2 = acc(q + 0.5 * dt * qd, v2, u)
+            v3 = qd + 0.5 * dt * a2
+            a3 = acc(q + 0.5 * dt * v2, v3, u)
+            v4 = qd + dt * a3
+            a4 = acc(q + dt * v3, v4, u)
+            q = q + dt / 6.0 * (qd + 2 * v2 + 2 * v3 + v4)
+            qd = qd + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+    return log_q, log_h
+
+
+def loop_ratios(duration: float = 0.5) -> dict[str, float]:
+    """Built-in engine vs the plain loop on the Panda scenarios (same controller object)."""
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    out = {}
+    for name in ("panda-admittance-contact", "panda-table-line", "panda-peg-in-hole"):
+        parts = build_case(load_scenario(name).cases[0])
+        robot, env, ctrl, ref, q0 = parts["robot"], parts["environment"], parts["controller"], parts["reference"], parts["q0"]
+        res = simulate(robot, env, ctrl, ref, q0=q0, duration=duration, engine="python")
+        nsub = res.metadata["substeps"]
+        lq, _ = plain_loop(robot, env, ctrl, ref, q0, duration, nsub)
+        agree = float(np.max(np.abs(lq - res.q)))
+        te, tp = [], []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            simulate(robot, env, ctrl, ref, q0=q0, duration=duration, engine="python")
+            te.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            plain_loop(robot, env, ctrl, ref, q0, duration, nsub)
+            tp.append(time.perf_counter() - t0)
+        n = int(round(duration / ctrl.sample_time)) + 1
+        e, p = statistics.median(te) / n * 1e6, statistics.median(tp) / n * 1e6
+        print(f"{name:<26} engine {e:7.1f} us/step  plain {p:7.1f} us/step  ratio {e / p:5.2f}  |dq| {agree:.1e}")
+        out[name] = e / p
+    return out
+
+
 if __name__ == "__main__":
     main()
+    loop_ratios()
