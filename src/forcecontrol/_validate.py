@@ -25,6 +25,21 @@ def readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def _numbers(name: str, value: Any, what: str) -> None:
+    """Refuse text, booleans and objects where numbers are expected (``float("100")`` would pass)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+        return  # the common scalar case, at no cost
+    if isinstance(value, (str, bytes)):
+        kind = "U"
+    else:
+        try:
+            kind = np.asarray(value).dtype.kind
+        except (TypeError, ValueError):  # ragged nesting: the caller's conversion names it
+            return
+    if kind not in "iuf":
+        raise ParameterError(f"{name} must be {what} (numbers, not text or booleans); got {value!r}")
+
+
 def _finite(name: str, a: np.ndarray) -> None:
     if not np.all(np.isfinite(a)):
         raise ParameterError(f"{name} must be finite; got {a.tolist()}")
@@ -32,6 +47,7 @@ def _finite(name: str, a: np.ndarray) -> None:
 
 def as_vector(name: str, value: Any, size: int | None = None) -> np.ndarray:
     """Copy ``value`` into a read-only float64 vector, checking its length and finiteness."""
+    _numbers(name, value, "a vector of numbers")
     try:
         a = np.array(value, dtype=np.float64).reshape(-1) if np.ndim(value) <= 1 else None
     except (TypeError, ValueError) as exc:
@@ -46,6 +62,7 @@ def as_vector(name: str, value: Any, size: int | None = None) -> np.ndarray:
 
 def as_matrix(name: str, value: Any, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Copy ``value`` into a read-only float64 matrix of the given shape."""
+    _numbers(name, value, "a matrix of numbers")
     try:
         a = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -77,6 +94,7 @@ def as_gain_matrix(
         diagonal_ok: accept scalars and vectors as diagonal shorthands.
     """
     kind = "positive definite" if definite else "positive semi-definite"
+    _numbers(name, value, f"a symmetric {kind} ({size}, {size}) matrix, a vector or a scalar")
     try:
         a = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -111,6 +129,7 @@ def as_gain_matrix(
 
 def positive_scalar(name: str, value: Any) -> float:
     """A finite number > 0."""
+    _numbers(name, value, "a positive number")
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:
@@ -122,6 +141,7 @@ def positive_scalar(name: str, value: Any) -> float:
 
 def nonnegative_scalar(name: str, value: Any) -> float:
     """A finite number >= 0."""
+    _numbers(name, value, "a non-negative number")
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:

@@ -13,8 +13,8 @@ __all__ = ["compare_command", "compare_scenario"]
 
 def compare_scenario(name: str) -> dict[str, Any]:
     """Run every case of a scenario on both engines and compare the contact force (see ``compare_engines``)."""
-    from ..scenarios import load_scenario, run_scenario
     from ..engines.mujoco import compare_engines
+    from ..scenarios import load_scenario, run_scenario
 
     scn = load_scenario(name)
     builtin = run_scenario(scn, engine="auto")

@@ -210,9 +210,30 @@ def _check_reference_finite(t: float, reference: Reference) -> None:
             raise ParameterError(f"reference.{name} is not finite at t = {t:.6g} s: {a.tolist()}")
 
 
+def _check_step_arguments(t: Any, measurement: Any, reference: Any) -> None:
+    """The types of ``step``'s arguments (a wrong type would end in a raw AttributeError deep inside)."""
+    if type(t) is not float and (isinstance(t, (bool, np.bool_)) or not isinstance(t, (int, float, np.integer, np.floating))):
+        raise ParameterError(f"t must be a number (the sample time instant [s]); got {t!r}")
+    if not math.isfinite(t):
+        raise ParameterError(f"t must be finite; got {t!r}")
+    if not isinstance(measurement, Measurement):
+        raise ParameterError(
+            "measurement must be a forcecontrol Measurement(q, qd, wrench); got " + type(measurement).__name__
+        )
+    if not isinstance(reference, Reference):
+        raise ParameterError(
+            "reference must be a forcecontrol Reference (e.g. Reference.setpoint(x_d) or a ReferenceSignal's "
+            f".at(t)); got {type(reference).__name__}"
+        )
+
+
 def _validated_step(fn: Any) -> Any:
     @functools.wraps(fn)
     def step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        if type(measurement) is not Measurement or type(reference) is not Reference or type(t) is not float:
+            _check_step_arguments(t, measurement, reference)
+        elif t != t or t in (math.inf, -math.inf):
+            raise ParameterError(f"t must be finite; got {t!r}")
         _check_inputs(self, t, measurement, reference)
         state = self.state
         saved = state.copy() if state.size else None
@@ -253,6 +274,10 @@ class Controller(ABC):
     kind: ClassVar[int] = 0
     #: whether the controller reads the force measurement at all.
     uses_force: ClassVar[bool] = True
+    #: the law acts on a position task space (x_e = o_e, J = J_P): a robot whose task includes
+    #: the orientation (task='pose') is refused, since the law would treat Euler angles with the
+    #: geometric Jacobian (the chapter's 6-D forms are the controllers of ``controllers.spatial``).
+    position_task_only: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Every concrete ``step`` and ``reset`` checks its inputs first (shapes, finiteness).
@@ -271,6 +296,13 @@ class Controller(ABC):
     def __init__(self, robot: RobotModel, sample_time: float = 1e-3) -> None:
         if not isinstance(robot, RobotModel):
             raise ParameterError(f"robot must implement RobotModel; got {type(robot).__name__}")
+        if self.position_task_only and getattr(robot, "task", None) == "pose":
+            raise ParameterError(
+                f"{type(self).__name__} works in a position task space (x_e = o_e, J = J_P); the robot's task is "
+                "'pose' (position and orientation). Use the 6-D controllers of forcecontrol.controllers.spatial "
+                "(SpatialImpedanceController (9.35), AdmittanceController (9.37), SpatialHybridController) or "
+                "build the robot with task='position'"
+            )
         self.robot = robot
         self.sample_time = positive_scalar("sample_time", sample_time)
         self.state = np.zeros(0)
@@ -296,16 +328,32 @@ class Controller(ABC):
         return {}
 
     # -- shared helpers
+    def _set_redundancy(self, posture: Any, singularity: Any) -> None:
+        """Check and keep the ``posture`` (NullSpacePosture) and ``singularity`` (SingularityHandling) options."""
+        from .redundant import NullSpacePosture, SingularityHandling
+
+        if posture is not None and not isinstance(posture, NullSpacePosture):
+            raise ParameterError(f"posture must be a NullSpacePosture or None; got {type(posture).__name__}")
+        if singularity is not None and not isinstance(singularity, SingularityHandling):
+            raise ParameterError(f"singularity must be a SingularityHandling or None; got {type(singularity).__name__}")
+        n = int(self.robot.nq)
+        if posture is not None and np.shape(posture.posture) != (n,):
+            raise DimensionError(f"posture.posture must have shape ({n},); got shape {np.shape(posture.posture)}")
+        self.posture = posture
+        self.singularity = singularity
+
     def _inverse_dynamics(self, T: Any, q: Any, qd: Any, a: np.ndarray, h: Any, compensate: bool) -> np.ndarray:
         """The inner loop (9.30) for this controller's robot.
 
-        A square J uses the shared :func:`inverse_dynamics_torque`; a redundant arm (J of shape
-        (m, n), m < n) goes through :meth:`_redundant_torque` with ``r = a − J̇q̇``. Away from
-        singularities the task-space closed loop is the same.
+        A square J uses the shared :func:`inverse_dynamics_torque` (the exact inverse) unless the
+        controller has a ``singularity`` handling; a redundant arm (J of shape (m, n), m < n) or
+        a square J with ``singularity`` set goes through :meth:`_redundant_torque` with
+        ``r = a − J̇q̇`` (damped least squares near a singularity). Away from singularities the
+        task-space closed loop is the same.
         """
         J = T.J
         h = np.asarray(h, dtype=np.float64)
-        if J.shape[0] == J.shape[1]:
+        if J.shape[0] == J.shape[1] and getattr(self, "singularity", None) is None:
             return inverse_dynamics_torque(T.B, T.n, J, T.Jdq, a, h, compensate)
         return self._redundant_torque(J, a - T.Jdq, q, qd, T.B, T.n, J if compensate else None, h)
 
@@ -338,7 +386,8 @@ class Controller(ABC):
         fused = self.__dict__.get("_fused_fn", False)
         if fused is False:  # resolved once: the compiled kernel, or None for the generic path
             fused = None
-            if self._fused_K is not None and self.kind in _compiled_kinds():
+            # the compiled kernel uses the exact J⁻¹: a configured singularity handling takes the generic path
+            if self._fused_K is not None and self.kind in _compiled_kinds() and getattr(self, "singularity", None) is None:
                 from .._kernels import planar_controller_step as fused
             self.__dict__["_fused_fn"] = fused
         if fused is None:

@@ -90,6 +90,7 @@ class OperationalSpacePD(Controller):
 
     kind: ClassVar[int] = 1
     uses_force: ClassVar[bool] = False
+    position_task_only: ClassVar[bool] = True
 
     def __init__(self, robot: RobotModel, stiffness: Any, damping: Any, sample_time: float = 1e-3) -> None:
         super().__init__(robot, sample_time)

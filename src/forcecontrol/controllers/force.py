@@ -326,6 +326,7 @@ class _DirectForceController(Controller):
 
     _has_integral: ClassVar[bool] = True
     _default_start: ClassVar[str] = "tip"
+    position_task_only: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -345,16 +346,7 @@ class _DirectForceController(Controller):
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
-        from .redundant import NullSpacePosture, SingularityHandling
-
-        if posture is not None and not isinstance(posture, NullSpacePosture):
-            raise ParameterError(f"posture must be a NullSpacePosture or None; got {type(posture).__name__}")
-        if singularity is not None and not isinstance(singularity, SingularityHandling):
-            raise ParameterError(f"singularity must be a SingularityHandling or None; got {type(singularity).__name__}")
-        if posture is not None and np.shape(posture.posture) != (int(robot.nq),):
-            raise DimensionError(f"posture.posture must have shape ({int(robot.nq)},); got shape {np.shape(posture.posture)}")
-        self.posture = posture
-        self.singularity = singularity
+        self._set_redundancy(posture, singularity)
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)

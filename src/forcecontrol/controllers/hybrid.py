@@ -247,6 +247,7 @@ class HybridCompliantController(Controller):
     """
 
     kind: ClassVar[int] = 7
+    position_task_only: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -358,6 +359,7 @@ class HybridRigidController(Controller):
     """
 
     kind: ClassVar[int] = 8
+    position_task_only: ClassVar[bool] = True
 
     def __init__(
         self,

@@ -73,15 +73,21 @@ class ImpedanceController(Controller):
     Output: torques (n,) [N m].
 
     Args:
-        robot: the manipulator model (square Jacobian).
+        robot: the manipulator model, with a position task space (a robot with task='pose' is
+            refused: its 6-D form is ``SpatialImpedanceController`` (9.35)).
         inertia: M_d, symmetric positive definite (m, m) [kg] (scalar or diagonal allowed).
         damping: K_D, symmetric positive definite (m, m) [N s/m].
         stiffness: K_P, symmetric positive definite (m, m) [N/m].
         force_measurement: use (9.30)–(9.31) (True) or (9.28) (False).
+        posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting
+            in the null space of J (None: minimum-norm joint accelerations).
+        singularity: a ``SingularityHandling`` (variable damped least squares near a
+            singularity), also for a square J; None: the exact J⁻¹ (which fails at a singularity).
         sample_time: Ts [s].
     """
 
     kind: ClassVar[int] = 3
+    position_task_only: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -91,9 +97,13 @@ class ImpedanceController(Controller):
         stiffness: Any,
         force_measurement: bool = True,
         sample_time: float = 1e-3,
+        *,
+        posture: Any = None,
+        singularity: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
+        self._set_redundancy(posture, singularity)
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
@@ -119,7 +129,7 @@ class ImpedanceController(Controller):
             reference.position - T.x, reference.velocity - T.xd, reference.acceleration, h,
             self._Md_inv, self.damping, self.stiffness, self.force_measurement,
         )
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, self.force_measurement)
+        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, h, self.force_measurement)
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:

@@ -307,8 +307,8 @@ class _SpatialBase(Controller):
             raise ParameterError(f"orientation must be 'euler' or 'rotvec'; got {orientation!r}")
         self.orientation = orientation
         n = int(robot.nq)
-        if posture is None:
-            posture = NullSpacePosture(np.zeros(n), 0.0, 0.0) if n > 6 else None
+        if posture is None:  # a redundant arm still gets null-space damping, or self-motion never dies out
+            posture = NullSpacePosture(np.zeros(n), 0.0, NullSpacePosture.damping) if n > 6 else None
         elif not isinstance(posture, NullSpacePosture):
             posture = NullSpacePosture(posture)
         if posture is not None and posture.posture.shape != (n,):
