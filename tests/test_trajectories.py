@@ -7,7 +7,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import ParameterError
-from forcecontrol.trajectories import trapezoidal_profile
+from forcecontrol.trajectories import LinearPath, trapezoidal_profile
 
 
 def test_trapezoid_starts_ends_and_is_continuous():
@@ -69,3 +69,43 @@ def test_at_equals_the_packed_samples(signal):
     rows = signal.sample(times)
     for t, row in zip(times, rows):
         np.testing.assert_allclose(pack_reference(signal.at(t)), row, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize(("tf", "tc", "Ts"), [(1.0, 0.2, 1e-3), (2.5, 0.5, 1e-3), (0.7, 0.35, 1e-3), (1.3, 0.1, 5e-4)])
+def test_sampled_profile_is_exact_under_zero_order_hold(tf, tc, Ts):
+    """Samples at k Ts hold the interval after them: integrating the held s̈ reproduces ṡ and s at every sample (closed form)."""
+    k = np.arange(int(round((tf + 0.3) / Ts)) + 1)
+    t = k * Ts
+    s, sd, sdd = trapezoidal_profile(t, tf, tc)
+    # ZOH integration of the sampled acceleration, from rest
+    v = np.concatenate([[0.0], np.cumsum(Ts * sdd[:-1])])
+    x = np.concatenate([[0.0], np.cumsum(Ts * sd[:-1] + 0.5 * Ts**2 * sdd[:-1])])
+    np.testing.assert_allclose(v, sd, atol=1e-9)
+    np.testing.assert_allclose(x, s, atol=1e-9)
+    sdd_c = 1.0 / (tc * (tf - tc))
+    # the interval after each breakpoint (no cruise when t_c = t_f / 2: deceleration starts at t_c)
+    breaks = {0.0: sdd_c, tc: 0.0}
+    breaks[tf - tc] = -sdd_c
+    breaks[tf] = 0.0
+    for t_b, want in breaks.items():
+        i = int(round(t_b / Ts))
+        assert sdd[i] == want, (t_b, sdd[i], want)
+        assert _at(t[i], tf, tc) == (s[i], sd[i], sdd[i])
+
+
+def _at(t, tf, tc):
+    from forcecontrol.trajectories import _trapezoid_scalar
+
+    return _trapezoid_scalar(float(t), tf, tc)
+
+
+def test_linear_path_by_top_speed():
+    """LinearPath(speed=v) cruises at v: t_f = L/v + t_c, and the sampled peak speed is v."""
+    path = LinearPath([0.0, 0.0], [0.3, 0.4], speed=0.25, accel_time=0.4)
+    assert path.duration == pytest.approx(0.5 / 0.25 + 0.4)
+    ref = path.sample(np.linspace(0.0, path.duration, 2001))
+    assert np.max(np.linalg.norm(ref[:, 2:4], axis=1)) == pytest.approx(0.25, rel=1e-12)
+    default = LinearPath([0.0, 0.0], [0.3, 0.4], speed=0.25)
+    assert default.duration == pytest.approx(1.25 * 0.5 / 0.25) and default.cruise_speed == pytest.approx(0.25)
+    with pytest.raises(ParameterError, match="exactly one of duration and speed"):
+        LinearPath([0.0, 0.0], [0.3, 0.4], 1.0, speed=0.25)

@@ -7,6 +7,14 @@ For each built-in scenario, each case and each engine, the file ``tests/golden/<
 keeps the final sample and every 10th sample of the logged signals (q, qd, x, xd, wrench,
 wrench_measured, torque). The tests (``tests/test_golden.py``) compare a fresh run against these
 files; they were recorded on commit 31aefef, before the laws were moved (issue 12).
+
+Re-recorded on purpose (each change explained in its commit):
+
+* example-9.4, hybrid-rigid-plane, panda-peg-in-hole, problem-9.3, problem-9.10: the trapezoidal
+  profile's sample at the start of deceleration (t = t_f − t_c) now holds the decelerating
+  interval (was the cruise's zero acceleration): one sample's feed-forward torque changes by
+  200–350 N m, positions by at most 1.5e-4 m, Problem 9.10's tangential speed error drops
+  from 1.8e-3 to 2.2e-5 m/s.
 """
 
 from __future__ import annotations

@@ -81,6 +81,10 @@ class Setpoint(ReferenceSignal):
         return {"type": "setpoint", "position": self.position.tolist(), "force": self.force.tolist()}
 
 
+#: relative tolerance (of t_f) within which a sample time counts as being on a breakpoint.
+_BREAK_TOL = 1e-9
+
+
 def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Normalised trapezoidal velocity timing law s(t) in [0, 1] (Sect. 4.2.1 of the book).
 
@@ -99,16 +103,19 @@ def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tu
     s = np.empty_like(t)
     sd = np.empty_like(t)
     sdd = np.empty_like(t)
-    # at rest before the start and from t_f on (a sample at t_f holds a resting interval);
-    # a sample at t = 0 holds the first accelerating interval
-    before = t < 0.0
-    after = t >= tf
+    # A sample at a breakpoint holds the interval that starts there (zero-order hold): t = 0
+    # the first accelerating one, t_c the cruise, t_f − t_c the deceleration, t_f the rest.
+    # Breakpoints are compared with a tolerance of 1e-9 t_f, so that k Ts lands on the
+    # breakpoint it means despite round-off (0.8 may be 0.7999999999999999).
+    eps = _BREAK_TOL * tf
+    before = t < -eps
+    after = t >= tf - eps
     s[before], sd[before], sdd[before] = 0.0, 0.0, 0.0
     s[after], sd[after], sdd[after] = 1.0, 0.0, 0.0
     moving = ~(before | after)
-    a = moving & (t < tc)
-    c = moving & (t >= tc) & (t <= tf - tc)
-    d = moving & (t > tf - tc)
+    a = moving & (t < tc - eps)
+    c = moving & (t >= tc - eps) & (t < tf - tc - eps)
+    d = moving & (t >= tf - tc - eps)
     s[a] = 0.5 * sdd_c * t[a] ** 2
     sd[a] = sdd_c * t[a]
     sdd[a] = sdd_c
@@ -124,14 +131,15 @@ def trapezoidal_profile(t: np.ndarray, duration: float, accel_time: float) -> tu
 
 def _trapezoid_scalar(t: float, tf: float, tc: float) -> tuple[float, float, float]:
     """:func:`trapezoidal_profile` at one time, with plain floats (the hot path of ``at``)."""
-    if t < 0.0:
+    eps = _BREAK_TOL * tf
+    if t < -eps:
         return 0.0, 0.0, 0.0
-    if t >= tf:
+    if t >= tf - eps:
         return 1.0, 0.0, 0.0
     sdd_c = 1.0 / (tc * (tf - tc))
-    if t < tc:
+    if t < tc - eps:
         return 0.5 * sdd_c * t * t, sdd_c * t, sdd_c
-    if t <= tf - tc:
+    if t < tf - tc - eps:
         return sdd_c * tc * (t - 0.5 * tc), sdd_c * tc, 0.0
     r = tf - t
     return 1.0 - 0.5 * sdd_c * r * r, sdd_c * r, -sdd_c
@@ -145,9 +153,11 @@ class LinearPath(ReferenceSignal):
 
     Args:
         start: p_i, (m,) [m]; end: p_f, (m,) [m].
-        duration: t_f [s].
+        duration: t_f [s]; or give ``speed`` instead.
         accel_time: t_c [s], acceleration (and deceleration) time, 0 < t_c <= t_f/2;
             t_f/5 by default.
+        speed: the cruise (top) speed along the path [m/s], instead of ``duration``: then
+            ``t_f = L / speed + t_c`` (with the default ``t_c = t_f / 5``: ``t_f = 1.25 L / speed``).
         start_time: when the motion starts [s].
         force: constant f_d, (m,) [N].
     """
@@ -156,14 +166,24 @@ class LinearPath(ReferenceSignal):
         self,
         start: Any,
         end: Any,
-        duration: float,
+        duration: float | None = None,
         accel_time: float | None = None,
         start_time: float = 0.0,
         force: Any = None,
+        *,
+        speed: float | None = None,
     ) -> None:
         self.start = as_vector("start", start)
         self.dim = int(self.start.shape[0])
         self.end = as_vector("end", end, self.dim)
+        if (duration is None) == (speed is None):
+            raise ParameterError(f"give exactly one of duration and speed; got duration={duration!r}, speed={speed!r}")
+        if speed is not None:
+            v = positive_scalar("speed", speed)
+            L = float(np.linalg.norm(self.end - self.start))
+            if L == 0.0:
+                raise ParameterError("speed needs start and end to differ (a zero-length path has no duration)")
+            duration = L / v + positive_scalar("accel_time", accel_time) if accel_time is not None else 1.25 * L / v
         self.duration = positive_scalar("duration", duration)
         self.accel_time = self.duration / 5.0 if accel_time is None else positive_scalar("accel_time", accel_time)
         if self.accel_time > 0.5 * self.duration + 1e-15:

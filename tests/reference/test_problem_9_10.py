@@ -124,3 +124,10 @@ def test_built_in_scenario_meets_its_expected_values(name):
     assert len(run.cases) == 2
     failed = [(c.label, ch["metric"], ch["value"]) for c in run.cases for ch in c.checks if not ch["ok"]]
     assert not failed
+
+
+@pytest.mark.parametrize("name", list(PATHS))
+def test_tangential_speed_error_is_at_the_sampling_level(runs, name):
+    """With the trapezoid sampled right at its breakpoints (ZOH), the tangential speed error stays below 5e-5 m/s (was 1.8e-3)."""
+    res, _, nu, nu_d = runs[name]
+    assert np.abs(nu - nu_d).max() < 5e-5
