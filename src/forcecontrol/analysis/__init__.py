@@ -9,7 +9,7 @@ from .force import (
     operational_mass,
     sampled_stability_limit,
 )
-from .impedance import AxisDynamics, impedance_axis
+from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
 
 __all__ = [
     "ComplianceEquilibrium",
@@ -17,6 +17,8 @@ __all__ = [
     "joint_space_compliance",
     "AxisDynamics",
     "impedance_axis",
+    "ImpedanceModes",
+    "impedance_modes",
     "ForceLoopAxis",
     "ForceGains",
     "force_loop_axes",

@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
-from .._validate import nonnegative_scalar, positive_scalar
+import numpy as np
 
-__all__ = ["AxisDynamics", "impedance_axis"]
+from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
+
+__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes"]
 
 
 @dataclass(frozen=True)
@@ -59,3 +62,84 @@ def impedance_axis(
     zeta = kd / (2.0 * math.sqrt(m * (kp + k)))
     x = (kp * desired + k * rest) / (kp + k)
     return AxisDynamics(wn, zeta, x, k * (x - rest), x - rest if k > 0 else 0.0)
+
+
+@dataclass(frozen=True)
+class ImpedanceModes:
+    """Equilibrium and modes of the impedance (9.32) on a linear elastic environment, any geometry.
+
+    The closed loop with force measurement and a constant x_d, on an environment whose wrench is
+    ``h_e = K (x_e − x_r)`` (a plane of any orientation: ``K = k n nᵀ``; a spring: its matrix), is
+    ``M_d ẍ + K_D ẋ + (K_P + K) x = K_P x_d + K x_r`` — coupled through K when the contact is
+    not along a base axis. Its equilibrium is ``x_e = (K_P + K)⁻¹ (K_P x_d + K x_r)`` and its
+    modes are the eigenvalues λ of ``[[0, I], [−M_d⁻¹ (K_P + K), −M_d⁻¹ K_D]]``: each complex
+    pair gives ``ω_n = |λ|`` and ``ζ = −Re λ / |λ|`` (a real pair, ζ ≥ 1, gives
+    ``ω_n = sqrt(λ₁ λ₂)``, ``ζ = −(λ₁ + λ₂) / (2 ω_n)``).
+
+    Attributes:
+        position: x_e (m,) [m]; contact_force: h_e = K (x_e − x_r) (m,) [N].
+        natural_frequencies: ω_n of each mode, ascending (m,) [rad/s].
+        damping_ratios: ζ of each mode (m,).
+        directions: unit direction of each mode in the base frame, (m, m) (row i: mode i),
+            from the eigenvectors of ``M_d⁻¹ (K_P + K)`` (exact when the damping is modal).
+        in_contact: False when the equilibrium with contact would pull on a one-sided
+            environment (the equilibrium is then the free one, K = 0).
+    """
+
+    position: np.ndarray
+    contact_force: np.ndarray
+    natural_frequencies: np.ndarray
+    damping_ratios: np.ndarray
+    directions: np.ndarray
+    in_contact: bool
+
+
+def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
+                    *, one_sided_normal: Any = None) -> ImpedanceModes:
+    """Equilibrium, ω_n and ζ of the impedance (9.32) on ``h_e = K (x_e − x_r)``, for any K.
+
+    Args:
+        inertia, damping, stiffness: M_d [kg], K_D [N s/m], K_P [N/m], symmetric (m, m).
+        environment_stiffness: K, symmetric positive semi-definite (m, m) [N/m] (base frame).
+        desired: x_d (m,) [m]; rest: x_r, a point of the undeformed environment (m,) [m].
+        one_sided_normal: the outward normal of a one-sided environment (a plane): if the
+            equilibrium in contact would not penetrate it, the free equilibrium is returned.
+    """
+    x_d = as_vector("desired", desired)
+    m = x_d.shape[0]
+    x_r = as_vector("rest", rest, m)
+    M = as_gain_matrix("inertia", inertia, m)
+    D = as_gain_matrix("damping", damping, m, definite=False)
+    KP = as_gain_matrix("stiffness", stiffness, m)
+    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    in_contact = True
+    x = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
+    if one_sided_normal is not None:
+        nrm = as_vector("one_sided_normal", one_sided_normal, m)
+        if float(nrm @ (x_r - x)) <= 0.0:  # no penetration at the contact equilibrium: free motion
+            K = np.zeros((m, m))
+            x = x_d.copy()
+            in_contact = False
+    Minv = np.linalg.inv(M)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ D]])
+    lam = np.linalg.eigvals(A)
+    # pair the 2m eigenvalues into m modes: complex pairs by conjugacy, real ones by size
+    cplx = sorted((v for v in lam if v.imag > 1e-9 * max(1.0, abs(v))), key=abs)
+    real = sorted(float(v.real) for v in lam if abs(v.imag) <= 1e-9 * max(1.0, abs(v)))
+    wn, zeta = [], []
+    for v in cplx:
+        wn.append(abs(v))
+        zeta.append(-v.real / abs(v))
+    for i in range(0, len(real) - 1, 2):
+        a, b = real[i], real[i + 1]
+        w = math.sqrt(a * b) if a * b > 0 else 0.0
+        wn.append(w)
+        zeta.append(-(a + b) / (2.0 * w) if w > 0 else math.inf)
+    order = np.argsort(wn)
+    w2, vec = np.linalg.eig(Minv @ (KP + K))
+    vec = np.real(vec[:, np.argsort(np.real(w2))]).T
+    vec = vec / np.linalg.norm(vec, axis=1, keepdims=True)
+    return ImpedanceModes(
+        position=x, contact_force=K @ (x - x_r), natural_frequencies=np.asarray(wn)[order],
+        damping_ratios=np.asarray(zeta)[order], directions=vec, in_contact=in_contact,
+    )

@@ -132,12 +132,13 @@ register_reference(
 # ----------------------------------------------------------------------------- analyses
 
 
-def _axis_stiffness(env: Any) -> Any:
-    import numpy as np
-
-    if hasattr(env, "stiffness_matrix"):
-        return np.diag(env.stiffness_matrix())
-    return None
+def _environment_matrix(env: Any) -> Any:
+    """(K, x_r, one-sided normal) of a linear elastic environment in the base frame, or None."""
+    if not hasattr(env, "stiffness_matrix"):
+        return None
+    if isinstance(env, ElasticPlane):
+        return env.stiffness_matrix(), env.point, env.normal
+    return env.stiffness_matrix(), env.rest_position, None
 
 
 def _impedance_applies(parts: dict[str, Any]) -> bool:
@@ -146,29 +147,38 @@ def _impedance_applies(parts: dict[str, Any]) -> bool:
         isinstance(ctl, ImpedanceController)
         and ctl.force_measurement
         and isinstance(parts["reference"], Setpoint)
-        and _axis_stiffness(parts["environment"]) is not None
+        and _environment_matrix(parts["environment"]) is not None
     )
 
 
 def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
-    """ω_n, ζ and steady state per base axis (Example 9.2's formulas; axis-aligned contact)."""
+    """Equilibrium, ω_n and ζ of the impedance (9.32) on the environment, for any geometry.
+
+    The modes come from the coupled linear model (``analysis.impedance_modes``): along the base
+    axes (``omega_n_x``, ``zeta_x``, ...) when the contact is axis-aligned (Example 9.2), else per
+    mode (``omega_n_1``, ``zeta_1``, ``mode_1`` = its direction), ascending.
+    """
     import numpy as np
 
-    from ..analysis import impedance_axis
+    from ..analysis import impedance_modes
 
     ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
-    k = _axis_stiffness(env)
-    rest = env.point if isinstance(env, ElasticPlane) else env.rest_position
+    K, rest, normal = _environment_matrix(env)
+    md = impedance_modes(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, one_sided_normal=normal)
+    axes = "xyz"[: ctl.m]
     out: dict[str, Any] = {}
-    for i, a in enumerate("xyz"[: ctl.m]):
-        ax = impedance_axis(
-            ctl.inertia[i, i], ctl.damping[i, i], ctl.stiffness[i, i], float(k[i]), ref.position[i], float(rest[i])
-        )
-        out[f"omega_n_{a}"] = ax.natural_frequency
-        out[f"zeta_{a}"] = ax.damping_ratio
-        out[f"steady_{a}"] = ax.position
-        out[f"steady_f{a}"] = ax.contact_force
-    del np
+    for i, a in enumerate(axes):
+        out[f"steady_{a}"] = float(md.position[i])
+        out[f"steady_f{a}"] = float(md.contact_force[i])
+    D = np.abs(md.directions)
+    aligned = bool(np.all(np.abs(D.max(axis=1) - 1.0) < 1e-9)) and len(set(D.argmax(axis=1).tolist())) == ctl.m
+    for i in range(ctl.m):
+        name = axes[int(D[i].argmax())] if aligned else str(i + 1)
+        out[f"omega_n_{name}"] = float(md.natural_frequencies[i])
+        out[f"zeta_{name}"] = float(md.damping_ratios[i])
+        if not aligned:
+            out[f"mode_{name}"] = [float(v) for v in md.directions[i]]
+    out["in_contact"] = md.in_contact
     return out
 
 
