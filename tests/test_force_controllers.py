@@ -259,7 +259,7 @@ BAD = [
     (dict(integral_limit=[float("nan"), 0.1]), ParameterError, r"integral_limit must be positive \[m\]"),
     (dict(integral_limit=[float("inf"), 0.0]), ParameterError, r"not on all axes\); got \[inf, 0.0\]"),
     (dict(integral_limit=[0.1, 0.1, 0.1]), DimensionError, r"integral_limit must be a scalar or have shape \(2,\)"),
-    (dict(integrator_start="middle"), ParameterError, r"integrator_start must be 'tip' or 'zero'; got 'middle'"),
+    (dict(integrator_start="middle"), ParameterError, r"integrator_start must be 'tip', 'hold' or 'zero'; got 'middle'"),
     (dict(environment_stiffness=np.ones((3, 3))), DimensionError, r"environment_stiffness must be .*got shape \(3, 3\)"),
     (dict(sample_time=0.0), ParameterError, r"sample_time must be a positive number; got 0.0"),
 ]

@@ -201,3 +201,47 @@ def test_step_info_of_the_force_loop_is_consistent_with_the_simulation():
     info = control.step_info(tf * F_D)
     r, _ = _run("inner-velocity", 1e3)
     assert r.wrench[:, 0].max() == pytest.approx(info["Peak"], rel=0.02)
+
+
+@pytest.mark.parametrize("start", ["hold", "tip"])
+@pytest.mark.parametrize("k_x", STIFFNESSES)
+def test_integrator_start_linear_model_and_simulation_agree(start, k_x):
+    """Both integrator starts: the sampled linear model (ξ₀ by hand) gives f at fixed times, the peak and its time as simulated.
+
+    ξ₀ by hand for a start at rest on the plane: ``"hold"`` ξ₀ = x_r (x_F = x_r before the step,
+    so the step's proportional kick k_F f_d acts: the zero at −k_I/k_F of (9.44)); ``"tip"``
+    ξ₀ = x_r − k_F f_d (x_F = x_r after the step: no kick). The analysis' own default initial
+    state follows the controller's option.
+    """
+    ctl = fc.InnerPositionForceController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0],
+                                          integrator_start=start)
+    env = fc.ElasticPlane([X_R, 0.0], [-1.0, 0.0], k_x)
+    r = fc.simulate(ARM, env, ctl, fc.Setpoint([1.015, 0.1], [F_D, 0.0]), q0=Q0, duration=3.0, engine="compiled")
+    xi0 = X_R if start == "hold" else X_R - 0.00064 * F_D
+    ax = force_loop_axes(ctl, np.diag([k_x, 0.0]))[0]
+    assert ax.initial_integral(F_D, 1.015, X_R) == pytest.approx(xi0, abs=1e-15)
+    U = np.vstack([np.full(r.t.shape, F_D), np.full(r.t.shape, 1.015), np.full(r.t.shape, X_R)])
+    sysd = ax.sampled(1e-3, arm_inertia=operational_mass(ARM, Q0, [1.0, 0.0]))
+    f_lin = np.asarray(control.forced_response(sysd, T=r.t, U=U, X0=[X_R, 0.0, xi0]).outputs[0])
+    f_sim = r.wrench[:, 0]
+    idx = np.rint(np.array([0.05, 0.1, 0.25, 0.5, 1.0, 2.5]) / 1e-3).astype(int)
+    np.testing.assert_allclose(f_sim[idx], f_lin[idx], atol=0.01 * F_D)
+    assert f_sim.max() == pytest.approx(f_lin.max(), rel=0.01)
+    assert abs(r.t[np.argmax(f_sim)] - r.t[np.argmax(f_lin)]) <= 0.02
+    # the continuous model's default initial state is the controller's option too
+    cont = np.asarray(ax.response(r.t, F_D, 1.015, X_R).outputs[0])
+    hand = np.asarray(ax.response(r.t, F_D, 1.015, X_R, initial_state=[X_R, 0.0, xi0]).outputs[0])
+    np.testing.assert_allclose(cont, hand, atol=1e-12)
+
+
+def test_hold_start_keeps_the_proportional_kick():
+    """'hold' makes the early force rise faster than 'tip' (the k_F f_d kick), as the book's linear loop has it."""
+    f = {}
+    for start in ("hold", "tip"):
+        ctl = fc.InnerPositionForceController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0],
+                                              integrator_start=start)
+        env = fc.ElasticPlane([X_R, 0.0], [-1.0, 0.0], 1e3)
+        r = fc.simulate(ARM, env, ctl, fc.Setpoint([1.015, 0.1], [F_D, 0.0]), q0=Q0, duration=1.0, engine="compiled")
+        f[start] = r.wrench[:, 0]
+    assert f["hold"][100] > 5 * f["tip"][100]  # at 0.1 s
+    assert f["hold"].max() > 1.2 * f["tip"].max()

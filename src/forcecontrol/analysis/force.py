@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import control  # type: ignore[import-untyped]
@@ -74,6 +74,11 @@ class ForceLoopAxis:
         force_gain: k_F [m/N], >= 0; integral_gain: k_I [m/(N s)], >= 0 (ignored by the
             inner velocity loop, whose C_F is purely proportional (9.46)).
         environment_stiffness: k along the axis [N/m], >= 0 (0: free axis).
+        integrator_start: how the simulated controller presets ξ₀ (``"hold"``, ``"tip"`` or
+            ``"zero"``, as ``integrator_start`` of the force controllers), used by
+            :meth:`response` for its default initial state; None: ``"hold"`` for the inner
+            position loop (the chapter's linear loop (9.44), its zero at −k_I/k_F) and
+            ``"zero"`` for the parallel scheme (the controllers' defaults there).
     """
 
     scheme: str
@@ -83,6 +88,7 @@ class ForceLoopAxis:
     force_gain: float
     integral_gain: float = 0.0
     environment_stiffness: float = 0.0
+    integrator_start: str | None = field(default=None, compare=False)  # sets ξ₀ only, not the dynamics
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "scheme", _scheme(self.scheme))
@@ -94,6 +100,8 @@ class ForceLoopAxis:
         object.__setattr__(
             self, "environment_stiffness", nonnegative_scalar("environment_stiffness", self.environment_stiffness)
         )
+        if self.integrator_start not in (None, "hold", "tip", "zero"):
+            raise ParameterError(f"integrator_start must be 'hold', 'tip', 'zero' or None; got {self.integrator_start!r}")
         if self.scheme == "inner-velocity" and self.integral_gain != 0.0:
             raise ParameterError(
                 "integral_gain must be 0 for the inner velocity loop (C_F = K_F, (9.46)); "
@@ -248,7 +256,9 @@ class ForceLoopAxis:
             t: times (N,) [s]; force: f_d, scalar or (N,) [N]; position: x_d, scalar or (N,) [m].
             rest_position: x_r [m].
             initial_state: ``[x, ẋ, ξ]`` (ξ only with integral action); default: at rest at x_r
-                with ξ₀ = x_r (inner position) or 0 (parallel).
+                with ξ₀ as the controller presets it (:attr:`integrator_start`), with
+                ``p = x_r`` (inner position) or ``x_r − x_d(0)`` (parallel): ``"hold"``
+                ξ₀ = p, ``"tip"`` ξ₀ = p − k_F f_d(0), ``"zero"`` ξ₀ = 0.
         """
         t = np.asarray(t, dtype=np.float64)
         U = np.vstack([
@@ -257,7 +267,7 @@ class ForceLoopAxis:
             np.full(t.shape, float(rest_position)),
         ])
         if initial_state is None:
-            xi0 = [rest_position if self.scheme == "inner-position" else 0.0] if self.has_integral else []
+            xi0 = [self.initial_integral(float(U[0, 0]), float(U[1, 0]), float(rest_position))] if self.has_integral else []
             x0 = np.array([rest_position, 0.0, *xi0])
         else:
             x0 = np.asarray(initial_state, dtype=np.float64).reshape(-1)
@@ -266,6 +276,14 @@ class ForceLoopAxis:
                     f"initial_state must have shape ({len(self.states)},) (states {self.states}); got shape {x0.shape}"
                 )
         return control.forced_response(self.state_space(), T=t, U=U, X0=x0)
+
+    def initial_integral(self, force: float, position: float, rest_position: float) -> float:
+        """ξ₀ [m] the controller presets for a start at rest at x_r, with f_d(0), x_d(0) (see :meth:`response`)."""
+        start = self.integrator_start or ("hold" if self.scheme == "inner-position" else "zero")
+        if start == "zero":
+            return 0.0
+        p = rest_position if self.scheme == "inner-position" else rest_position - position
+        return p - self.force_gain * force if start == "tip" else p
 
     # ------------------------------------------------------------------ sampled data
     def sampled(self, sample_time: float, arm_inertia: float | None = None) -> control.StateSpace:
@@ -383,7 +401,7 @@ def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLo
         ForceLoopAxis(
             scheme, float(controller.inertia[i, i]), float(controller.damping[i, i]),
             float(controller.stiffness[i, i]), float(controller.force_gain[i]),
-            float(controller.integral_gain[i]), float(K[i, i]),
+            float(controller.integral_gain[i]), float(K[i, i]), getattr(controller, "integrator_start", None),
         )
         for i in range(m)
     ]

@@ -321,6 +321,10 @@ def check_force_reference(
 # --------------------------------------------------------------------------- classes
 
 
+#: how the PI integrator of (9.43) starts (see ``_DirectForceController.reset``).
+INTEGRATOR_STARTS = ("tip", "hold", "zero")
+
+
 class _DirectForceController(Controller):
     """Shared parts: motion gains (M_d, K_D, K_P), diagonal C_F, integral state and checks."""
 
@@ -338,7 +342,7 @@ class _DirectForceController(Controller):
         integral_gain: Any = 0.0,
         *,
         integral_limit: Any = None,
-        integrator_start: Literal["tip", "zero"] | None = None,
+        integrator_start: Literal["tip", "hold", "zero"] | None = None,
         environment_stiffness: Any = None,
         posture: Any = None,
         singularity: Any = None,
@@ -362,8 +366,8 @@ class _DirectForceController(Controller):
             )
         self.integral_limit = readonly(_limit(integral_limit, m))
         start = self._default_start if integrator_start is None else integrator_start
-        if start not in ("tip", "zero"):
-            raise ParameterError(f"integrator_start must be 'tip' or 'zero'; got {integrator_start!r}")
+        if start not in INTEGRATOR_STARTS:
+            raise ParameterError(f"integrator_start must be 'tip', 'hold' or 'zero'; got {integrator_start!r}")
         self.integrator_start = start
         self.environment_stiffness = (
             None if environment_stiffness is None
@@ -393,11 +397,19 @@ class _DirectForceController(Controller):
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         """Reset the integral action ξ and check the force reference.
 
-        With ``integrator_start="tip"`` and a measurement, ξ₀ is chosen on every axis with
-        integral action so that x_F (inner position loop) or x̃ + x_F (parallel scheme) equals
-        the tip position at t = 0: the arm starts at rest and only the force step excites the loop.
-        With ``"zero"`` (or without a measurement) ξ₀ = 0. Axes without integral action keep ξ = 0
-        (there x_F = K_F (f_d − f_e), as the chapter has it).
+        ξ₀ on every axis with integral action (see :data:`INTEGRATOR_STARTS`), with
+        ``p`` the tip position (inner position loop) or ``p − x_d`` (parallel scheme):
+
+        * ``"hold"``: ``ξ₀ = p − K_F (0 − f_e(0))``: before t = 0 the loop held the initial
+          position with no force demanded; the force step then acts on the whole PI, its
+          proportional kick included, as the linear model (9.44) with its zero at −k_I/k_F has it
+          (this reproduces Figs. 9.9–9.11 and the analysis' responses);
+        * ``"tip"``: ``ξ₀ = p − K_F (f_d(0) − f_e(0))``: x_F (or x̃ + x_F) equals the tip at
+          t = 0 *after* the step, so the proportional kick of the step is cancelled;
+        * ``"zero"`` (or no measurement): ξ₀ = 0.
+
+        Axes without integral action keep ξ = 0 (there x_F = K_F (f_d − f_e), as the chapter
+        has it).
 
         Warns:
             DriftWarning: the reference force has components the environment cannot balance
@@ -413,9 +425,9 @@ class _DirectForceController(Controller):
                 check_force_reference(f_d, np.eye(m), self.force_axes)
         if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
             return
-        f_d = np.asarray(reference.force, dtype=np.float64)
+        f_pre = np.asarray(reference.force, dtype=np.float64) if self.integrator_start == "tip" else np.zeros(m)
         target = self._position_offset(measurement, reference)
-        xi0 = target - self.force_gain * (f_d - np.asarray(measurement.wrench, dtype=np.float64))
+        xi0 = target - self.force_gain * (f_pre - np.asarray(measurement.wrench, dtype=np.float64))
         xi0 = np.where(self.integral_gain > 0.0, xi0, 0.0)
         self.state[:m] = xi0
         self.state[m:] = xi0
@@ -464,8 +476,11 @@ class InnerPositionForceController(_DirectForceController):
         force_gain: K_F, diagonal of C_F's proportional part, scalar, (m,) or diagonal (m, m) [m/N], >= 0.
         integral_gain: K_I, diagonal of C_F's integral part, same forms [m/(N s)], >= 0.
         integral_limit: anti-windup bound on ξ − ξ₀ [m], scalar or (m,); None = no clamping.
-        integrator_start: ``"tip"`` (default): ξ₀ makes x_F equal the tip position at t = 0;
-            ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0 along integral axes).
+        integrator_start: ``"tip"`` (default): ξ₀ makes x_F equal the tip position at t = 0,
+            the force step included (no proportional kick); ``"hold"``: ξ₀ holds the initial
+            position before the step, which then acts on the whole PI (the chapter's Example 9.3
+            and the linear model (9.44)); ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0
+            along integral axes). See :meth:`reset`.
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
         posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).

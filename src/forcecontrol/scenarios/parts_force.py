@@ -51,8 +51,9 @@ def _pi_builder(cls):
 
 register_controller(
     "inner-position",
-    {**_PI, "integrator_start": Field("str", default="tip", choices=("tip", "zero"),
-                                      doc="'tip': x_F(0) = tip position; 'zero': ξ₀ = 0")},
+    {**_PI, "integrator_start": Field("str", default="tip", choices=("tip", "hold", "zero"),
+                                      doc="'hold': the loop holds the start before the force step (the chapter's Fig. 9.9); "
+                                          "'tip': x_F(0) = tip position after the step (no proportional kick); 'zero': ξ₀ = 0")},
     _pi_builder(InnerPositionForceController),
     "force control with inner position loop (9.39), PI C_F (9.43)",
 )
@@ -69,8 +70,9 @@ register_controller(
 
 register_controller(
     "parallel",
-    {**_PI, "integrator_start": Field("str", default="zero", choices=("tip", "zero"),
-                                      doc="'zero': ξ₀ = 0; 'tip': x_d + x_F(0) = tip position")},
+    {**_PI, "integrator_start": Field("str", default="zero", choices=("tip", "hold", "zero"),
+                                      doc="'zero': ξ₀ = 0; 'tip': x_d + x_F(0) = tip position; "
+                                          "'hold': x_d + x_F = tip before the force step")},
     _pi_builder(ParallelForcePositionController),
     "parallel force/position control (9.48), PI C_F (9.43)",
 )
