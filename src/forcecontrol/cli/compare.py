@@ -8,13 +8,15 @@ from typing import Annotated, Any
 
 import typer
 
+from .app import _fail, compile_notice
+
 __all__ = ["compare_command", "compare_scenario"]
 
 
 def compare_scenario(name: str) -> dict[str, Any]:
     """Run every case of a scenario on both engines and compare the contact force (see ``compare_engines``)."""
-    from ..scenarios import load_scenario, run_scenario
     from ..engines.mujoco import compare_engines
+    from ..scenarios import load_scenario, run_scenario
 
     scn = load_scenario(name)
     builtin = run_scenario(scn, engine="auto")
@@ -38,11 +40,11 @@ def compare_command(
 
     from ..errors import ForceControlError
 
+    compile_notice()
     try:
         report = compare_scenario(scenario)
     except (ForceControlError, ImportError) as exc:
-        Console(stderr=True).print(f"[red]error:[/] {exc}")
-        raise typer.Exit(code=2) from exc
+        _fail(exc)
     if json_out:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return

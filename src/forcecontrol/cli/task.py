@@ -15,6 +15,8 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
+from .app import _fail
+
 __all__ = ["task_command", "format_matrix", "task_report"]
 
 
@@ -99,8 +101,7 @@ def task_command(
     try:
         report = task_report(name, frame.value, time, pinv)
     except ForceControlError as exc:
-        Console(stderr=True).print(f"[bold red]error:[/] {exc}")
-        raise typer.Exit(code=2) from None
+        _fail(exc)
     if json_out:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return
