@@ -9,7 +9,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.linalg  # type: ignore[import-untyped]
 
 from .._validate import as_matrix
 from ..errors import DimensionError, ParameterError
@@ -27,6 +26,12 @@ SYMBOLS = {
 
 #: relative tolerance of the reciprocity and rank checks.
 _TOL = 1e-9
+
+
+def _scipy_linalg():  # scipy.linalg costs ~0.1 s to import: loaded on first use
+    import scipy.linalg  # type: ignore[import-untyped]
+
+    return scipy.linalg
 
 
 def _weight(name: str, value: Any, d: int) -> np.ndarray:
@@ -192,7 +197,7 @@ def wrench_rotation(R: np.ndarray, dim: int) -> np.ndarray:
     if dim == 6:
         if R.shape != (3, 3):
             raise DimensionError(f"rotation must be (3, 3) for a 6-D task; got shape {R.shape}")
-        return scipy.linalg.block_diag(R, R)
+        return _scipy_linalg().block_diag(R, R)
     if R.shape != (dim, dim):
         raise DimensionError(f"rotation must be ({dim}, {dim}) for a {dim}-D task; got shape {R.shape}")
     return R

@@ -6,7 +6,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg  # type: ignore[import-untyped]
 
 from .._validate import as_matrix, as_vector, readonly
 from ..errors import DimensionError, ParameterError
@@ -14,6 +13,7 @@ from .projections import (
     _TOL,
     _full_column_rank,
     _rotation,
+    _scipy_linalg,
     _space_dim,
     _weight,
     force_selection_from_constraint,
@@ -218,7 +218,7 @@ class SelectionMatrices:
         """
         S_f = force_selection_from_constraint(jacobian, constraint_jacobian)
         if rho_jacobian is None:
-            S_v = scipy.linalg.null_space(S_f.T)
+            S_v = _scipy_linalg().null_space(S_f.T)
         else:
             S_v = velocity_selection_from_parametrisation(jacobian, rho_jacobian)
         unknown = set(weights) - {"force_weight", "velocity_weight", "frame"}

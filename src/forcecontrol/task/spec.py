@@ -6,11 +6,10 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import scipy.linalg  # type: ignore[import-untyped]
 
 from ..errors import DimensionError, FrameError, ParameterError
 from .frame import ConstraintFrame, FrameName
-from .projections import DOFS, FORCE_KEYS, SYMBOLS, VELOCITY_KEYS, _rotation, wrench_rotation
+from .projections import DOFS, FORCE_KEYS, SYMBOLS, VELOCITY_KEYS, _rotation, _scipy_linalg, wrench_rotation
 from .selection import SelectionMatrices
 
 
@@ -159,7 +158,7 @@ class Task:
     def selection_rate(self, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Ṡ_f, Ṡ_v in the base frame: ``D(Ṙ_c) S^c`` (zero for a fixed constraint frame)."""
         Rd = self.frame.rotation_rate(t)
-        D = scipy.linalg.block_diag(Rd, Rd) if self.dim == 6 else Rd
+        D = _scipy_linalg().block_diag(Rd, Rd) if self.dim == 6 else Rd
         return D @ self._sel_c.force_selection, D @ self._sel_c.velocity_selection
 
     def stiffness(
