@@ -65,3 +65,134 @@ def test_example_9_3_writes_one_figure_per_scheme(tmp_path):
     files = json.loads(res.stdout)["files"]
     names = sorted(v.rsplit("/", 1)[1] for k, v in files.items() if k.startswith("figure"))
     assert names == ["example-9.3-fig-9.10.png", "example-9.3-fig-9.11.png", "example-9.3-fig-9.9.png"]
+
+
+def test_version_prints_the_package_version():
+    """`--version` (and `-V`) print `forcecontrol <__version__>` and exit 0."""
+    import forcecontrol
+
+    for flag in ("--version", "-V"):
+        res = runner.invoke(app, [flag])
+        assert res.exit_code == 0 and res.stdout.strip() == f"forcecontrol {forcecontrol.__version__}"
+
+
+def test_short_help_on_every_command():
+    """`-h` works like `--help` on the application and on every registered command."""
+    names = [c.name or c.callback.__name__ for c in app.registered_commands]
+    assert {"run", "list", "show", "schema", "analyze", "task", "sweep", "compare"} <= set(names)
+    for args in ([], *([n] for n in names)):
+        short, long = runner.invoke(app, [*args, "-h"]), runner.invoke(app, [*args, "--help"])
+        assert short.exit_code == 0 and "Usage:" in short.stdout, (args, short.output)
+        assert short.stdout == long.stdout
+
+
+def test_shell_completion_is_offered():
+    """The help lists typer's --install-completion/--show-completion, and --show-completion prints a bash script."""
+    out = runner.invoke(app, ["--help"]).stdout
+    assert "--install-completion" in out and "--show-completion" in out
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "SHELL": "/bin/bash"}
+    res = subprocess.run(
+        [sys.executable, "-m", "forcecontrol", "--show-completion", "bash"], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert res.returncode == 0 and "complete" in res.stdout and "forcecontrol" in res.stdout.lower(), res.stderr
+
+
+def test_error_messages_keep_bracketed_table_names(tmp_path):
+    """A scenario error naming `[controller]` reaches stderr verbatim (Rich markup escaped; issue 13)."""
+    src = runner.invoke(app, ["show", "example-9.2"]).stdout
+    p = tmp_path / "bad.toml"
+    p.write_text(src.replace("inertia = [100.0, 100.0]", 'inertia = "big"'))
+    res = runner.invoke(app, ["run", str(p), "--no-figure"])
+    assert res.exit_code == 2
+    assert "[controller]" in res.stderr and "'inertia'" in res.stderr, res.stderr
+
+
+def test_fail_prints_markup_like_text_verbatim(capsys):
+    """`_fail` prints an error text holding `[bold]`/`[/]`-like brackets unchanged, on one line."""
+    import pytest
+    import typer
+
+    from forcecontrol.cli.app import _fail
+    from forcecontrol.errors import ScenarioError
+
+    msg = "[controller] stiffness: expected a 2x2 matrix, got [[1, 2]] [/] [red]x"
+    with pytest.raises(typer.Exit) as info:
+        _fail(ScenarioError(msg))
+    assert info.value.exit_code == 2
+    err = capsys.readouterr().err
+    assert msg in err
+
+
+def test_cold_cache_compile_notice(tmp_path):
+    """With an empty cache folder the first compile of a forcecontrol kernel prints one notice; a warm cache prints none."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "probe_kernels.py").write_text(
+        "import numba\n"
+        "@numba.njit(cache=True)\n"
+        "def f(x):\n    return x + 1\n"
+        "@numba.njit(cache=True)\n"
+        "def g(x):\n    return x + 2\n"
+    )
+    probe = tmp_path / "probe.py"
+    probe.write_text(  # the probe's module stands in for forcecontrol's kernels (a real cold compile takes ~40 s)
+        "from forcecontrol import _numba_cache\n"
+        "_numba_cache.WATCHED = ('probe_kernels',)\n"
+        "_numba_cache.install_notice()\n"
+        "import probe_kernels\n"
+        "print(probe_kernels.f(1) + probe_kernels.g(1))\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), env.get("PYTHONPATH", "")])
+
+    def run() -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, str(probe)], capture_output=True, text=True, env=env, timeout=300)
+
+    cold, warm = run(), run()
+    assert cold.returncode == 0 and cold.stdout.strip() == "5", cold.stderr
+    notices = [line for line in cold.stderr.splitlines() if "compiling kernels" in line]
+    assert len(notices) == 1 and "first run" in notices[0], cold.stderr
+    assert warm.returncode == 0 and "compiling" not in warm.stderr, warm.stderr
+
+
+def test_import_is_lazy():
+    """`import forcecontrol` loads neither Numba, SciPy, matplotlib, python-control nor typer; names resolve on access."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, forcecontrol as fc\n"
+        "heavy = [m for m in ('numba', 'scipy', 'matplotlib', 'control', 'typer', 'rich', 'pandas') if m in sys.modules]\n"
+        "print(','.join(heavy) or 'none')\n"
+        "print(fc.ImpedanceController.__module__, fc.Task.__name__, fc.simulate.__name__,"
+        " sorted(set(fc.__all__) - set(dir(fc))))\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert lines[0] == "none"
+    assert lines[1] == "forcecontrol.controllers.impedance Task simulate []"
+
+
+def test_run_does_not_import_python_control():
+    """`run example-9.2` (impedance) never imports python-control (only force analyses need it)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from typer.testing import CliRunner\n"
+        "from forcecontrol.cli import app\n"
+        "r = CliRunner().invoke(app, ['run', 'example-9.2', '--json', '--no-figure'])\n"
+        "assert r.exit_code == 0, r.output\n"
+        "print('control' in sys.modules and hasattr(sys.modules['control'], 'ss'))\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "False"

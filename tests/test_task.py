@@ -427,3 +427,20 @@ def test_cli_task_unknown_name_fails():
 
     out = CliRunner().invoke(app, ["task", "pegs"])
     assert out.exit_code == 2
+
+
+def test_task_package_keeps_its_public_names():
+    """Every public name of the former task.py is importable from forcecontrol.task; each module is under 450 lines."""
+    from pathlib import Path
+
+    import forcecontrol.task as tk
+
+    expected = {
+        "SelectionMatrices", "ConstraintFrame", "Task", "weighted_pseudo_inverse", "planar_rotation", "wrench_rotation",
+        "force_selection_from_constraint", "velocity_selection_from_parametrisation", "partial_stiffness",
+        "partial_compliance", "sliding_on_plane", "peg_in_hole", "turning_crank", "driving_screw", "inclined_plane",
+        "TASKS", "named_task", "SYMBOLS", "DOFS", "VELOCITY_KEYS", "FORCE_KEYS",
+    }
+    assert expected <= set(tk.__all__) and expected <= set(dir(tk))
+    for f in Path(tk.__file__).parent.glob("*.py"):
+        assert len(f.read_text().splitlines()) < 450, f

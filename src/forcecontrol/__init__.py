@@ -3,7 +3,17 @@
 Manipulators interacting with an environment and every controller of chapter 9 of *Robotics:
 Modelling, Planning and Control*: compliance, impedance, admittance, direct force control,
 constrained motion and hybrid force/motion control, with a sampled-data simulator and analysis.
+
+The public names are imported on first use (PEP 562), so ``import forcecontrol`` costs only this
+file: Numba, SciPy and the compiled kernels load when a controller, robot or the simulator is
+first touched.
 """
+
+from __future__ import annotations
+
+import importlib
+import sys
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
@@ -11,54 +21,134 @@ from . import _numba_cache  # noqa: E402  (must precede every @njit(cache=True) 
 
 _numba_cache.configure()
 
-from .controllers import (  # noqa: E402  # noqa: E402
-    AdmittanceController,
-    Controller,
-    HybridCompliantController,
-    HybridRigidController,
-    ImpedanceController,
-    InnerPositionForceController,
-    InnerVelocityForceController,
-    JointSpacePD,
-    Measurement,
-    OperationalSpacePD,
-    ParallelForcePositionController,
-    Reference,
-    SpatialComplianceController,
-    SpatialImpedanceController,
-)
-from .encoders import EncoderFeedback, JointEncoder  # noqa: E402
-from .environments import (  # noqa: E402  # noqa: E402  # noqa: E402
-    ConstantWrench,
-    ElasticPlane,
-    Environment,
-    LinearSpring,
-    PlaneConstraint,
-    RigidEnvironment,
-    SpatialSpring,
-    Table,
-)
-from .errors import (  # noqa: E402  # noqa: E402
-    BandwidthWarning,
-    DimensionError,
-    DriftWarning,
-    ForceControlError,
-    FrameError,
-    MeasurementError,
-    ParameterError,
-    ScenarioError,
-    SimulationDivergedError,
-    SingularityError,
-    WorkspaceError,
-)
-from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel  # noqa: E402
-from .safety import Safety  # noqa: E402
-from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity  # noqa: E402
-from .simulation import SimulationResult, simulate  # noqa: E402
-from .spatial import Transform, Twist, Wrench  # noqa: E402
-from .task import SelectionMatrices, Task  # noqa: E402
-from .trajectories import LinearPath, ReferenceSignal, Setpoint  # noqa: E402
-from .transitions import ContactSupervisor, critical_damping, impact_report  # noqa: E402
+# public name -> submodule that defines it (resolved by __getattr__ on first access)
+_LAZY: dict[str, str] = {
+    "AdmittanceController": ".controllers",
+    "Controller": ".controllers",
+    "HybridCompliantController": ".controllers",
+    "HybridRigidController": ".controllers",
+    "ImpedanceController": ".controllers",
+    "InnerPositionForceController": ".controllers",
+    "InnerVelocityForceController": ".controllers",
+    "JointSpacePD": ".controllers",
+    "Measurement": ".controllers",
+    "OperationalSpacePD": ".controllers",
+    "ParallelForcePositionController": ".controllers",
+    "Reference": ".controllers",
+    "SpatialComplianceController": ".controllers",
+    "SpatialImpedanceController": ".controllers",
+    "EncoderFeedback": ".encoders",
+    "JointEncoder": ".encoders",
+    "ConstantWrench": ".environments",
+    "ElasticPlane": ".environments",
+    "Environment": ".environments",
+    "LinearSpring": ".environments",
+    "PlaneConstraint": ".environments",
+    "RigidEnvironment": ".environments",
+    "SpatialSpring": ".environments",
+    "Table": ".environments",
+    "BandwidthWarning": ".errors",
+    "DimensionError": ".errors",
+    "DriftWarning": ".errors",
+    "ForceControlError": ".errors",
+    "FrameError": ".errors",
+    "MeasurementError": ".errors",
+    "ParameterError": ".errors",
+    "ScenarioError": ".errors",
+    "SimulationDivergedError": ".errors",
+    "SingularityError": ".errors",
+    "WorkspaceError": ".errors",
+    "CHAPTER_ARM": ".robots",
+    "PlanarTwoLink": ".robots",
+    "PlanarTwoLinkParameters": ".robots",
+    "RobotModel": ".robots",
+    "Safety": ".safety",
+    "ForceSensor": ".sensors",
+    "RealisticForceSensor": ".sensors",
+    "ToolGravity": ".sensors",
+    "identify_tool_gravity": ".sensors",
+    "SimulationResult": ".simulation",
+    "simulate": ".simulation",
+    "Transform": ".spatial",
+    "Twist": ".spatial",
+    "Wrench": ".spatial",
+    "SelectionMatrices": ".task",
+    "Task": ".task",
+    "LinearPath": ".trajectories",
+    "ReferenceSignal": ".trajectories",
+    "Setpoint": ".trajectories",
+    "ContactSupervisor": ".transitions",
+    "critical_damping": ".transitions",
+    "impact_report": ".transitions",
+}
+
+if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
+    from .controllers import (
+        AdmittanceController,
+        Controller,
+        HybridCompliantController,
+        HybridRigidController,
+        ImpedanceController,
+        InnerPositionForceController,
+        InnerVelocityForceController,
+        JointSpacePD,
+        Measurement,
+        OperationalSpacePD,
+        ParallelForcePositionController,
+        Reference,
+        SpatialComplianceController,
+        SpatialImpedanceController,
+    )
+    from .encoders import EncoderFeedback, JointEncoder
+    from .environments import (
+        ConstantWrench,
+        ElasticPlane,
+        Environment,
+        LinearSpring,
+        PlaneConstraint,
+        RigidEnvironment,
+        SpatialSpring,
+        Table,
+    )
+    from .errors import (
+        BandwidthWarning,
+        DimensionError,
+        DriftWarning,
+        ForceControlError,
+        FrameError,
+        MeasurementError,
+        ParameterError,
+        ScenarioError,
+        SimulationDivergedError,
+        SingularityError,
+        WorkspaceError,
+    )
+    from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
+    from .safety import Safety
+    from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity
+    from .simulation import SimulationResult, simulate
+    from .spatial import Transform, Twist, Wrench
+    from .task import SelectionMatrices, Task
+    from .trajectories import LinearPath, ReferenceSignal, Setpoint
+    from .transitions import ContactSupervisor, critical_damping, impact_report
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's submodule on first access (PEP 562)."""
+    try:
+        module = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'forcecontrol' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # later accesses skip __getattr__
+    if "numba" in sys.modules:  # a compiled module was loaded: say so when its kernels compile (cold cache)
+        _numba_cache.install_notice()
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "__version__",

@@ -8,17 +8,24 @@ sources gets its own cache folder: ``<cache root>/forcecontrol-<hash of all .py 
 The cache root is ``$NUMBA_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/forcecontrol/numba``
 (``~/.cache/forcecontrol/numba``). This module must be imported before any module that
 decorates functions with ``@njit(cache=True)`` (the package ``__init__`` does so first).
+
+:func:`configure` does not import Numba (that costs about 0.3 s): when Numba is not loaded yet it
+sets ``NUMBA_CACHE_DIR``, which Numba reads when it is first imported; child processes (Dask
+workers) inherit it and recognise the folder as already configured.
+:func:`notify_if_cold` prints one line on stderr when the folder holds no compiled kernels yet.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from pathlib import Path
 
-__all__ = ["configure", "CACHE_DIR"]
+__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold"]
 
 CACHE_DIR: str | None = None
+_notified = False
 
 
 def _source_hash(root: Path) -> str:
@@ -32,16 +39,89 @@ def _source_hash(root: Path) -> str:
 def configure() -> str | None:
     """Point Numba's cache at the folder of this source version; return it (None if unusable)."""
     global CACHE_DIR
-    import numba
-
+    name = f"forcecontrol-{_source_hash(Path(__file__).parent)}"
     base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "forcecontrol", "numba"
     )
-    folder = os.path.join(base, f"forcecontrol-{_source_hash(Path(__file__).parent)}")
+    # a parent process already pointed NUMBA_CACHE_DIR at this version's folder
+    folder = base if os.path.basename(os.path.normpath(base)) == name else os.path.join(base, name)
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError:  # pragma: no cover - read-only home: keep Numba's own default
         return None
-    numba.config.CACHE_DIR = folder  # type: ignore[attr-defined]  # read when a cached function compiles
+    numba = sys.modules.get("numba")
+    if numba is not None:  # already imported: its config has read the environment
+        numba.config.CACHE_DIR = folder  # type: ignore[attr-defined]  # read when a cached function compiles
+    else:
+        os.environ["NUMBA_CACHE_DIR"] = folder  # read by numba.config on import
     CACHE_DIR = folder
+    global _cold
+    _cold = _empty(folder)  # before any @njit(cache=True) decoration creates its index folders
     return folder
+
+
+_cold = False
+
+
+def _empty(folder: str) -> bool:
+    try:
+        with os.scandir(folder) as it:
+            return not any(True for _ in it)
+    except OSError:
+        return True
+
+
+def is_cold() -> bool:
+    """True when this source version's cache folder was empty when the package was imported (first run)."""
+    return CACHE_DIR is not None and _cold
+
+
+def notify_if_cold(seconds: float = 40.0) -> bool:
+    """Print one line on stderr, once per process, if the kernels are about to compile; return whether it did."""
+    global _notified
+    if _notified or not is_cold():
+        return False
+    _notified = True
+    print(
+        f"forcecontrol: compiling kernels (first run, ~{seconds:.0f} s; cached afterwards in {CACHE_DIR})",
+        file=sys.stderr,
+        flush=True,
+    )
+    return True
+
+
+_listener_installed = False
+WATCHED: tuple[str, ...] = ("forcecontrol",)  # packages whose compiles the notice reports
+
+
+def install_notice() -> None:
+    """Print :func:`notify_if_cold`'s line (or a shorter one) when Numba first compiles one of this package's kernels.
+
+    Uses Numba's event API (``numba:compile`` fires only on a cache miss, after the on-disk cache
+    was tried), so a warm cache prints nothing. Imports Numba: call it where Numba is needed anyway.
+    """
+    global _listener_installed
+    if _listener_installed:
+        return
+    _listener_installed = True
+    from numba.core import event
+
+    class _CompileNotice(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            global _notified
+            if _notified:
+                return
+            func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+            module = str(getattr(func, "__module__", ""))
+            if not any(module == w or module.startswith(w + ".") for w in WATCHED):
+                return
+            if is_cold():
+                notify_if_cold()
+            else:
+                _notified = True
+                print("forcecontrol: compiling kernels for a new signature (cached afterwards)", file=sys.stderr, flush=True)
+
+        def on_end(self, ev: event.Event) -> None:
+            pass
+
+    event.register("numba:compile", _CompileNotice())

@@ -1,15 +1,50 @@
-"""Analysis: where the loop settles and how it moves (equilibria, poles, ω_n, ζ)."""
+"""Analysis: where the loop settles and how it moves (equilibria, poles, ω_n, ζ).
 
-from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
-from .force import (
-    ForceGains,
-    ForceLoopAxis,
-    design_force_gains,
-    force_loop_axes,
-    operational_mass,
-    sampled_stability_limit,
-)
-from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
+Names are imported on first use (PEP 562): :mod:`.force` needs python-control, which the
+impedance and compliance analyses (run with every scenario) do not.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_LAZY = {
+    "ComplianceEquilibrium": ".compliance",
+    "compliance_equilibrium": ".compliance",
+    "joint_space_compliance": ".compliance",
+    "ForceGains": ".force",
+    "ForceLoopAxis": ".force",
+    "design_force_gains": ".force",
+    "force_loop_axes": ".force",
+    "operational_mass": ".force",
+    "sampled_stability_limit": ".force",
+    "AxisDynamics": ".impedance",
+    "impedance_axis": ".impedance",
+    "ImpedanceModes": ".impedance",
+    "impedance_modes": ".impedance",
+}
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
+    from .force import (
+        ForceGains,
+        ForceLoopAxis,
+        design_force_gains,
+        force_loop_axes,
+        operational_mass,
+        sampled_stability_limit,
+    )
+    from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "ComplianceEquilibrium",

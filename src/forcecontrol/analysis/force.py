@@ -33,11 +33,13 @@ import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
-import control  # type: ignore[import-untyped]
 import numpy as np
 
+from .._lazy import lazy_import
 from .._validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, DriftWarning, ParameterError
+
+control = lazy_import("control")  # python-control costs 1-5 s to import: loaded on first use
 
 __all__ = [
     "SCHEMES",

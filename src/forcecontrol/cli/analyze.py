@@ -13,6 +13,8 @@ from typing import Annotated
 
 import typer
 
+from .app import _fail, compile_notice
+
 __all__ = ["analyze_command"]
 
 
@@ -42,11 +44,12 @@ def analyze_command(
         if figures:
             from ..analysis.report import plot_scheme_figures
 
+            compile_notice()
+
             folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
             report["files"] = [str(p) for p in plot_scheme_figures(scenario, folder)]
     except ForceControlError as exc:
-        Console(stderr=True).print(f"[bold red]error:[/] {exc}")
-        raise typer.Exit(code=2) from None
+        _fail(exc)
     if json_out:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
     else:

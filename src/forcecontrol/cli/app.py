@@ -11,23 +11,46 @@ import re
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
+from .. import __version__, _numba_cache
 from ..errors import ForceControlError
 
 app = typer.Typer(
     name="forcecontrol",
     help="Force control of robot manipulators: the chapter's schemes, simulated, analysed and checked.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish, PowerShell)
     pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},  # inherited by every command
 )
 console = Console(width=None if sys.stdout.isatty() else 132)
 err_console = Console(stderr=True)
+
+
+def _version_callback(value: bool) -> None:
+    if value:
+        sys.stdout.write(f"forcecontrol {__version__}\n")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main_options(
+    version: Annotated[
+        bool, typer.Option("--version", "-V", help="print the version and exit", callback=_version_callback, is_eager=True)
+    ] = False,
+) -> None:
+    """Force control of robot manipulators: the chapter's schemes, simulated, analysed and checked."""
+
+
+def compile_notice() -> None:
+    """Say on stderr, once, when the compiled kernels are about to compile (a cold Numba cache)."""
+    _numba_cache.install_notice()
 
 
 class Engine(str, Enum):
@@ -47,8 +70,9 @@ def _slug(s: str) -> str:
     return re.sub(r"[^A-Za-z0-9.]+", "-", s).strip("-").lower() or "case"
 
 
-def _fail(exc: Exception) -> None:
-    err_console.print(f"[bold red]error:[/] {exc}")
+def _fail(exc: Exception) -> NoReturn:
+    """Print ``error: <message>`` on stderr (the message verbatim: ``[controller]`` is text, not markup); exit 2."""
+    err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
@@ -116,6 +140,7 @@ def run_command(
 
     from ..scenarios import load_scenario, run_scenario
 
+    compile_notice()
     try:
         scn = load_scenario(scenario)
         if json_out:
@@ -153,7 +178,7 @@ def run_command(
 
 def _print_summary(run) -> None:
     scn = run.scenario
-    console.print(f"[bold]{scn.title or scn.name}[/]")
+    console.print(f"[bold]{escape(scn.title or scn.name)}[/]")
     t = Table(title="Settled values (mean of the last samples) and peak contact force", title_justify="left")
     for col in ("case", "t_end [s]", "x [m]", "y [m]", "f_x [N]", "f_y [N]", "peak |f| [N]", "engine"):
         t.add_column(col, justify="right" if col != "case" else "left")
@@ -176,7 +201,7 @@ def _print_summary(run) -> None:
                 )
         console.print(ct)
     for k, v in run.files.items():
-        console.print(f"{k}: {v}")
+        console.print(f"{k}: {v}", markup=False, highlight=False)
 
 
 def main() -> None:  # pragma: no cover

@@ -8,6 +8,8 @@ from typing import Annotated, Any
 
 import typer
 
+from .app import _fail, compile_notice
+
 __all__ = ["compare_command", "compare_scenario"]
 
 
@@ -38,11 +40,11 @@ def compare_command(
 
     from ..errors import ForceControlError
 
+    compile_notice()
     try:
         report = compare_scenario(scenario)
     except (ForceControlError, ImportError) as exc:
-        Console(stderr=True).print(f"[red]error:[/] {exc}")
-        raise typer.Exit(code=2) from exc
+        _fail(exc)
     if json_out:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return

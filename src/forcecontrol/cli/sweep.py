@@ -54,7 +54,9 @@ def sweep_command(
     from ..errors import ForceControlError
     from ..sweep.run import load_sweep_scenario, prepare_sweep, run_sweep
     from ..sweep.spec import SweepDefinition
-    from .app import _fail, _slug, console, err_console
+    from .app import _fail, _slug, compile_notice, console, err_console
+
+    compile_notice()
 
     class Rate(ProgressColumn):
         def render(self, task) -> Text:  # type: ignore[override]

@@ -10,10 +10,14 @@ from __future__ import annotations
 import json
 import sys
 from enum import Enum
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
+
+from .app import _fail
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["task_command", "format_matrix", "task_report"]
 
@@ -34,6 +38,8 @@ def _num(v: float) -> str:
 
 def format_matrix(name: str, M: np.ndarray) -> str:
     """A matrix as the chapter prints it, in brackets, one row per line, with its name."""
+    import numpy as np  # not at start-up: `forcecontrol --help` does not need NumPy
+
     cells = [[_num(float(v)) for v in row] for row in np.atleast_2d(M)]
     width = max((len(c) for row in cells for c in row), default=1)
     lines = ["  ".join(c.rjust(width) for c in row) for row in cells]
@@ -99,8 +105,7 @@ def task_command(
     try:
         report = task_report(name, frame.value, time, pinv)
     except ForceControlError as exc:
-        Console(stderr=True).print(f"[bold red]error:[/] {exc}")
-        raise typer.Exit(code=2) from None
+        _fail(exc)
     if json_out:
         sys.stdout.write(json.dumps(report, indent=2) + "\n")
         return
@@ -114,6 +119,8 @@ def task_command(
     console.print(table)
     where = f"{report['frame']} frame" + (f", t = {time:g} s (moving frame)" if report["moving_frame"] else "")
     console.print(f"Selection matrices, {where}:")
+    import numpy as np
+
     blocks = [format_matrix("S_f", np.array(report["S_f"])), format_matrix("S_v", np.array(report["S_v"]))]
     if pinv:
         blocks += [format_matrix("S_f†", np.array(report["S_f_pinv"])), format_matrix("S_v†", np.array(report["S_v_pinv"]))]

@@ -33,7 +33,8 @@ from scipy.linalg import expm  # type: ignore[import-untyped]
 from .._validate import as_gain_matrix, positive_scalar
 from ..errors import BandwidthWarning
 from ..robots.base import RobotModel
-from ..spatial import euler_xyz_T, euler_xyz_T_dot, euler_xyz_to_rotation, rotation_to_euler_xyz
+from ..spatial import euler_xyz_T, euler_xyz_T_dot
+from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz  # per sample
 from .base import Measurement, Reference
 from .spatial import _cross, _SpatialBase, desired_frame_error
 

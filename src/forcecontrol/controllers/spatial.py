@@ -34,16 +34,8 @@ from numba import njit
 from .._validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..robots.base import RobotModel
-from ..spatial import (
-    Wrench,
-    euler_xyz_T,
-    euler_xyz_T_dot,
-    euler_xyz_T_inv,
-    euler_xyz_to_rotation,
-    rotation_to_euler_xyz,
-    rotation_vector,
-    rotvec_T,
-)
+from ..spatial import Wrench, euler_xyz_T, euler_xyz_T_dot, euler_xyz_T_inv, rotvec_T
+from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz, rotation_vector  # per sample
 from .base import Controller, Measurement, Reference
 from .redundant import NullSpacePosture, SingularityHandling
 

@@ -41,7 +41,7 @@ from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Refere
 from ..environments.base import Environment
 from ..errors import ParameterError, SimulationDivergedError
 from ..simulation import SimulationResult
-from ..spatial import rotation_to_euler_xyz
+from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 
 __all__ = ["MujocoPlant", "simulate_mujoco", "compare_engines", "DIFFERENCES"]

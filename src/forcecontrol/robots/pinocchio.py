@@ -31,7 +31,7 @@ import numpy as np
 
 from .._validate import as_matrix, as_vector
 from ..errors import DimensionError, ParameterError
-from ..spatial import rotation_to_euler_xyz
+from ..spatial.closed_form import rotation_to_euler_xyz  # per integrator stage
 from .base import RobotTerms
 
 __all__ = ["PinocchioRobot", "chapter_arm", "panda", "ur5", "example_robot_data_dir", "model_path"]

@@ -1,0 +1,64 @@
+"""The import contract (issue 12 item 3): layers from errors up to cli, no circles, typer/rich only in cli/."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PYPROJECT = ROOT / "pyproject.toml"
+
+grimp = pytest.importorskip("grimp")
+importlinter_cli = pytest.importorskip("importlinter.cli")
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+def _contracts() -> list[dict]:
+    return tomllib.loads(PYPROJECT.read_text())["tool"]["importlinter"]["contracts"]
+
+
+@pytest.fixture(scope="module")
+def graph():
+    return grimp.build_graph("forcecontrol", include_external_packages=True, exclude_type_checking_imports=True)
+
+
+def test_import_contract_holds():
+    """`lint-imports` with the contracts in pyproject.toml exits 0 (every contract kept)."""
+    assert importlinter_cli.lint_imports(config_filename=str(PYPROJECT), no_cache=True) == 0
+
+
+def test_every_top_level_module_has_a_layer(graph):
+    """Each module and package directly under forcecontrol is placed in the layers contract (a new one must be placed)."""
+    (layers,) = [c for c in _contracts() if c["type"] == "layers"]
+    placed = {name.strip() for layer in layers["layers"] for name in layer.replace(":", "|").split("|")}
+    top = {m.split(".")[1] for m in graph.modules if m.startswith("forcecontrol.")} - {"__main__"}
+    assert top - placed == set(), f"modules missing from the layers contract in pyproject.toml: {sorted(top - placed)}"
+
+
+def test_only_cli_imports_typer_and_rich(graph):
+    """grimp's graph (a second check next to the protected contract): every importer of typer or rich is in cli/."""
+    for lib in ("typer", "rich"):
+        importers = {m for m in graph.find_modules_that_directly_import(lib) if m.startswith("forcecontrol")}
+        assert importers, f"expected the CLI to import {lib}"
+        outside = sorted(m for m in importers if not m.startswith("forcecontrol.cli"))
+        assert outside == [], f"{lib} imported outside cli/: {outside}"
+
+
+def test_the_contract_catches_an_upward_import(graph):
+    """The layers contract really checks direction: adding errors -> cli to the graph breaks it."""
+    (layers,) = [c for c in _contracts() if c["type"] == "layers"]
+    order = [[n.strip() for n in layer.replace(":", "|").split("|")] for layer in layers["layers"]]
+    bottom, top = order[-1][0], order[0][0]
+    assert (bottom, top) == ("errors", "cli")
+    assert not graph.find_illegal_dependencies_for_layers(layers=("forcecontrol.cli", "forcecontrol.errors"))
+    graph.add_import(importer="forcecontrol.errors", imported="forcecontrol.cli.app")
+    try:
+        assert graph.find_illegal_dependencies_for_layers(layers=("forcecontrol.cli", "forcecontrol.errors"))
+    finally:
+        graph.remove_import(importer="forcecontrol.errors", imported="forcecontrol.cli.app")
