@@ -32,6 +32,7 @@ from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Referen
 from .controllers.dispatch import COMPILED_KINDS
 from .environments.base import Environment
 from .errors import DimensionError, ParameterError, SimulationDivergedError, SingularityError
+from .limits import MAX_LOG_BYTES, check_run_size, check_substeps
 from .robots.base import RobotModel
 from .robots.planar_2r import PlanarTwoLink
 from .sensors import ForceSensor, RealisticForceSensor
@@ -246,6 +247,7 @@ def simulate(
     max_joint_speed: float = 50.0,
     label: str = "",
     metadata: dict[str, Any] | None = None,
+    max_log_bytes: float = MAX_LOG_BYTES,
 ) -> SimulationResult:
     """Simulate the closed loop for ``duration`` seconds at the controller's sample time.
 
@@ -263,6 +265,8 @@ def simulate(
         engine: ``"python"``, ``"compiled"`` (chapter arm, built-in parts) or ``"auto"``.
         max_joint_speed: a joint faster than this [rad/s] stops the run as a runaway.
         label: the case's label; metadata: extra metadata merged into the result's.
+        max_log_bytes: memory the logs may take [bytes] (default 2 GiB): a longer run is refused
+            before anything is allocated (see :mod:`forcecontrol.limits`).
 
     Raises:
         SimulationDivergedError: the state became non-finite, ran away or met a singularity;
@@ -285,7 +289,7 @@ def simulate(
     sensor = sensor or ForceSensor()
     if engine not in ("auto", "python", "compiled"):
         raise ParameterError(f"engine must be 'auto', 'python' or 'compiled'; got {engine!r}")
-    N = int(round(duration / Ts))
+    N = check_run_size(duration, Ts, n, m, max_log_bytes)  # before anything is allocated
     if N < 1:
         raise ParameterError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
     if substeps is None:
@@ -312,6 +316,7 @@ def simulate(
             f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
         )
     use_compiled = compiled_ok and engine != "python"
+    check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python")
 
     # initial measurement for controllers whose reset depends on it
     h0 = pre_start_wrench(robot, environment, q0, qd0)

@@ -40,6 +40,7 @@ import numpy as np
 from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from ..environments.base import Environment
 from ..errors import ParameterError, SimulationDivergedError
+from ..limits import check_run_size
 from ..simulation import SimulationResult
 from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
@@ -357,7 +358,7 @@ class MujocoPlant:
         d.qpos[:] = np.asarray(q0, dtype=float)
         d.qvel[:] = 0.0 if qd0 is None else np.asarray(qd0, dtype=float)
         mujoco.mj_forward(m, d)
-        N = int(round(duration / Ts))
+        N = check_run_size(float(duration), Ts, n, int(self.robot.task_dim))  # before anything is allocated
         times = np.arange(N + 1) * Ts
         refs = np.ascontiguousarray(reference.sample(times), dtype=np.float64)
         mdim = refs.shape[1] // len(REFERENCE_FIELDS)

@@ -252,13 +252,18 @@ def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, f
 def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any]) -> CaseJob:
     from .._batch import FAST_KINDS
     from ..controllers.base import Measurement
+    from ..errors import ParameterError
+    from ..limits import check_run_size, check_substeps
     from ..robots import PlanarTwoLink
     from ..simulation import choose_substeps, pre_start_wrench
 
     robot, env, ctl, ref, sensor = (parts[k] for k in ("robot", "environment", "controller", "reference", "sensor"))
     Ts = float(ctl.sample_time)
     duration = float(parts["duration"])
-    N = int(round(duration / Ts))
+    try:  # the same limits as simulate(), before anything is allocated
+        N = check_run_size(duration, Ts, int(robot.nq), int(robot.task_dim))
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
     if N < 1:
         raise SweepError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
     q0 = np.asarray(parts["q0"], dtype=np.float64)
@@ -272,6 +277,10 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     )
     # cases share a sampled reference only when the samples themselves are equal (a describe()
     # of a user's reference type need not say everything that shapes it)
+    try:
+        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if fast else "python")
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
     samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
     job = CaseJob(
         case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
