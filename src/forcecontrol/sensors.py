@@ -79,6 +79,8 @@ class ForceSensor:
         if np.any(self.noise_std < 0):
             raise ParameterError(f"noise_std must be non-negative; got {self.noise_std.tolist()}")
         self.cutoff = None if cutoff is None else positive_scalar("cutoff", cutoff)
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**63:
+            raise ParameterError(f"seed must be an integer in [0, 2**63); got {seed!r}")
         self.seed = int(seed)
 
     @property

@@ -51,7 +51,8 @@ def analyze_command(
     except ForceControlError as exc:
         _fail(exc)
     if json_out:
-        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        from .._json import json_safe
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
     else:
         console = Console(width=None if sys.stdout.isatty() else 132)
         console.print(f"[bold]{report['title'] or report['scenario']}[/]")

@@ -169,7 +169,8 @@ def run_command(
             run.files[f"data:{c.label}"] = str(d)
             run.files[f"metadata:{c.label}"] = str(m)
     if json_out:
-        sys.stdout.write(json.dumps(run.to_json(), indent=2) + "\n")
+        from .._json import json_safe
+        sys.stdout.write(json.dumps(json_safe(run.to_json()), indent=2, allow_nan=False) + "\n")
     else:
         _print_summary(run)
     if check and not run.all_checks_pass:

@@ -46,7 +46,8 @@ def compare_command(
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:
-        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        from .._json import json_safe
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
         return
     console = Console()
     t = Table(title=f"{report['scenario']}: contact force, built-in simulator vs MuJoCo", title_justify="left")

@@ -129,7 +129,8 @@ def sweep_command(
         "files": files,
     }
     if json_out:
-        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+        from .._json import json_safe
+        sys.stdout.write(json.dumps(json_safe(summary), indent=2, allow_nan=False) + "\n")
         return
     from rich.table import Table
 

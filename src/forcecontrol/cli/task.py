@@ -107,7 +107,8 @@ def task_command(
     except ForceControlError as exc:
         _fail(exc)
     if json_out:
-        sys.stdout.write(json.dumps(report, indent=2) + "\n")
+        from .._json import json_safe
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
         return
     console.print(f"[bold]{report['task']}[/]: {report['description']}")
     table = Table(title=f"Natural and artificial constraints (m = {report['m']})", title_justify="left")

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .._json import json_safe
 from ..errors import ForceControlError, ScenarioError
 from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
 from ..sensors import ForceSensor
@@ -144,7 +145,18 @@ class ScenarioRun:
         return all(c["ok"] for case in self.cases for c in case.checks)
 
     def to_json(self) -> dict[str, Any]:
-        """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...)."""
+        """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...).
+
+        Standard JSON only: a NaN or infinite number is written as null, and ``notes`` lists
+        where (e.g. a metric of a case that did not settle).
+        """
+        notes: list[str] = []
+        out = json_safe(self._json_body(), notes)
+        if notes:
+            out["notes"] = ["non-finite values written as null: " + ", ".join(notes)]
+        return out
+
+    def _json_body(self) -> dict[str, Any]:
         return {
             "scenario": self.scenario.name,
             "title": self.scenario.title,
@@ -279,6 +291,52 @@ def _flatten(prefix: str, d: dict[str, Any], out: dict[str, Any]) -> None:
             out[prefix + k] = v
 
 
+#: deepest nesting of tables and arrays a scenario may have (a gain matrix needs 2).
+MAX_NESTING = 16
+
+
+def _depth(v: Any, limit: int) -> int:
+    """Nesting depth of dicts and lists, counting no further than ``limit + 1`` (no recursion)."""
+    deepest, stack = 0, [(v, 0)]
+    while stack:
+        x, d = stack.pop()
+        if d > limit:
+            return d
+        deepest = max(deepest, d)
+        if isinstance(x, dict):
+            stack.extend((y, d + 1) for y in x.values())
+        elif isinstance(x, list):
+            stack.extend((y, d + 1) for y in x)
+    return deepest
+
+
+def _read_toml(path: Path, where: str) -> dict[str, Any]:
+    """The TOML table of a scenario file: UTF-8 required, nesting bounded, every failure a ScenarioError."""
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{where}: cannot be read: {exc.strerror or exc}") from exc
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        hint = " (it looks like UTF-16)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+        raise ScenarioError(
+            f"{where}: not UTF-8 text{hint}: byte {exc.start} is {raw[exc.start:exc.start + 1]!r}; "
+            "scenario files must be saved as UTF-8"
+        ) from exc
+    if text.startswith("\ufeff"):  # a UTF-8 byte-order mark is harmless
+        text = text[1:]
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
+    except RecursionError as exc:
+        raise ScenarioError(f"{where}: arrays or tables nested too deeply (at most {MAX_NESTING} levels)") from exc
+    if _depth(data, MAX_NESTING) > MAX_NESTING:
+        raise ScenarioError(f"{where}: arrays or tables nested too deeply (at most {MAX_NESTING} levels)")
+    return data
+
+
 def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
     """Load and validate a scenario from a built-in name, a TOML path or a dict.
 
@@ -292,11 +350,7 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
     else:
         path = scenario_source(source)
         where = str(path)
-        try:
-            with path.open("rb") as f:
-                data = tomllib.load(f)
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
+        data = _read_toml(path, where)
     cases_raw = data.pop("case", None)
     figures_raw = data.pop("figure", None)
     top = check_table(where, data, TOP_FIELDS)
