@@ -109,3 +109,41 @@ def test_run_json_is_standard_json_with_a_nan_metric(tmp_path):
     res = runner.invoke(app, ["run", "example-9.2", "--json", "--no-figure"])
     assert res.exit_code == 0
     json.loads(res.stdout, parse_constant=lambda c: pytest.fail(f"non-standard JSON constant {c}"))
+
+
+def test_run_never_overwrites_without_force(tmp_path):
+    """A second `run` into the same folder is refused (exit 2, naming the folder and --force); --force overwrites."""
+    first = runner.invoke(app, ["run", "example-9.2", "--out", str(tmp_path)])
+    assert first.exit_code == 0, first.output
+    png = tmp_path / "example-9.2" / "example-9.2.png"
+    before = png.stat().st_mtime_ns
+    again = runner.invoke(app, ["run", "example-9.2", "--out", str(tmp_path)])
+    assert again.exit_code == 2
+    assert "already holds" in again.output and "--force" in again.output
+    assert png.stat().st_mtime_ns == before
+    forced = runner.invoke(app, ["run", "example-9.2", "--out", str(tmp_path), "--force"])
+    assert forced.exit_code == 0, forced.output
+
+
+def test_unwritable_out_is_a_clear_error(tmp_path):
+    """--out pointing below a regular file: exit 2 with 'cannot create the output folder', no raw OSError."""
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    res = runner.invoke(app, ["run", "example-9.2", "--out", str(blocker / "sub")])
+    assert res.exit_code == 2
+    assert "cannot create the output folder" in res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit)
+
+
+@pytest.mark.parametrize("name", ["..", "../../escape", "/abs/path", "a/../../b", ".hidden"])
+def test_scenario_names_cannot_write_outside_out(tmp_path, name):
+    """A scenario named '..' (or with slashes) writes inside --out, under a sanitised folder name."""
+    _, src = _example(tmp_path)
+    p = tmp_path / "named.toml"
+    p.write_text(src.replace('name = "example-9.2"', f"name = {json.dumps(name)}"), encoding="utf-8")
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["run", str(p), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    written = [q for q in tmp_path.rglob("*.png")]
+    assert written and all(out in q.parents for q in written)
+    assert not (tmp_path / "escape").exists()

@@ -12,6 +12,7 @@ __all__ = [
     "DimensionError",
     "ParameterError",
     "ScenarioError",
+    "OutputError",
     "MeasurementError",
     "SimulationDivergedError",
     "WorkspaceError",
@@ -40,6 +41,10 @@ class WorkspaceError(ForceControlError, ValueError):
 
 class FrameError(ForceControlError, ValueError):
     """Quantities expressed in different frames were mixed."""
+
+
+class OutputError(ForceControlError, OSError):
+    """An output location cannot be written, or writing would overwrite files without ``force``."""
 
 
 class ScenarioError(ForceControlError, ValueError):

@@ -67,7 +67,43 @@ class DataFormat(str, Enum):
 
 
 def _slug(s: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.]+", "-", s).strip("-").lower() or "case"
+    """A file-name-safe form of a name: letters, digits, single dots and dashes; never '.', '..' or a path."""
+    slug = re.sub(r"[^A-Za-z0-9.]+", "-", s).lower()
+    slug = re.sub(r"\.{2,}", ".", slug).strip("-.")
+    return slug or "case"
+
+
+def prepare_output(out: Path, name: str, force: bool) -> Path:
+    """The folder ``out/<name>`` for a run's files: created, writable, and not holding files unless ``force``.
+
+    Raises:
+        OutputError: the folder cannot be created or written, or already holds files (``--force``).
+    """
+    from ..errors import OutputError
+
+    folder = out / name
+    try:
+        folder.resolve().relative_to(out.resolve())
+    except ValueError as exc:  # pragma: no cover - _slug makes this impossible; kept as the rule
+        raise OutputError(f"output name {name!r} would write outside {str(out)!r}") from exc
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
+    existing = sorted(p.name for p in folder.iterdir())
+    if existing and not force:
+        shown = ", ".join(existing[:4]) + (", ..." if len(existing) > 4 else "")
+        raise OutputError(
+            f"{str(folder)!r} already holds {len(existing)} file(s) ({shown}); pass --force to overwrite them, "
+            "or --out to write elsewhere"
+        )
+    probe = folder / ".forcecontrol-write-test"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise OutputError(f"cannot write in {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
+    return folder
 
 
 def _fail(exc: Exception) -> NoReturn:
@@ -134,6 +170,7 @@ def run_command(
     data: Annotated[DataFormat, typer.Option(help="also write each case's log (+ JSON metadata)")] = DataFormat.none,
     engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected value is missed")] = False,
+    force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
 ) -> None:
     """Simulate a scenario: summary table, figure like the chapter's, optional data files."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -143,6 +180,8 @@ def run_command(
     compile_notice()
     try:
         scn = load_scenario(scenario)
+        writes = figure or data is not DataFormat.none
+        folder = prepare_output(out, _slug(scn.name), force) if writes else out / _slug(scn.name)
         if json_out:
             run = run_scenario(scn, engine=engine.value)
         else:
@@ -155,7 +194,6 @@ def run_command(
     except ForceControlError as exc:
         _fail(exc)
         return
-    folder = out / _slug(scn.name)
     if figure:
         from ..plotting import plot_run_figures
 
