@@ -89,7 +89,8 @@ def prepare_output(out: Path, name: str, force: bool) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(f"cannot create the output folder {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
+        why = exc.strerror or exc
+        raise OutputError(f"cannot create the output folder {str(folder)!r}: {why}; choose another --out") from exc
     existing = sorted(p.name for p in folder.iterdir())
     if existing and not force:
         shown = ", ".join(existing[:4]) + (", ..." if len(existing) > 4 else "")
