@@ -229,6 +229,15 @@ def _print_summary(run) -> None:
             f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine")),
         )
     console.print(t)
+    for c in run.cases:
+        lost = int(c.metrics.get("contact_losses", 0))
+        if lost:
+            allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
+            console.print(
+                f"[yellow]warning:[/] {escape(c.label)}: contact lost {lost} time(s) after touching (peak |f| = "
+                f"{c.result.peak_contact_force_norm():.4g} N)" + (" — allowed by the scenario" if allowed else ""),
+                highlight=False,
+            )
     if any(c.checks for c in run.cases):
         ct = Table(title="Against the book (or the closed form)", title_justify="left")
         for col in ("case", "quantity", "simulated", "expected", "tolerance", "rel. error", ""):

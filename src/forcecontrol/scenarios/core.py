@@ -49,6 +49,10 @@ TOP_FIELDS: dict[str, Field] = {
     "substeps": Field("int", doc="RK4 steps per sample (automatic by default)"),
     "settle_window": Field("number", default=0.1, doc="window for settled values [s]"),
     "tolerance": Field("number", default=0.005, doc="relative tolerance against expected values"),
+    "allow_contact_loss": Field(
+        "bool", default=False,
+        doc="the case may lose contact after touching (bounces): reported, not an error (else --check fails)",
+    ),
     "robot": Field("table", True),
     "environment": Field("table", True),
     "controller": Field("table", True),
@@ -337,6 +341,19 @@ def _read_toml(path: Path, where: str) -> dict[str, Any]:
     return data
 
 
+def _allow_contact_loss(where: str, v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ScenarioError(f"{where}: key 'allow_contact_loss' must be true or false; got {v!r}")
+    return v
+
+
+def contact_losses(wrench: np.ndarray) -> int:
+    """How many times the contact is lost after the first touch: a sample with h_e ≠ 0 followed by h_e = 0."""
+    on = np.any(np.asarray(wrench) != 0.0, axis=1)
+    touched = np.cumsum(on) > 0
+    return int(np.sum(on[:-1] & ~on[1:] & touched[:-1]))
+
+
 def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
     """Load and validate a scenario from a built-in name, a TOML path or a dict.
 
@@ -504,6 +521,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
         "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor,
         "q0": q0, "qd0": rt["qd0"], "duration": duration, "substeps": substeps,
         "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
+        "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
     }
 
 
@@ -560,6 +578,15 @@ def run_scenario(
             metrics[name] = METRICS[name](res, parts, window)
         analysis = case_analysis(parts)
         checks = []
+        lost = contact_losses(res.wrench)
+        metrics["contact_losses"] = lost
+        if lost and not parts["allow_contact_loss"]:
+            # an unexpected bounce is a failed check (the scenario may declare allow_contact_loss)
+            checks.append({
+                "metric": "contact_losses", "value": lost, "expected": 0, "tolerance": 0, "relative_error": float(lost),
+                "ok": False, "note": f"contact lost {lost} time(s) after touching (peak |f| = "
+                                     f"{res.peak_contact_force_norm():.4g} N); set allow_contact_loss = true if intended",
+            })
         for key, spec in case.expected.items():
             if key.startswith("analysis."):
                 sub = key.split(".", 1)[1]
