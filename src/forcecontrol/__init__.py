@@ -67,6 +67,7 @@ _LAZY: dict[str, str] = {
     "RealisticForceSensor": ".sensors",
     "ToolGravity": ".sensors",
     "identify_tool_gravity": ".sensors",
+    "scenario": ".scenarios",
     "SimulationResult": ".simulation",
     "simulate": ".simulation",
     "Transform": ".spatial",
@@ -126,6 +127,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity
+    from .scenarios import scenario
     from .simulation import SimulationResult, simulate
     from .spatial import Transform, Twist, Wrench
     from .task import SelectionMatrices, Task
@@ -152,6 +154,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "__version__",
+    "scenario",
     "Controller",
     "ImpedanceController",
     "InnerPositionForceController",

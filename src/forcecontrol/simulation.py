@@ -97,8 +97,60 @@ class SimulationResult:
             "contact_force": self.wrench[-1].tolist(),
         }
 
+    def final_values(self) -> dict[str, float]:
+        """The last sample with named components: ``t``, the pose (``x y`` planar; ``x y z rx ry rz``
+        in 6-D), the twist (``vx ...``) and the contact wrench (``fx ...``, ``mx my mz`` in 6-D)."""
+        return self._named(-1, -1)
+
+    def settled_values(self, window: float = 0.1) -> dict[str, float]:
+        """Means over the last ``window`` seconds with named components (as :meth:`final_values`)."""
+        sel = self.t >= self.t[-1] - window - 1e-12
+        return self._named(sel, None)
+
+    def _named(self, sel: Any, t_index: int | None) -> dict[str, float]:
+        pose, twist, wrench = _axis_names(self.m)
+        out: dict[str, float] = {} if t_index is None else {"t": float(self.t[t_index])}
+        for names, data in ((pose, self.x), (twist, self.xd), (wrench, self.wrench)):
+            row = data[sel] if t_index is not None else data[sel].mean(axis=0)
+            out.update({n: float(v) for n, v in zip(names, np.atleast_1d(row))})
+        return out
+
+    def plot(self, *signals: str, t_max: float | None = None, path: str | Path | None = None) -> Any:
+        """A figure of this run, one panel per signal against time (matplotlib).
+
+        Args:
+            signals: column names (``"x"``, ``"fx"``, ``"u1"``, ...; see :meth:`columns`) or groups:
+                ``"position"``, ``"velocity"``, ``"force"``, ``"torque"``. Default: position and force.
+            t_max: time-axis limit [s]; path: save a PNG there (the figure is closed).
+
+        Returns:
+            The matplotlib Figure, or the saved path.
+        """
+        from .plotting import plot_results
+
+        pose, twist, wrench = _axis_names(self.m)
+        groups = {"position": pose, "velocity": twist, "force": wrench,
+                  "torque": [f"u{i + 1}" for i in range(self.q.shape[1])]}
+        wanted = signals or ("position", "force")
+        cols = self.columns()
+        names: list[str] = []
+        for sig in wanted:
+            if sig in groups:
+                names.extend(groups[sig])
+            elif sig in cols:
+                names.append(sig)
+            else:
+                raise ParameterError(
+                    f"unknown signal {sig!r}; expected a group ({', '.join(groups)}) or a column ({', '.join(cols)})"
+                )
+        return plot_results([self], names, title=self.label, t_max=t_max, path=path)
+
+    def to_pandas(self):  # pragma: no cover - thin pandas wrapper
+        """The log as a pandas DataFrame, one column per named signal (see :meth:`columns`)."""
+        return self.to_dataframe()
+
     def settled(self, signal: str = "wrench", window: float = 0.1) -> np.ndarray:
-        """Mean of a logged signal over the last ``window`` seconds."""
+        """Mean of a logged signal over the last ``window`` seconds (an array; see :meth:`settled_values`)."""
         data = getattr(self, signal)
         sel = self.t >= self.t[-1] - window - 1e-12
         return data[sel].mean(axis=0)

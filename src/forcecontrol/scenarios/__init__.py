@@ -36,7 +36,12 @@ from .schema import (
     register_reference,
 )
 
+#: ``fc.scenario("example-9.2")``: load a built-in scenario (or a TOML file) as a Scenario, then
+#: ``.with_({...})`` to edit it and ``.run()`` to simulate it.
+scenario = load_scenario
+
 __all__ = [
+    "scenario",
     "Scenario",
     "CaseSpec",
     "CaseResult",

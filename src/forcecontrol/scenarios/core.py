@@ -5,7 +5,7 @@ from __future__ import annotations
 import copy
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -122,6 +122,32 @@ class Scenario:
     figure: dict[str, Any] | None
     figures: tuple[dict[str, Any], ...] = ()
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
+
+    def run(self, *, engine: str = "auto") -> ScenarioRun:
+        """Simulate every case (:func:`run_scenario`)."""
+        return run_scenario(self, engine=engine)
+
+    def with_(self, changes: dict[str, Any] | None = None, **kwargs: Any) -> Scenario:
+        """A copy with some keys changed in every case, validated like a file.
+
+        Keys are dotted paths of the scenario's tables, e.g.
+        ``scn.with_({"controller.stiffness": [3000, 3000], "duration": 2.0})``; keyword
+        arguments set top-level keys (``scn.with_(duration=2.0)``).
+
+        Raises:
+            ScenarioError: a changed value is invalid for a case (named, with the key).
+        """
+        flat = {**(changes or {}), **kwargs}
+        cases = []
+        for i, c in enumerate(self.cases):
+            cfg = copy.deepcopy(c.config)
+            where = f"{self.source} (edited): [[case]] #{i + 1}"
+            for k, v in flat.items():
+                _set_dotted(where, cfg, k, copy.deepcopy(v))
+            spec = CaseSpec(c.label, cfg, dict(c.expected))
+            build_case(spec, where=where)
+            cases.append(spec)
+        return replace(self, cases=tuple(cases))
 
 
 @dataclass
