@@ -126,8 +126,8 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
     )
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
-    from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity
     from .scenarios import scenario
+    from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity
     from .simulation import SimulationResult, simulate
     from .spatial import Transform, Twist, Wrench
     from .task import SelectionMatrices, Task
