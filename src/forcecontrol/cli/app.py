@@ -225,7 +225,7 @@ def _print_summary(run) -> None:
     for c in run.cases:
         m = c.metrics
         t.add_row(
-            c.label, f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", f"{m['fx']:.3f}", f"{m['fy']:.3f}",
+            escape(c.label), f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", f"{m['fx']:.3f}", f"{m['fy']:.3f}",
             f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine")),
         )
     console.print(t)
@@ -245,7 +245,7 @@ def _print_summary(run) -> None:
         for c in run.cases:
             for ch in c.checks:
                 ct.add_row(
-                    c.label, ch["metric"], f"{ch['value']:.6g}", f"{ch['expected']:.6g}", f"±{ch['tolerance']:.3g}",
+                    escape(c.label), ch["metric"], f"{ch['value']:.6g}", f"{ch['expected']:.6g}", f"±{ch['tolerance']:.3g}",
                     f"{100 * ch['relative_error']:+.3f} %", "[green]ok[/]" if ch["ok"] else "[red]MISSED[/]",
                 )
         console.print(ct)

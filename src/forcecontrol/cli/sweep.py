@@ -132,6 +132,7 @@ def sweep_command(
         from .._json import json_safe
         sys.stdout.write(json.dumps(json_safe(summary), indent=2, allow_nan=False) + "\n")
         return
+    from rich.markup import escape
     from rich.table import Table
 
     t = Table(title=f"{scn.name}: {len(df)} cases ({result.ran} run now, {result.resumed} stored before)",
@@ -141,7 +142,7 @@ def sweep_command(
         t.add_column(col, justify="left" if col == "case" else "right")
     for label, g in df.groupby("case", sort=False):
         t.add_row(
-            str(label), str(len(g)), str(int(g["stable"].sum())), str(int(g["contact_lost"].sum())),
+            escape(str(label)), str(len(g)), str(int(g["stable"].sum())), str(int(g["contact_lost"].sum())),
             f"{g['settling_time'].median():.3g}", f"{g['overshoot'].max():.3g}",
             f"{g['steady_state_force_error'].abs().max():.3g}",
         )

@@ -108,6 +108,8 @@ class CaseSpec:
     label: str
     config: dict[str, Any]
     expected: dict[str, Any]
+    #: the dotted keys the case's own ``[[case]]`` table sets (what its label usually describes).
+    overrides: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -144,7 +146,7 @@ class Scenario:
             where = f"{self.source} (edited): [[case]] #{i + 1}"
             for k, v in flat.items():
                 _set_dotted(where, cfg, k, copy.deepcopy(v))
-            spec = CaseSpec(c.label, cfg, dict(c.expected))
+            spec = CaseSpec(c.label, cfg, dict(c.expected), c.overrides)
             build_case(spec, where=where)
             cases.append(spec)
         return replace(self, cases=tuple(cases))
@@ -418,7 +420,7 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
             _set_dotted(cw, cfg, k, v)
         expected = dict(top["expected"] or {})
         expected.update(c.get("expected", {}) or {})
-        spec = CaseSpec(label, cfg, expected)
+        spec = CaseSpec(label, cfg, expected, tuple(flat))
         build_case(spec, where=cw)  # validate now, before anything runs
         cases.append(spec)
     figures = _check_figures(where, figures_raw, [c.label for c in cases])

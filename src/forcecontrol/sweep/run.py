@@ -195,6 +195,20 @@ def _apply(cfg: dict[str, Any], p: SweepParameter, value: Any, label: str) -> No
     node[last] = cur
 
 
+def sweep_label(label: str, overrides: tuple[str, ...], parameters: list[SweepParameter]) -> str:
+    """The case label a sweep row carries: the scenario's, marked when the sweep overrides what the case set.
+
+    A case's label often states the values its ``[[case]]`` table sets (``k_x = 1e4 N/m``); when
+    a swept parameter replaces such a value (``overrides``: the case's own dotted keys), the
+    label would describe another case, so it becomes
+    ``"k_x = 1e4 N/m [environment.stiffness swept]"`` and the summary groups it apart.
+    """
+    own = [p.path for p in parameters
+           if any(".".join(p.keys) == k or ".".join(p.keys).startswith(k + ".") or k.startswith(".".join(p.keys) + ".")
+                  for k in overrides)]
+    return f"{label} [{', '.join(own)} swept]" if own else label
+
+
 # ----------------------------------------------------------------------------- jobs
 
 
@@ -229,6 +243,8 @@ class CaseJob:
     qd0: np.ndarray | None = None
     alpha: float = 1.0
     parts: dict[str, Any] | None = None
+    #: the label its table row carries (``label`` marked when the sweep replaces what the case set).
+    row_label: str = ""
 
     @property
     def steps(self) -> int:
@@ -405,6 +421,7 @@ def prepare_sweep(
     cid = 0
     total = len(selected) * len(assignments)
     for _, case in selected:
+        row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
         for values in assignments:
             cfg = copy.deepcopy(case.config)
             for p in definition.parameters:
@@ -413,7 +430,9 @@ def prepare_sweep(
             where = f"sweep case {cid} ('{case.label}', {shown})"
             try:
                 parts = build_case(CaseSpec(case.label, cfg, {}), where=where)
-                jobs.append(_make_job(cid, case.label, values, parts))
+                job = _make_job(cid, case.label, values, parts)
+                job.row_label = row_label
+                jobs.append(job)
             except SweepError:
                 raise
             except ForceControlError as exc:
@@ -556,7 +575,7 @@ def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
     status = int(r["status"])
     return {
         "case_id": j.case_id,
-        "case": j.label,
+        "case": j.row_label or j.label,
         **{f"param:{k}": v for k, v in j.values.items()},
         "settling_time": r["settling_time"],
         "overshoot": r["overshoot"],
