@@ -329,3 +329,29 @@ def test_problem_9_8_force_subspace_is_inner_velocity_loop():
     lam_b = (b.wrench @ sel.force_pinv.T).ravel()
     assert np.abs(lam_a - lam_b).max() < 1e-6 * 50.0
     assert lam_b[-1] == pytest.approx(-50.0, rel=1e-3)
+
+
+def test_coupled_compliance_keeps_force_and_velocity_decoupled_only_with_c_prime():
+    """A 30° plane and a compliance coupling normal and tangent (tᵀ C n ≠ 0, same K′): (9.78) ν stays 0 while λ → λ_d.
+
+    The environment only sees K′ = n nᵀ / (nᵀ C n) (9.70), so the coupling term of C changes
+    nothing physical; the law must use C′ = (I − P_v) C (9.72), whose C′ S_f = n / k drops it.
+    Using C itself would push along the tangent whenever f_λ ≠ 0 (the mutation C′ → C).
+    """
+    angle = math.radians(30.0)
+    task = inclined_plane(angle, (1.0, 0.0))
+    sel = task.selection("base")
+    n, t = sel.force_selection[:, 0], sel.velocity_selection[:, 0]
+    k = 5e3
+    c_tt, c_nt = 2.0 / k, 0.8 / k  # SPD: (1/k)(2/k) > (0.8/k)²
+    C = np.outer(n, n) / k + c_nt * (np.outer(n, t) + np.outer(t, n)) + c_tt * np.outer(t, t)
+    assert float(n @ C @ n) == pytest.approx(1.0 / k) and abs(float(t @ C @ n)) > 0
+    env = ElasticPlane.inclined(angle, [1.0, 0.0], k)
+    q0 = CHAPTER_ARM.inverse_kinematics([1.0, 0.0], elbow="up")
+    ref = Setpoint([1.0, 0.0], force=sel.wrench([-30.0]))
+    ctrl = HybridCompliantController(CHAPTER_ARM, task, C, 100.0, 2500.0, 2500.0, 100.0)
+    res = simulate(CHAPTER_ARM, env, ctrl, ref, q0=q0, duration=1.5)
+    nu = res.xd @ t  # tangential speed: (9.78) with ν_d = 0 from rest keeps it at 0
+    lam = res.wrench @ n
+    assert np.abs(nu).max() < 1e-4
+    assert lam[-1] == pytest.approx(-30.0, rel=1e-3)
