@@ -67,3 +67,18 @@ def test_scenario_object_edit_and_run():
         scn.with_({"controller.stiffness": -1.0})
     with pytest.raises(ScenarioError, match="names no table 'controler'"):
         scn.with_({"controler.stiffness": 1.0})
+
+
+def test_force_step_at_one_second_from_a_scenario():
+    """[reference] force_start = 1.0 in a scenario: f_d(t) steps at 1 s, the run has no force before, settles at f_d."""
+    scn = fc.scenario("example-9.3").with_({"reference.force_start": 1.0, "duration": 6.0})
+    run = scn.run()
+    for c in run.cases:
+        r = c.result
+        if not c.label.startswith("parallel"):  # the parallel scheme's x_d inside the plane pushes by itself
+            assert np.abs(r.wrench[:1000, 0]).max() == 0.0
+        assert r.reference_block("force")[999, 0] == 0.0 and r.reference_block("force")[1000, 0] == 10.0
+    ipl = [c for c in run.cases if c.label.startswith("inner velocity")]
+    assert all(abs(c.metrics["fx"] - 10.0) < 0.01 for c in ipl)
+    with pytest.raises(ScenarioError, match="force_shape"):
+        fc.scenario("example-9.3").with_({"reference.force_shape": "cubic"})

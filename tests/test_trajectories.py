@@ -109,3 +109,44 @@ def test_linear_path_by_top_speed():
     assert default.duration == pytest.approx(1.25 * 0.5 / 0.25) and default.cruise_speed == pytest.approx(0.25)
     with pytest.raises(ParameterError, match="exactly one of duration and speed"):
         LinearPath([0.0, 0.0], [0.3, 0.4], 1.0, speed=0.25)
+
+
+@pytest.mark.parametrize("shape", ["linear", "smooth"])
+def test_force_profile_closed_form_and_derivatives(shape):
+    """σ(t) is 0 before start, 1 after start + ramp; σ̇ and σ̈ are its derivatives (central differences)."""
+    from forcecontrol.trajectories import force_profile
+
+    t = np.linspace(0.0, 3.0, 30001)
+    s, sd, sdd = force_profile(t, 1.0, 0.5, shape)
+    assert np.all(s[t < 1.0] == 0.0) and np.all(s[t >= 1.5] == 1.0)
+    h = t[1] - t[0]
+    inner = (t > 1.01) & (t < 1.49)
+    np.testing.assert_allclose(np.gradient(s, h)[inner], sd[inner], atol=1e-6)
+    if shape == "smooth":
+        np.testing.assert_allclose(np.gradient(sd, h)[inner], sdd[inner], atol=1e-4)
+        assert s[np.searchsorted(t, 1.25)] == pytest.approx(0.5, abs=1e-12)  # quintic midpoint
+
+
+def test_force_step_later_is_the_same_response_shifted():
+    """Example 9.3's inner velocity loop with f_d stepped at 1 s: nothing before, then the t = 0 response shifted by 1 s."""
+    arm = fc.PlanarTwoLink()
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e3)
+
+    def run(start):
+        ctl = fc.InnerVelocityForceController(arm, [100, 100], [500, 500], [2500, 2500], force_gain=[0.0024, 0.0])
+        ref = fc.Setpoint([1.015, 0.1], [10.0, 0.0], force_start=start)
+        return fc.simulate(arm, env, ctl, ref, q0=q0, duration=3.0 + start)
+
+    now, later = run(0.0), run(1.0)
+    assert np.abs(later.wrench[:1000, 0]).max() < 1e-9  # no force demanded before 1 s, tip at rest on the plane
+    np.testing.assert_allclose(later.wrench[1000:, 0], now.wrench[:, 0], atol=1e-6)
+    assert later.reference_block("force")[999, 0] == 0.0 and later.reference_block("force")[1000, 0] == 10.0
+
+
+def test_force_profile_is_refused_when_malformed():
+    """Negative start or ramp and unknown shapes are ParameterErrors naming the argument."""
+    with pytest.raises(ParameterError, match="force_start must be a non-negative number"):
+        fc.Setpoint([1.0, 0.0], [1.0, 0.0], force_start=-1.0)
+    with pytest.raises(ParameterError, match="force_shape must be one of linear, smooth; got 'cubic'"):
+        fc.Setpoint([1.0, 0.0], [1.0, 0.0], force_ramp=1.0, force_shape="cubic")

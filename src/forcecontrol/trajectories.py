@@ -16,7 +16,7 @@ from ._validate import as_vector, nonnegative_scalar, positive_scalar
 from .controllers.base import REFERENCE_FIELDS, Reference
 from .errors import DimensionError, ParameterError
 
-__all__ = ["ReferenceSignal", "Setpoint", "LinearPath", "trapezoidal_profile"]
+__all__ = ["ReferenceSignal", "Setpoint", "LinearPath", "trapezoidal_profile", "force_profile", "FORCE_SHAPES"]
 
 
 class ReferenceSignal(ABC):
@@ -46,29 +46,80 @@ def _force(force: Any, dim: int) -> np.ndarray:
     return as_vector("force", force, dim)
 
 
+FORCE_SHAPES = ("linear", "smooth")
+
+
+def force_profile(t: np.ndarray, start: float, ramp: float, shape: str = "linear") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Normalised force time law σ(t), σ̇, σ̈ in [0, 1]: 0 before ``start``, 1 from ``start + ramp`` on.
+
+    ``ramp = 0`` is a step at ``start`` (a sample at ``start`` holds the stepped value, like
+    every breakpoint here); ``"linear"`` ramps at 1/ramp (σ̈ = 0: the corners are impulses);
+    ``"smooth"`` is the quintic ``10τ³ − 15τ⁴ + 6τ⁵`` (τ = (t − start)/ramp), with continuous
+    σ̇ and σ̈, so f_d, ḟ_d and f̈_d are all defined for the force laws (9.81).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    eps = _BREAK_TOL * max(1.0, abs(start) + ramp)
+    if ramp <= 0.0:
+        on = (t >= start - eps).astype(np.float64)
+        return on, np.zeros_like(t), np.zeros_like(t)
+    tau = np.clip((t - start) / ramp, 0.0, 1.0)
+    moving = (t >= start - eps) & (t < start + ramp - eps)
+    if shape == "linear":
+        return tau, np.where(moving, 1.0 / ramp, 0.0), np.zeros_like(t)
+    s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+    sd = 30.0 * tau**2 * (1.0 - tau) ** 2 / ramp
+    sdd = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / ramp**2
+    return s, np.where(moving, sd, 0.0), np.where(moving, sdd, 0.0)
+
+
 class Setpoint(ReferenceSignal):
-    """A constant position x_d and a constant force f_d (zero derivatives), stepped at t = 0.
+    """A constant position x_d and a force f_d, stepped at t = 0 or applied later by a time law.
 
     Args:
         position: x_d, (m,) [m].
         force: f_d, (m,) [N]; zero by default.
+        force_start: when the force reference starts [s] (0: with the position step).
+        force_ramp: how long it takes to reach f_d [s] (0: a step at ``force_start``).
+        force_shape: ``"linear"`` or ``"smooth"`` (quintic: f_d, ḟ_d, f̈_d continuous); see
+            :func:`force_profile`.
     """
 
-    def __init__(self, position: Any, force: Any = None) -> None:
+    def __init__(
+        self, position: Any, force: Any = None, *, force_start: float = 0.0, force_ramp: float = 0.0,
+        force_shape: str = "linear",
+    ) -> None:
         self.position = as_vector("position", position)
         self.dim = int(self.position.shape[0])
         self.force = _force(force, self.dim)
+        self.force_start = nonnegative_scalar("force_start", force_start)
+        self.force_ramp = nonnegative_scalar("force_ramp", force_ramp)
+        if force_shape not in FORCE_SHAPES:
+            raise ParameterError(f"force_shape must be one of {', '.join(FORCE_SHAPES)}; got {force_shape!r}")
+        self.force_shape = force_shape
+
+    @property
+    def has_force_profile(self) -> bool:
+        """True when f_d does not simply step at t = 0."""
+        return self.force_start > 0.0 or self.force_ramp > 0.0
 
     def sample(self, times: np.ndarray) -> np.ndarray:
         n = len(times)
         m = self.dim
         out = np.zeros((n, 6 * m))
         out[:, 0:m] = self.position
-        out[:, 3 * m : 4 * m] = self.force
+        if not self.has_force_profile:
+            out[:, 3 * m : 4 * m] = self.force
+            return out
+        s, sd, sdd = force_profile(np.asarray(times, dtype=np.float64), self.force_start, self.force_ramp, self.force_shape)
+        out[:, 3 * m : 4 * m] = s[:, None] * self.force
+        out[:, 4 * m : 5 * m] = sd[:, None] * self.force
+        out[:, 5 * m : 6 * m] = sdd[:, None] * self.force
         return out
 
     def at(self, t: float) -> Reference:
-        """The constant reference (the same read-only arrays every call: no work per sample)."""
+        """The reference at t (the constant one is the same read-only arrays every call: no work per sample)."""
+        if self.has_force_profile:
+            return ReferenceSignal.at(self, t)
         ref = getattr(self, "_ref", None)
         if ref is None:
             z = np.zeros(self.dim)
@@ -78,7 +129,10 @@ class Setpoint(ReferenceSignal):
         return ref
 
     def describe(self) -> dict[str, Any]:
-        return {"type": "setpoint", "position": self.position.tolist(), "force": self.force.tolist()}
+        out: dict[str, Any] = {"type": "setpoint", "position": self.position.tolist(), "force": self.force.tolist()}
+        if self.has_force_profile:
+            out.update(force_start=self.force_start, force_ramp=self.force_ramp, force_shape=self.force_shape)
+        return out
 
 
 #: relative tolerance (of t_f) within which a sample time counts as being on a breakpoint.

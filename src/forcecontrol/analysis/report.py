@@ -115,7 +115,8 @@ def _linear_overlay(parts: dict[str, Any], t: Any) -> tuple[int, Any] | None:
     ax = axes[i]
     rest = env.point if hasattr(env, "point") else env.rest_position
     state = [x0[i], float((robot.jacobian(q0) @ qd0)[i])] + ([ctl.state[ctl.m + i]] if ax.has_integral else [])
-    resp = ax.response(t, float(ref.force[i]), float(ref.position[i]), float(rest[i]), initial_state=state)
+    f_d = ref.sample(np.asarray(t, dtype=np.float64))[:, 3 * ctl.m + i]  # f_d(t): a step, or a later/ramped force
+    resp = ax.response(t, f_d, float(ref.position[i]), float(rest[i]), initial_state=state)
     return i, np.asarray(resp.outputs[0])
 
 

@@ -110,9 +110,14 @@ register_reference(
     {
         "position": Field("vector", True, doc="x_d [m]"),
         "force": Field("vector", doc="f_d [N]"),
+        "force_start": Field("number", default=0.0, doc="when f_d starts [s] (0: with the position step)"),
+        "force_ramp": Field("number", default=0.0, doc="time to reach f_d [s] (0: a step at force_start)"),
+        "force_shape": Field("str", default="linear", choices=("linear", "smooth"),
+                             doc="ramp shape: linear, or smooth (quintic: f_d, its rate and acceleration continuous)"),
     },
-    lambda p, ctx: Setpoint(p["position"], p["force"]),
-    "constant x_d and f_d, stepped at t = 0",
+    lambda p, ctx: Setpoint(p["position"], p["force"], force_start=p["force_start"], force_ramp=p["force_ramp"],
+                            force_shape=p["force_shape"]),
+    "constant x_d; f_d stepped at t = 0, or at force_start, or ramped over force_ramp",
 )
 
 register_reference(
