@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DriftWarning, ForceControlError, ScenarioError, SimulationDivergedError
-from .spec import SweepDefinition, SweepError, SweepParameter, definition_hash
+from .spec import SweepDefinition, SweepError, SweepParameter, SweepWarning, definition_hash
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -737,23 +737,88 @@ def run_sweep(
     out = Path(out)
     parts_dir = out.with_name(out.name + ".parts")
     stamp = parts_dir / "sweep.json"
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SweepError(f"cannot create the folder of {str(out)!r}: {exc.strerror or exc}; choose another --out") from exc
+    with _output_lock(out):
+        return _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite)
+
+
+@contextlib.contextmanager
+def _output_lock(out: Path):
+    """One sweep at a time on an output: ``<out>.lock`` holds the owner's pid (a dead owner's lock is taken over)."""
+    lock = out.with_name(out.name + ".lock")
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                pid = int(lock.read_text().strip() or "0")
+            except (OSError, ValueError):
+                pid = 0
+            if pid and pid != os.getpid() and _alive(pid):
+                raise SweepError(
+                    f"another sweep (process {pid}) is writing {str(out)!r}; wait for it or choose another --out "
+                    f"(remove {str(lock)!r} if that process is gone)"
+                ) from None
+            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=4)
+            lock.unlink(missing_ok=True)
+            continue
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        break
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - another user's process
+        return True
+    return True
+
+
+def _set_aside(path: Path, why: str) -> None:
+    """Move a damaged file out of the way (kept for inspection) and say so."""
+    aside = path.with_name(f"{path.name}.corrupt-{int(time.time())}")
+    os.replace(path, aside)
+    warnings.warn(f"{path} is unreadable ({why}); moved to {aside.name}, its cases run again", SweepWarning, stacklevel=5)
+
+
+def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite) -> SweepResult:
     if out.exists():
-        _, meta = read_sweep(out)
-        if meta.get("sweep_id") == prep.sweep_id:
+        try:
+            _, meta = read_sweep(out)
+        except Exception as exc:  # a truncated or corrupt table: rebuild it from parts or runs
+            _set_aside(out, f"{type(exc).__name__}: {str(exc)[:80]}")
+            meta = None
+        if meta is not None and meta.get("sweep_id") == prep.sweep_id:
             table, meta = read_sweep(out)
             if progress is not None:
                 progress(prep.n_cases, prep.n_cases)
             return SweepResult(out, table, meta, 0, prep.n_cases)
-        if not overwrite:
-            raise SweepError(
-                f"{out} holds a different sweep (id {meta.get('sweep_id')}, this one {prep.sweep_id}); "
-                "choose another output path or overwrite it"
-            )
-        out.unlink()
+        if meta is not None:
+            if not overwrite:
+                raise SweepError(
+                    f"{out} holds a different sweep (id {meta.get('sweep_id')}, this one {prep.sweep_id}); "
+                    "choose another output path or overwrite it"
+                )
+            out.unlink()
     if parts_dir.exists():
-        old = json.loads(stamp.read_text()).get("sweep_id") if stamp.exists() else None
-        if old is None and not any(parts_dir.glob("part-*.parquet")):
-            old = prep.sweep_id  # killed before anything was stored: start afresh
+        old = None
+        if stamp.exists():
+            try:
+                old = json.loads(stamp.read_text()).get("sweep_id")
+            except (ValueError, OSError, AttributeError) as exc:  # corrupt stamp: the parts' own metadata decides
+                _set_aside(stamp, f"{type(exc).__name__}")
+        if old is None:
+            old = prep.sweep_id  # no readable stamp: each part is verified against this sweep below
         if old != prep.sweep_id:
             if not overwrite:
                 raise SweepError(
@@ -766,9 +831,9 @@ def run_sweep(
         tmp = stamp.with_name(".sweep.json.tmp")
         tmp.write_text(json.dumps(prep.metadata, indent=2, default=str))
         os.replace(tmp, stamp)
-    for t in parts_dir.glob(".*.tmp"):
+    for t in parts_dir.glob(".*.tmp"):  # left by a killed run (the lock says no one else writes here)
         t.unlink()
-    done = _done_ids(parts_dir)
+    done = _done_ids(parts_dir, prep)
     todo = [j for j in prep.jobs if j.case_id not in done]
     resumed = prep.n_cases - len(todo)
     total = prep.n_cases
@@ -802,12 +867,28 @@ def run_sweep(
     return SweepResult(out, df, meta, len(todo), resumed, seconds, counter["steps"], where)
 
 
-def _done_ids(parts_dir: Path) -> set[int]:
+def _done_ids(parts_dir: Path, prep: PreparedSweep) -> set[int]:
+    """Case ids stored in verified parts; a part that cannot be read whole, or belongs to another
+    sweep, or holds other cases than its name says, is moved aside (its cases run again)."""
     import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
     done: set[int] = set()
     for p in sorted(parts_dir.glob("part-*.parquet")):
-        done.update(pq.read_table(p, columns=["case_id"]).column("case_id").to_pylist())
+        try:
+            table = pq.read_table(p)
+            meta = json.loads((table.schema.metadata or {}).get(META_KEY, b"{}"))
+            ids = table.column("case_id").to_pylist()
+            lo, hi, n = (int(v) for v in p.stem.split("-")[1:4])
+        except Exception as exc:
+            _set_aside(p, f"{type(exc).__name__}: {str(exc)[:80]}")
+            continue
+        if meta.get("sweep_id") != prep.sweep_id:
+            _set_aside(p, f"it belongs to sweep {meta.get('sweep_id')}")
+            continue
+        if len(ids) != n or (ids and (min(ids) != lo or max(ids) != hi)):
+            _set_aside(p, f"it holds {len(ids)} cases, its name says {n} from {lo} to {hi}")
+            continue
+        done.update(ids)
     return done
 
 

@@ -33,13 +33,17 @@ import numpy as np
 
 from ..errors import ScenarioError
 
-__all__ = ["SweepError", "SweepParameter", "SweepDefinition", "parse_parameter", "parse_values"]
+__all__ = ["SweepError", "SweepWarning", "SweepParameter", "SweepDefinition", "parse_parameter", "parse_values"]
 
 DESIGNS = ("grid", "random")
 _FUNC = re.compile(r"^\s*([a-z_]+)\s*\((.*)\)\s*$", re.S)
 _PATH = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*)((?:\[\d+\])*)$")
 _GRID_FUNCS = ("logspace", "linspace", "geomspace", "range")
 _RANDOM_FUNCS = ("uniform", "loguniform", "normal", "randint")
+
+
+class SweepWarning(UserWarning):
+    """A sweep recovered from something (a corrupt part moved aside and re-run, a stale lock taken over)."""
 
 
 class SweepError(ScenarioError):
