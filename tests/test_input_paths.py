@@ -175,3 +175,15 @@ def test_declared_contact_loss_is_reported_not_failed():
     assert all(ch["metric"] != "contact_losses" for ch in naive.checks)
     documented = run.cases[0]
     assert documented.metrics["contact_losses"] == 0
+
+
+def test_top_level_value_every_case_overrides_is_still_checked(tmp_path):
+    """A negative stiffness at the top level, overridden by every [[case]], is refused naming the key (it passed before)."""
+    _, src = _example(tmp_path)
+    assert "stiffness = 1000.0" in src
+    p = tmp_path / "shadowed.toml"
+    p.write_text(src.replace("stiffness = 1000.0", "stiffness = -1000.0", 1), encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"top-level 'environment.stiffness' \(every \[\[case\]\] overrides it\).*stiffness"):
+        load_scenario(p)
+    for name in ("example-9.1", "example-9.2", "example-9.3", "example-9.4", "impact", "problem-9.10"):
+        load_scenario(name)  # the built-in scenarios' shadowed values are valid

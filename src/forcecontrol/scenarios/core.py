@@ -423,11 +423,45 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         spec = CaseSpec(label, cfg, expected, tuple(flat))
         build_case(spec, where=cw)  # validate now, before anything runs
         cases.append(spec)
+    if not single:
+        _check_shadowed(where, base, cases)
     figures = _check_figures(where, figures_raw, [c.label for c in cases])
     return Scenario(
         name=top["name"], title=top["title"], description=top["description"], source=where,
         cases=tuple(cases), figure=figures[0] if figures else None, figures=tuple(figures), raw=data,
     )
+
+
+def _get_dotted(cfg: dict[str, Any], key: str) -> Any:
+    node: Any = cfg
+    for part in key.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return _UNSET
+        node = node[part]
+    return node
+
+
+_UNSET = object()
+
+
+def _check_shadowed(where: str, base: dict[str, Any], cases: list[CaseSpec]) -> None:
+    """Top-level values that every case overrides are still checked: each is put back into the
+    first case and the case is built with it (a wrong value there would otherwise never be seen)."""
+    common = set(cases[0].overrides)
+    for c in cases[1:]:
+        common &= set(c.overrides)
+    for key in sorted(common):
+        value = _get_dotted(base, key)
+        if value is _UNSET or value == _get_dotted(cases[0].config, key):
+            continue
+        cfg = copy.deepcopy(cases[0].config)
+        _set_dotted(where, cfg, key, copy.deepcopy(value))
+        try:
+            build_case(CaseSpec(cases[0].label, cfg, {}), where=f"{where}: top-level '{key}' (every [[case]] overrides it)")
+        except ScenarioError:
+            raise
+        except ForceControlError as exc:  # pragma: no cover - build_case wraps its errors
+            raise ScenarioError(f"{where}: top-level '{key}': {exc}") from exc
 
 
 def _check_figures(where: str, raw: Any, labels: list[str]) -> list[dict[str, Any]]:
