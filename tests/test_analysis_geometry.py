@@ -103,3 +103,29 @@ def test_plane_pulled_away_gives_the_free_equilibrium():
     np.testing.assert_allclose(md.contact_force, 0.0)
     np.testing.assert_allclose(md.position, [0.9, 0.1])
     np.testing.assert_allclose(md.natural_frequencies, [5.0, 5.0])
+
+
+@pytest.mark.parametrize("name", ["example-9.1", "example-9.2", "example-9.3"])
+def test_analyze_verify_agrees_on_the_book_scenarios(name):
+    """analyze --verify: every predicted equilibrium of the chapter's examples agrees with the simulation within 1 %."""
+    from forcecontrol.analysis.report import analyze_scenario
+
+    rep = analyze_scenario(name, verify=True)
+    checked = [q for c in rep["cases"] for q in c["verification"]["quantities"].values()]
+    assert checked and all(q["agrees"] for q in checked), [c["verification"] for c in rep["cases"]]
+
+
+def test_analyze_verify_flags_a_loop_outside_its_linear_regime(tmp_path):
+    """Example 9.2 at 1e7 N/m bounces for the whole run: analyze --verify says the equilibrium differs and warns why."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+    from forcecontrol.scenarios import scenario_source
+
+    src = scenario_source("example-9.2").read_text(encoding="utf-8")
+    p = tmp_path / "stiff.toml"
+    p.write_text(src.replace("environment.stiffness = 10000.0", "environment.stiffness = 1e7")
+                 .replace("environment.stiffness = 1000.0", "environment.stiffness = 1e7"), encoding="utf-8")
+    res = CliRunner().invoke(app, ["analyze", str(p), "--verify"])
+    assert res.exit_code == 0, res.output
+    assert "differs" in res.output and "outside the analysis' linear regime" in res.output

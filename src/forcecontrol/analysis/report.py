@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["analyze_scenario", "plot_scheme_figures"]
+__all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE"]
 
 
 def _plain(v: Any) -> Any:
@@ -26,11 +26,61 @@ def _plain(v: Any) -> Any:
     return f if math.isfinite(f) else None
 
 
-def analyze_scenario(source: str | Path | dict[str, Any]) -> dict[str, Any]:
-    """The analytic predictions of every case of a scenario (nothing is simulated).
+#: relative difference under which a predicted steady value agrees with the simulation.
+VERIFY_TOLERANCE = 0.01
+
+
+def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "auto") -> dict[str, Any]:
+    """Check a case's predicted equilibrium (``steady_*``) against a simulation of the same case.
+
+    The case is simulated as the scenario says (``simulate`` on the full nonlinear arm); each
+    predicted ``steady_<axis>`` and ``steady_f<axis>`` is compared with the settled value over the
+    scenario's ``settle_window``. A relative difference above :data:`VERIFY_TOLERANCE` (of the
+    largest predicted position offset or force of the case) means the loop is outside the linear
+    regime of the analysis (lost contact, saturation, not settled) and is reported as such.
+
+    Returns:
+        ``{"quantities": {name: {"predicted", "simulated", "relative_difference", "agrees"}},
+        "agrees": bool, "warning": str | None}``.
+    """
+    from ..simulation import simulate
+
+    res = simulate(
+        parts["robot"], parts["environment"], parts["controller"], parts["reference"], q0=parts["q0"],
+        qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
+        engine=engine,  # type: ignore[arg-type]
+    )
+    settled = res.settled_values(parts["settle_window"])
+    pos = {k: v for k, v in analysis.items() if k.startswith("steady_") and not k.startswith("steady_f")}
+    frc = {k: v for k, v in analysis.items() if k.startswith("steady_f")}
+    x0 = res.x[0]
+    axes = list(settled)
+    pos_scale = max([abs(float(v) - float(x0[axes.index(k[7:])])) for k, v in pos.items() if k[7:] in axes] + [1e-6])
+    frc_scale = max([abs(float(v)) for v in frc.values()] + [1e-6])
+    out: dict[str, Any] = {}
+    for group, scale in ((pos, pos_scale), (frc, frc_scale)):
+        for key, predicted in group.items():
+            name = key[len("steady_"):]
+            if name not in settled or predicted is None or not math.isfinite(float(predicted)):
+                continue
+            diff = abs(settled[name] - float(predicted)) / scale
+            out[key] = {"predicted": float(predicted), "simulated": settled[name], "relative_difference": diff,
+                        "agrees": diff <= VERIFY_TOLERANCE}
+    bad = [k for k, v in out.items() if not v["agrees"]]
+    warning = None
+    if bad:
+        warning = (f"{', '.join(bad)} differ from the simulation by more than {100 * VERIFY_TOLERANCE:g} %: the loop "
+                   "is outside the analysis' linear regime (contact lost, saturation) or has not settled")
+    return {"quantities": out, "agrees": not bad, "warning": warning}
+
+
+def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = False) -> dict[str, Any]:
+    """The analytic predictions of every case of a scenario (nothing is simulated unless ``verify``).
 
     Args:
         source: a built-in scenario name, a TOML path or a scenario dict.
+        verify: also simulate each case and compare the predicted equilibrium with it
+            (:func:`verify_case`); the result goes in each case's ``verification``.
 
     Returns:
         ``{"scenario", "title", "source", "cases": [{"label", "controller", "analysis",
@@ -60,13 +110,16 @@ def analyze_scenario(source: str | Path | dict[str, Any]) -> dict[str, Any]:
                 want = spec["value"] if isinstance(spec, dict) else spec
                 checks.append({"metric": key, "value": None, "expected": _plain(want),
                                "tolerance": None, "relative_error": None, "ok": False})
-        cases.append({
+        entry = {
             "label": case.label,
             "controller": type(parts["controller"]).__name__,
             "environment": parts["environment"].describe(),
             "analysis": {k: _plain(v) for k, v in analysis.items()},
             "checks": [{k: _plain(v) if k != "metric" and k != "ok" else v for k, v in c.items()} for c in checks],
-        })
+        }
+        if verify:
+            entry["verification"] = verify_case(parts, analysis)
+        cases.append(entry)
     return {
         "scenario": scn.name,
         "title": scn.title,

@@ -26,6 +26,9 @@ def analyze_command(
         bool, typer.Option(help="also simulate and write one figure per controller type with the linearised model")
     ] = False,
     out: Annotated[Path, typer.Option(help="folder for the figures")] = Path("forcecontrol-out"),
+    verify: Annotated[
+        bool, typer.Option(help="also simulate each case and report how well the predicted equilibrium agrees")
+    ] = False,
 ) -> None:
     """Analyse a scenario without simulating: poles, ω_n, ζ, equilibria, sampled stability limit.
 
@@ -33,6 +36,7 @@ def analyze_command(
     written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid.
     """
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from ..errors import ForceControlError
@@ -40,7 +44,9 @@ def analyze_command(
     try:
         from ..analysis.report import analyze_scenario
 
-        report = analyze_scenario(scenario)
+        if verify:
+            compile_notice()
+        report = analyze_scenario(scenario, verify=verify)
         if figures:
             from ..analysis.report import plot_scheme_figures
 
@@ -72,6 +78,17 @@ def analyze_command(
             if not case["analysis"]:
                 t.add_row("(no analysis applies to this case)", "", "", "", "")
             console.print(t)
+            ver = case.get("verification")
+            if ver is not None:
+                vt = Table(title="predicted equilibrium against a simulation of the case", title_justify="left")
+                for col in ("quantity", "predicted", "simulated", "difference", ""):
+                    vt.add_column(col, justify="left" if col == "quantity" else "right")
+                for k, v in ver["quantities"].items():
+                    vt.add_row(k, f"{v['predicted']:.6g}", f"{v['simulated']:.6g}", f"{100 * v['relative_difference']:.3f} %",
+                               "[green]agrees[/]" if v["agrees"] else "[red]differs[/]")
+                console.print(vt)
+                if ver["warning"]:
+                    console.print(f"[yellow]warning:[/] {escape(ver['warning'])}", highlight=False)
         for f in report.get("files", []):
             console.print(f"figure: {f}")
     if check and not report["all_checks_pass"]:
