@@ -104,3 +104,15 @@ def test_second_sweep_on_the_same_output_is_refused(tmp_path, reference):
         res = run_sweep(_prep(), out, block_size=4)
     _same(res.table, reference)
     assert not lock.exists()
+
+
+def test_sweep_reads_scenario_files_like_run(tmp_path):
+    """A UTF-16 scenario given to a sweep: the same ScenarioError as `run` (the sweep reads files with the loader's reader)."""
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import scenario_source
+    from forcecontrol.sweep.run import load_sweep_scenario
+
+    p = tmp_path / "utf16.toml"
+    p.write_bytes(scenario_source("example-9.2").read_text(encoding="utf-8").encode("utf-16"))
+    with pytest.raises(ScenarioError, match="not UTF-8 text"):
+        load_sweep_scenario(p)

@@ -40,9 +40,9 @@ from ..errors import DriftWarning, ForceControlError, ScenarioError, SimulationD
 from .spec import SweepDefinition, SweepError, SweepParameter, SweepWarning, definition_hash
 
 if sys.version_info >= (3, 11):
-    import tomllib
+    pass
 else:  # pragma: no cover
-    import tomli as tomllib
+    pass
 
 __all__ = [
     "PreparedSweep",
@@ -77,18 +77,14 @@ def load_sweep_scenario(source: Any):
         ``(Scenario, SweepDefinition | None)``.
     """
     from ..scenarios import load_scenario
-    from ..scenarios.core import scenario_source
+    from ..scenarios.core import _read_toml, scenario_source
 
     if isinstance(source, dict):
         data, where = copy.deepcopy(source), None
     else:
         path = scenario_source(source)
         where = str(path)
-        try:
-            with path.open("rb") as f:
-                data = tomllib.load(f)
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
+        data = _read_toml(path, where)  # the scenario loader's reading: UTF-8, nesting, readable
     table = data.pop("sweep", None)
     try:
         scn = load_scenario(data)
