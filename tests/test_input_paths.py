@@ -187,3 +187,13 @@ def test_top_level_value_every_case_overrides_is_still_checked(tmp_path):
         load_scenario(p)
     for name in ("example-9.1", "example-9.2", "example-9.3", "example-9.4", "impact", "problem-9.10"):
         load_scenario(name)  # the built-in scenarios' shadowed values are valid
+
+
+def test_figure_signal_that_does_not_exist_is_refused_before_simulating(tmp_path):
+    """signals = ["fz"] on the planar arm: ScenarioError at load naming the valid signals (was a KeyError after simulating)."""
+    _, src = _example(tmp_path)
+    p = tmp_path / "fz.toml"
+    assert 'signals = ["y", "fx"]' in src
+    p.write_text(src.replace('signals = ["y", "fx"]', 'signals = ["y", "fz"]', 1), encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"names no signal 'fz' of this robot; expected one of \['t', 'q1'"):
+        load_scenario(p)

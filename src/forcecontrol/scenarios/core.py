@@ -421,11 +421,13 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         expected = dict(top["expected"] or {})
         expected.update(c.get("expected", {}) or {})
         spec = CaseSpec(label, cfg, expected, tuple(flat))
-        build_case(spec, where=cw)  # validate now, before anything runs
+        built = build_case(spec, where=cw)  # validate now, before anything runs
+        if not cases:
+            signals = _signal_names(int(built["robot"].nq), int(built["robot"].task_dim))
         cases.append(spec)
     if not single:
         _check_shadowed(where, base, cases)
-    figures = _check_figures(where, figures_raw, [c.label for c in cases])
+    figures = _check_figures(where, figures_raw, [c.label for c in cases], signals)
     return Scenario(
         name=top["name"], title=top["title"], description=top["description"], source=where,
         cases=tuple(cases), figure=figures[0] if figures else None, figures=tuple(figures), raw=data,
@@ -464,8 +466,18 @@ def _check_shadowed(where: str, base: dict[str, Any], cases: list[CaseSpec]) -> 
             raise ScenarioError(f"{where}: top-level '{key}': {exc}") from exc
 
 
-def _check_figures(where: str, raw: Any, labels: list[str]) -> list[dict[str, Any]]:
-    """``[figure]`` (one) or ``[[figure]]`` (several), each checked; case filters must name cases."""
+def _signal_names(n: int, m: int) -> list[str]:
+    """The plottable columns of a run with n joints in an m-dimensional task space (``SimulationResult.columns``)."""
+    from ..simulation import _axis_names
+
+    pose, twist, wrench = _axis_names(m)
+    out = ["t"] + [f"{s}{i + 1}" for i in range(n) for s in ("q", "qd", "u")] + pose + twist + wrench
+    return out + [f"{w}_measured" for w in wrench]
+
+
+def _check_figures(where: str, raw: Any, labels: list[str], signals: list[str] | None = None) -> list[dict[str, Any]]:
+    """``[figure]`` (one) or ``[[figure]]`` (several), each checked; case filters must name cases,
+    signals must be columns the robot's runs have (before anything is simulated)."""
     if raw is None:
         return []
     items = raw if isinstance(raw, list) else [raw]
@@ -476,6 +488,9 @@ def _check_figures(where: str, raw: Any, labels: list[str]) -> list[dict[str, An
         for lab in fig["cases"] or []:
             if lab not in labels:
                 raise ScenarioError(f"{fw}: key 'cases' names no case {lab!r}; expected labels among {labels}")
+        for sig in fig["signals"] or []:
+            if signals is not None and sig not in signals and not sig.startswith("ref_"):
+                raise ScenarioError(f"{fw}: key 'signals' names no signal {sig!r} of this robot; expected one of {signals}")
         if isinstance(raw, list) and len(items) > 1 and not fig["name"]:
             raise ScenarioError(f"{fw}: missing key 'name' (several figures need distinct file names)")
         out.append(fig)
