@@ -87,18 +87,27 @@ def test_short_help_on_every_command():
 
 
 def test_shell_completion_is_offered():
-    """The help lists typer's --install-completion/--show-completion, and --show-completion prints a bash script."""
+    """The help lists typer's --install-completion/--show-completion; the bash script and a completion work.
+
+    Driven through the environment variables that the installed completion script itself sets
+    (``_FORCECONTROL_COMPLETE``), so the test does not depend on which shell launched pytest
+    (``--show-completion`` detects the parent shell, which fails under a background job).
+    """
     out = runner.invoke(app, ["--help"]).stdout
     assert "--install-completion" in out and "--show-completion" in out
     import os
     import subprocess
     import sys
 
-    env = {**os.environ, "SHELL": "/bin/bash"}
-    res = subprocess.run(
-        [sys.executable, "-m", "forcecontrol", "--show-completion", "bash"], capture_output=True, text=True, env=env, timeout=120
-    )
-    assert res.returncode == 0 and "complete" in res.stdout and "forcecontrol" in res.stdout.lower(), res.stderr
+    def run(**env):
+        return subprocess.run(
+            [sys.executable, "-m", "forcecontrol"], capture_output=True, text=True, env={**os.environ, **env}, timeout=120
+        )
+
+    script = run(_FORCECONTROL_COMPLETE="source_bash")
+    assert script.returncode == 0 and "complete " in script.stdout and "_forcecontrol_completion" in script.stdout, script.stderr
+    done = run(_FORCECONTROL_COMPLETE="complete_bash", COMP_WORDS="forcecontrol ru", COMP_CWORD="1")
+    assert done.returncode == 0 and done.stdout.split() == ["run"], (done.stdout, done.stderr)
 
 
 def test_error_messages_keep_bracketed_table_names(tmp_path):
