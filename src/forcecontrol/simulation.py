@@ -64,6 +64,9 @@ class SimulationResult:
         metadata: scenario, gains, environment, versions (JSON-serialisable).
         events: what the controller logged (safety reactions, contact transitions), each a dict
             with at least ``t`` [s] and ``event``; empty when the controller logs nothing.
+        signals: per-sample signals the controller logged through its ``signals()`` method
+            (e.g. ``tank_energy`` of a variable impedance), name -> (N+1,) or (N+1, k) array;
+            empty when the controller logs none. Scalar ones are also :meth:`columns`.
     """
 
     t: np.ndarray
@@ -78,6 +81,7 @@ class SimulationResult:
     label: str = ""
     metadata: dict[str, Any] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
+    signals: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def m(self) -> int:
@@ -181,6 +185,9 @@ class SimulationResult:
             block = self.reference_block(name)
             for i in range(self.m):
                 cols[f"ref_{name}_{pose[i]}"] = block[:, i]
+        for name, v in self.signals.items():
+            if v.ndim == 1 and v.shape[0] == self.t.shape[0]:
+                cols[name] = v
         return cols
 
     def to_dataframe(self):  # pragma: no cover - thin pandas wrapper
@@ -411,10 +418,33 @@ def simulate(
     events = [dict(e) for e in getattr(controller, "events", [])]
     if events:
         meta["events"] = events  # saved with the log's metadata
-    result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, **logs)
+    signals = _controller_signals(controller, times.shape[0])
+    result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, signals=signals, **logs)
     if status != 0:
         _raise_diverged(result, int(status), int(k), Ts, max_qd)
     return result
+
+
+def _controller_signals(controller: Controller, rows: int) -> dict[str, np.ndarray]:
+    """The controller's per-sample signals (its ``signals()``), padded with NaN to the log's length.
+
+    ``rows`` is the length of the log, N+1 (a run that diverged logged fewer: the rest is NaN).
+    """
+    fn = getattr(controller, "signals", None)
+    if not callable(fn):
+        return {}
+    out: dict[str, np.ndarray] = {}
+    for name, v in fn().items():
+        v = np.asarray(v, dtype=np.float64)
+        if v.shape[0] > rows:
+            raise ParameterError(
+                f"controller signal {name!r} has {v.shape[0]} rows for a run of {rows} samples; "
+                "a controller must log one row per step (and reset its log in reset())"
+            )
+        full = np.full((rows,) + v.shape[1:], np.nan)
+        full[: v.shape[0]] = v
+        out[str(name)] = full
+    return out
 
 
 def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, max_qd: float) -> None:
@@ -432,6 +462,7 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
         t=result.t[sl], q=result.q[sl], qd=result.qd[sl], x=result.x[sl], xd=result.xd[sl],
         wrench=result.wrench[sl], wrench_measured=result.wrench_measured[sl], torque=result.torque[sl],
         reference=result.reference[sl], label=result.label, metadata=result.metadata, events=result.events,
+        signals={name: v[sl] for name, v in result.signals.items()},
     )
     err = SimulationDivergedError(
         f"simulation '{result.label or 'case'}' diverged at t = {t:.4f} s (sample {k}): {cause}: {detail}; "

@@ -13,6 +13,7 @@ from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
 from .redundant import NullSpacePosture, SingularityHandling
 from .spatial import SpatialComplianceController, SpatialHybridController, SpatialImpedanceController
+from .variable import DirectionalStiffness, EnergyTank, SinusoidalStiffness, VariableImpedanceController
 
 __all__ = [
     "Controller",
@@ -34,4 +35,8 @@ __all__ = [
     "AdmittanceController",
     "NullSpacePosture",
     "SingularityHandling",
+    "VariableImpedanceController",
+    "EnergyTank",
+    "DirectionalStiffness",
+    "SinusoidalStiffness",
 ]

@@ -424,6 +424,8 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         built = build_case(spec, where=cw)  # validate now, before anything runs
         if not cases:
             signals = _signal_names(int(built["robot"].nq), int(built["robot"].task_dim))
+        # a controller may log signals of its own (``SIGNALS``, e.g. a tank's energy): plottable too
+        signals = list(dict.fromkeys([*signals, *getattr(built["controller"], "SIGNALS", ())]))
         cases.append(spec)
     if not single:
         _check_shadowed(where, base, cases)

@@ -1,0 +1,307 @@
+"""Variable impedance that stays passive: stiffness and damping schedules with an energy tank.
+
+The chapter's impedance with force measurement, (9.30)–(9.31), closes the loop (9.32)
+``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A`` (x̃ = x_d − x_e). With constant gains, the storage function
+
+    H = ½ x̃̇ᵀ M_d x̃̇ + ½ x̃ᵀ K_P x̃
+
+obeys ``Ḣ = x̃̇ᵀ h_A − x̃̇ᵀ K_D x̃̇``: the controller only stores or dissipates the energy that
+enters through the contact port, so it is passive and stays stable on any passive environment.
+Let K_P change in time and ``Ḣ`` gains the term ``½ x̃ᵀ K̇_P x̃``: raising the stiffness while
+the spring is stretched *creates* energy, and a stiffness schedule can pump a contact into a
+growing oscillation (parametric resonance) however stiff or soft the surface is.
+
+The energy tank (Ferraguti, Secchi, Fantuzzi, "A tank-based approach to impedance control with
+variable stiffness", ICRA 2013; the discrete form here is the library's) keeps the books: a
+storage T ≥ T_min is filled by a fraction σ of the power the damper dissipates,
+``σ x̃̇ᵀ K_D x̃̇``, and pays for every stiffness change, ``ΔE = ½ x̃ᵀ (K_new − K_old) x̃``. When the
+tank cannot pay (``T − ΔE < T_min``), the change is scaled down to what it can pay; lowering the
+stiffness returns energy to the tank (up to T_max, above which energy is dropped, i.e.
+dissipated). So with σ ≤ 1
+
+    H + T  ≤  H₀ + T₀ + ∫ x̃̇ᵀ h_A dt,
+
+the controller with its tank is passive, whatever the schedule asks. Damping may vary freely
+(any K_D ⪰ 0 only dissipates). M_d is held constant.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .._validate import as_gain_matrix, nonnegative_scalar, positive_scalar
+from ..errors import DimensionError, ParameterError
+from ..robots.base import RobotModel
+from .base import Measurement, Reference
+from .impedance import ImpedanceController, impedance_acceleration
+
+__all__ = ["EnergyTank", "VariableImpedanceController", "Schedule", "DirectionalStiffness", "SinusoidalStiffness"]
+
+#: a gain schedule: ``schedule(t, x_tilde, x_tilde_dot) -> matrix (m, m)`` (or (m,) diagonal, or a scalar).
+Schedule = Callable[[float, np.ndarray, np.ndarray], Any]
+
+
+class DirectionalStiffness:
+    """A state-dependent stiffness: ``high`` while the error shrinks (x̃ᵀ x̃̇ < 0), ``low`` otherwise.
+
+    "Soft when pushed away from the target, firm while returning to it": a plausible rule that
+    injects ``½ (high − low) x̃ᵀ x̃`` at every turn of an oscillation and pumps a contact into a
+    growing bounce unless an :class:`EnergyTank` pays for the switches (the built-in scenario
+    ``variable-stiffness``).
+
+    Args:
+        low, high: stiffnesses [N/m], ``0 <= low <= high`` (scalars: ``value · I``).
+    """
+
+    def __init__(self, low: float, high: float) -> None:
+        self.low = nonnegative_scalar("low", low)
+        self.high = nonnegative_scalar("high", high)
+        if self.high < self.low:
+            raise ParameterError(f"high must be >= low = {self.low:.6g} N/m; got {high!r}")
+        self.__name__ = f"DirectionalStiffness(low={self.low:g}, high={self.high:g})"
+
+    def __call__(self, t: float, x_tilde: np.ndarray, x_tilde_dot: np.ndarray) -> float:
+        return self.high if float(x_tilde @ x_tilde_dot) < 0.0 else self.low
+
+
+class SinusoidalStiffness:
+    """A time-varying stiffness ``mean + amplitude · sin(2π frequency t)`` [N/m] (scalar · I).
+
+    Args:
+        mean: [N/m]; amplitude: [N/m], ``0 <= amplitude <= mean`` (the stiffness stays >= 0);
+        frequency: [Hz], > 0.
+    """
+
+    def __init__(self, mean: float, amplitude: float, frequency: float) -> None:
+        self.mean = nonnegative_scalar("mean", mean)
+        self.amplitude = nonnegative_scalar("amplitude", amplitude)
+        if self.amplitude > self.mean:
+            raise ParameterError(f"amplitude must be <= mean = {self.mean:.6g} N/m (stiffness >= 0); got {amplitude!r}")
+        self.frequency = positive_scalar("frequency", frequency)
+        self.__name__ = f"SinusoidalStiffness(mean={self.mean:g}, amplitude={self.amplitude:g}, frequency={self.frequency:g})"
+
+    def __call__(self, t: float, x_tilde: np.ndarray, x_tilde_dot: np.ndarray) -> float:
+        return self.mean + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t)
+
+
+class EnergyTank:
+    """An energy storage that pays for the energy a variable stiffness injects.
+
+    Usable on its own in the user's loop: call :meth:`fill` with the power the damper dissipated
+    over the last sample, then :meth:`pay` with the energy a stiffness change would inject; use
+    the granted fraction of the change.
+
+    Args:
+        initial: T₀ [J], ``minimum <= initial <= maximum``.
+        minimum: T_min [J], >= 0: the tank never goes below it (a margin against round-off;
+            the chapter's closed loop is passive with T_min = 0).
+        maximum: T_max [J] (``inf`` allowed): energy above it is dropped, so a long run cannot
+            bank unlimited energy for a later burst.
+        dissipation_fraction: σ in [0, 1], the share of the damper's dissipated power stored.
+
+    Attributes:
+        energy: the current T [J].
+        dropped: energy refused above T_max [J] (cumulative).
+    """
+
+    def __init__(self, initial: float = 1.0, *, minimum: float = 0.01, maximum: float = 10.0,
+                 dissipation_fraction: float = 1.0) -> None:
+        self.minimum = nonnegative_scalar("minimum", minimum)
+        maximum = float(maximum)
+        if not (maximum > self.minimum) or math.isnan(maximum):
+            raise ParameterError(f"maximum must be > minimum = {self.minimum:.6g} J; got {maximum!r}")
+        self.maximum = maximum
+        self.initial = nonnegative_scalar("initial", initial)
+        if not (self.minimum <= self.initial <= self.maximum):
+            raise ParameterError(
+                f"initial must lie in [minimum, maximum] = [{self.minimum:.6g}, {self.maximum:.6g}] J; got {initial!r}"
+            )
+        sigma = nonnegative_scalar("dissipation_fraction", dissipation_fraction)
+        if sigma > 1.0:
+            raise ParameterError(f"dissipation_fraction must be in [0, 1]; got {dissipation_fraction!r}")
+        self.dissipation_fraction = sigma
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to T₀, nothing dropped."""
+        self.energy = self.initial
+        self.dropped = 0.0
+
+    def fill(self, energy: float) -> None:
+        """Store σ·``energy`` [J] (energy the damper dissipated, >= 0); above T_max it is dropped."""
+        if not energy >= 0.0:  # also refuses NaN
+            raise ParameterError(f"energy to fill must be >= 0 J (dissipated energy); got {energy!r}")
+        self._add(self.dissipation_fraction * energy)
+
+    def pay(self, energy: float) -> float:
+        """Pay ``energy`` [J] (< 0: energy returned to the tank); the fraction α ∈ [0, 1] granted.
+
+        A positive request the tank cannot meet in full is granted the fraction
+        ``α = (T − T_min) / energy`` and the tank is left at T_min; a negative one (the stiffness
+        goes down) is always granted and refills the tank.
+        """
+        if not math.isfinite(energy):
+            raise ParameterError(f"energy to pay must be finite; got {energy!r}")
+        if energy <= 0.0:
+            self._add(-energy)
+            return 1.0
+        available = self.energy - self.minimum
+        if available >= energy:
+            self.energy -= energy
+            return 1.0
+        self.energy = self.minimum
+        return max(available, 0.0) / energy
+
+    def _add(self, e: float) -> None:
+        room = self.maximum - self.energy
+        if e > room:
+            self.dropped += e - room
+            e = room
+        self.energy += e
+
+
+def _schedule_matrix(name: str, value: Any, m: int, t: float) -> np.ndarray:
+    """A schedule's output as an (m, m) symmetric positive semi-definite matrix, or a clear error."""
+    try:
+        M = as_gain_matrix(name, value, m, definite=False)
+    except (ParameterError, DimensionError) as exc:
+        raise type(exc)(f"at t = {t:.6g} s, the {name} schedule returned an invalid gain: {exc}") from exc
+    return M
+
+
+class VariableImpedanceController(ImpedanceController):
+    """Impedance control with force measurement (9.30)–(9.31) whose K_P and K_D follow schedules.
+
+    Law: as :class:`ImpedanceController` with force measurement,
+    ``a = ẍ_d + M_d⁻¹ (K_D(t) x̃̇ + K_P(t) x̃ − h_A)``, closed loop (9.32) with time-varying gains.
+    With a ``tank`` (:class:`EnergyTank`), each sample the tank is filled with the energy the
+    damper dissipated over the last sample, ``σ Ts x̃̇ᵀ K_D x̃̇``, and the stiffness moves from its
+    last value K towards the scheduled K_s by the fraction α the tank grants for
+    ``ΔE = ½ x̃ᵀ (K_s − K) x̃``: ``K ← K + α (K_s − K)``. Without a tank the schedule is applied as
+    asked (the naive law, not passive).
+
+    Logged signals (``signals()``; in a simulation, ``result.signals``): ``tank_energy`` [J]
+    (NaN without a tank), ``stiffness_scale`` (trace of the applied K_P over the trace of the
+    scheduled one), ``storage`` H [J] and ``stiffness`` / ``damping`` (the applied matrices,
+    flattened per sample).
+
+    Args:
+        robot: the manipulator (position task space, as :class:`ImpedanceController`).
+        inertia: M_d (m, m) [kg], constant.
+        damping, stiffness: K_D and K_P (m, m) at t = 0 (scalar, (m,) diagonal or (m, m)); they
+            are used when the corresponding schedule is None.
+        stiffness_schedule, damping_schedule: ``f(t, x_tilde, x_tilde_dot)`` returning the gain
+            wanted at time t for the current errors (scalar, (m,) or (m, m), symmetric positive
+            semi-definite); None: constant.
+        tank: an :class:`EnergyTank` (passive law) or None (naive law).
+        sample_time: Ts [s]; posture, singularity: as :class:`ImpedanceController`.
+
+    Raises:
+        ParameterError: a schedule is not callable, or returns a non-symmetric, indefinite or
+            non-finite gain (at the step, naming t).
+    """
+
+    kind: ClassVar[int] = 0  # not in the compiled dispatcher: the gains change every step
+    #: the scalar signals of :meth:`signals` (plottable columns of a simulation result).
+    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        inertia: Any,
+        damping: Any,
+        stiffness: Any,
+        *,
+        stiffness_schedule: Schedule | None = None,
+        damping_schedule: Schedule | None = None,
+        tank: EnergyTank | None = None,
+        sample_time: float = 1e-3,
+        posture: Any = None,
+        singularity: Any = None,
+    ) -> None:
+        super().__init__(robot, inertia, damping, stiffness, True, sample_time, posture=posture, singularity=singularity)
+        for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
+            if f is not None and not callable(f):
+                raise ParameterError(f"{name} must be a callable f(t, x_tilde, x_tilde_dot) or None; got {f!r}")
+        if tank is not None and not isinstance(tank, EnergyTank):
+            raise ParameterError(f"tank must be an EnergyTank or None; got {type(tank).__name__}")
+        self.stiffness_schedule = stiffness_schedule
+        self.damping_schedule = damping_schedule
+        self.tank = tank
+        self.reset()
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """Gains back to their initial values, the tank to T₀, the signal log emptied."""
+        self._K = np.array(self.stiffness, dtype=np.float64)
+        self._D = np.array(self.damping, dtype=np.float64)
+        self._last_xtd: np.ndarray | None = None
+        self._log: dict[str, list[Any]] = {k: [] for k in ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")}
+        if self.tank is not None:
+            self.tank.reset()
+
+    @property
+    def current_stiffness(self) -> np.ndarray:
+        """The K_P applied at the last step (m, m) [N/m]."""
+        return self._K.copy()
+
+    @property
+    def current_damping(self) -> np.ndarray:
+        """The K_D applied at the last step (m, m) [N s/m]."""
+        return self._D.copy()
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.30)–(9.31) with the gains of this sample (tank-limited when there is a tank)."""
+        m = self.m
+        T = self.robot.terms(measurement.q, measurement.qd)
+        xt = np.asarray(reference.position, dtype=np.float64) - T.x
+        xtd = np.asarray(reference.velocity, dtype=np.float64) - T.xd
+        D_prev = self._D
+        if self.damping_schedule is not None:
+            self._D = _schedule_matrix("damping", self.damping_schedule(t, xt.copy(), xtd.copy()), m, t)
+        K_s = self._K if self.stiffness_schedule is None else _schedule_matrix(
+            "stiffness", self.stiffness_schedule(t, xt.copy(), xtd.copy()), m, t
+        )
+        scale = 1.0
+        if self.tank is not None:
+            if self._last_xtd is not None:  # the damper's dissipation over the last sample (rectangle rule)
+                self.tank.fill(self.sample_time * float(self._last_xtd @ D_prev @ self._last_xtd))
+            dK = K_s - self._K
+            alpha = self.tank.pay(0.5 * float(xt @ dK @ xt)) if np.any(dK) else 1.0
+            K = self._K + alpha * dK
+        else:
+            K = np.array(K_s, dtype=np.float64)
+        tr = float(np.trace(K_s))
+        scale = float(np.trace(K)) / tr if tr > 0.0 else 1.0
+        self._K = K
+        self._last_xtd = xtd
+        a = impedance_acceleration(xt, xtd, np.asarray(reference.acceleration, dtype=np.float64),
+                                   np.asarray(measurement.wrench, dtype=np.float64), self._Md_inv, self._D, K, True)
+        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
+        log = self._log
+        log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
+        log["stiffness_scale"].append(scale)
+        log["storage"].append(0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
+        log["stiffness"].append(K.ravel().copy())
+        log["damping"].append(self._D.ravel().copy())
+        return self._check_output(t, u, measurement)
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """What the controller logged at each step since the last reset (arrays, one row per step)."""
+        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
+
+    def gains(self) -> dict[str, Any]:
+        g = super().gains()
+        g.update({
+            "stiffness_schedule": getattr(self.stiffness_schedule, "__name__", repr(self.stiffness_schedule)),
+            "damping_schedule": getattr(self.damping_schedule, "__name__", repr(self.damping_schedule)),
+            "tank": None if self.tank is None else {
+                "initial": self.tank.initial, "minimum": self.tank.minimum, "maximum": self.tank.maximum,
+                "dissipation_fraction": self.tank.dissipation_fraction,
+            },
+        })
+        return g
+

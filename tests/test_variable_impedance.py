@@ -1,0 +1,144 @@
+"""Variable impedance with an energy tank (issue 18, part 1).
+
+References from outside the controller's own bookkeeping: the energy of the closed loop is
+recomputed from the simulator's logs of the full nonlinear arm (tip position and velocity, the
+plane's elastic energy) and must balance the tank's energy to first order in the sample time;
+the tank's arithmetic is checked against hand-computed values.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.controllers import DirectionalStiffness, EnergyTank, SinusoidalStiffness, VariableImpedanceController
+from forcecontrol.errors import ParameterError
+
+K_ENV = 1e4
+M_D, K_D = 100.0, 200.0
+X_D = np.array([1.02, 0.0])
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return fc.PlanarTwoLink()
+
+
+def _run(arm, tank, sample_time=1e-3, duration=1.0, schedule=None):
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], K_ENV)
+    ctl = VariableImpedanceController(arm, M_D, K_D, 1000.0, stiffness_schedule=schedule or DirectionalStiffness(1e3, 1e4),
+                                      tank=tank, sample_time=sample_time)
+    return fc.simulate(arm, env, ctl, fc.Setpoint(X_D), q0=q0, duration=duration, engine="python")
+
+
+def _energies(res):
+    """Storage of (9.32) with the applied stiffness, the plane's elastic energy, the damper's dissipation."""
+    xt, xtd = X_D - res.x, -res.xd
+    K = res.signals["stiffness"].reshape(-1, 2, 2)
+    H = 0.5 * M_D * np.einsum("ij,ij->i", xtd, xtd) + 0.5 * np.einsum("ij,ijk,ik->i", xt, K, xt)
+    V = 0.5 * K_ENV * np.maximum(res.x[:, 0] - 1.0, 0.0) ** 2
+    Ts = res.t[1] - res.t[0]
+    dissipated = np.concatenate([[0.0], np.cumsum(K_D * np.einsum("ij,ij->i", xtd, xtd))[:-1] * Ts])
+    return H, V, dissipated
+
+
+def test_energy_balance_holds_to_first_order_in_the_sample_time(arm):
+    """σ = 1, no cap: H + V_env + T is conserved by the continuous loop; the sampled loop drifts O(Ts)."""
+    drifts = {}
+    for Ts in (1e-3, 5e-4):
+        tank = EnergyTank(0.5, minimum=0.0, maximum=math.inf, dissipation_fraction=1.0)
+        res = _run(arm, tank, sample_time=Ts)
+        H, V, dissipated = _energies(res)
+        E = H + V + res.signals["tank_energy"]
+        drifts[Ts] = float(np.max(np.abs(E - E[0])))
+        assert drifts[Ts] < 0.02 * dissipated[-1], (Ts, drifts[Ts], dissipated[-1])
+        assert np.min(res.signals["stiffness_scale"]) < 0.9  # the tank did refuse part of the schedule
+    assert 1.6 < drifts[1e-3] / drifts[5e-4] < 2.5  # first order: halving Ts halves the error
+
+
+def test_naive_schedule_creates_energy_and_the_tank_version_does_not(arm):
+    """Without a tank H + V grows far above its start (energy created by ½ x̃ᵀ K̇ x̃); with it H + V + T never does."""
+    naive = _run(arm, None, duration=2.0)
+    H, V, _ = _energies(naive)
+    assert np.all(np.isnan(naive.signals["tank_energy"]))
+    assert (H + V).max() > 5.0 * (H + V)[0]
+    tank = EnergyTank(0.05, minimum=0.01, maximum=0.1, dissipation_fraction=0.5)
+    passive = _run(arm, tank, duration=2.0)
+    H, V, _ = _energies(passive)
+    E = H + V + passive.signals["tank_energy"]
+    assert E.max() <= E[0] * 1.02
+    assert np.all(passive.signals["tank_energy"] >= 0.01 - 1e-12)
+
+
+def test_built_in_scenario_naive_bounces_and_tank_keeps_contact():
+    """The built-in 'variable-stiffness' scenario: its own checks pass (the naive case bounces, the tank case does not)."""
+    out = fc.scenario("variable-stiffness").run()
+    assert out.all_checks_pass
+    naive, tank = out.cases
+    f_naive = np.linalg.norm(naive.result.wrench, axis=1)
+    t = naive.result.t
+    assert f_naive[t >= 3.0].max() > 3.0 * f_naive[t < 1.0].max()  # growing
+    f_tank = np.linalg.norm(tank.result.wrench, axis=1)
+    assert f_tank[t >= 3.0].max() < f_tank[t < 1.0].max()  # decaying
+    assert "tank_energy" in tank.result.columns()
+
+
+def test_energy_tank_arithmetic():
+    tank = EnergyTank(1.0, minimum=0.2, maximum=2.0, dissipation_fraction=0.5)
+    tank.fill(1.0)
+    assert tank.energy == pytest.approx(1.5)
+    assert tank.pay(0.5) == 1.0 and tank.energy == pytest.approx(1.0)
+    assert tank.pay(1.6) == pytest.approx(0.8 / 1.6) and tank.energy == pytest.approx(0.2)
+    assert tank.pay(-5.0) == 1.0 and tank.energy == pytest.approx(2.0) and tank.dropped == pytest.approx(3.2)
+    tank.reset()
+    assert tank.energy == 1.0 and tank.dropped == 0.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"initial": 30.0}, "initial must lie in"),
+        ({"maximum": 0.0}, "maximum must be >"),
+        ({"dissipation_fraction": 1.5}, "dissipation_fraction must be in"),
+        ({"minimum": -1.0}, "minimum"),
+    ],
+)
+def test_energy_tank_refuses_bad_settings(kwargs, match):
+    with pytest.raises(ParameterError, match=match):
+        EnergyTank(**{"initial": 1.0, **kwargs})
+
+
+def test_tank_refuses_bad_requests():
+    tank = EnergyTank(1.0)
+    with pytest.raises(ParameterError, match="energy to fill must be >= 0"):
+        tank.fill(-1.0)
+    with pytest.raises(ParameterError, match="finite"):
+        tank.pay(math.nan)
+
+
+def test_schedules_are_checked(arm):
+    with pytest.raises(ParameterError, match="stiffness_schedule must be a callable"):
+        VariableImpedanceController(arm, M_D, K_D, 1000.0, stiffness_schedule=5.0)
+    bad = VariableImpedanceController(arm, M_D, K_D, 1000.0, stiffness_schedule=lambda t, e, de: -1.0)
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    meas = fc.Measurement(q0, np.zeros(2), np.zeros(2))
+    with pytest.raises(ParameterError, match=r"at t = 0.25 s, the stiffness schedule returned an invalid gain"):
+        bad.step(0.25, meas, fc.Reference.setpoint(X_D))
+    with pytest.raises(ParameterError, match="amplitude must be <= mean"):
+        SinusoidalStiffness(100.0, 200.0, 1.0)
+    with pytest.raises(ParameterError, match="high must be >= low"):
+        DirectionalStiffness(10.0, 1.0)
+
+
+def test_constant_schedule_equals_the_impedance_controller(arm):
+    """With no schedule the law is (9.30)-(9.31) exactly: same torques as ImpedanceController."""
+    q = arm.inverse_kinematics([1.01, 0.05], elbow="up")
+    meas = fc.Measurement(q, np.array([0.3, -0.2]), np.array([12.0, 1.0]))
+    ref = fc.Reference.setpoint(X_D)
+    a = VariableImpedanceController(arm, M_D, K_D, 2500.0, tank=EnergyTank(1.0)).step(0.0, meas, ref)
+    b = fc.ImpedanceController(arm, M_D, K_D, 2500.0, True).step(0.0, meas, ref)
+    np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-9)
