@@ -142,3 +142,25 @@ def test_constant_schedule_equals_the_impedance_controller(arm):
     a = VariableImpedanceController(arm, M_D, K_D, 2500.0, tank=EnergyTank(1.0)).step(0.0, meas, ref)
     b = fc.ImpedanceController(arm, M_D, K_D, 2500.0, True).step(0.0, meas, ref)
     np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-9)
+
+
+def test_panda_position_task_naive_grows_tank_stays_bounded():
+    """The same law on the 7-DOF Panda (position task, null-space posture) pressing a plane k = 10⁴ N/m."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.controllers import NullSpacePosture
+    from forcecontrol.robots.pinocchio import panda
+
+    robot = panda(task="position")
+    q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785])
+    x0 = robot.terms(q0, np.zeros(7)).x
+    env = fc.ElasticPlane(x0, [0.0, 0.0, 1.0], 1e4)
+    peaks = {}
+    for name, tank in (("naive", None), ("tank", EnergyTank(0.05, minimum=0.01, maximum=0.1, dissipation_fraction=0.5))):
+        ctl = VariableImpedanceController(robot, 5.0, 20.0, 200.0, stiffness_schedule=DirectionalStiffness(200.0, 2000.0),
+                                          tank=tank, posture=NullSpacePosture(q0))
+        res = fc.simulate(robot, env, ctl, fc.Setpoint(x0 - [0.0, 0.0, 0.02]), q0=q0, duration=1.5)
+        f = np.linalg.norm(res.wrench, axis=1)
+        peaks[name] = (f[res.t < 0.5].max(), f[res.t >= 1.0].max())
+    assert peaks["naive"][1] > 3.0 * peaks["naive"][0]
+    assert peaks["tank"][1] <= peaks["tank"][0] * 1.05
+    assert peaks["tank"][1] < 0.1 * peaks["naive"][1]
