@@ -37,6 +37,12 @@ _LAZY: dict[str, str] = {
     "Reference": ".controllers",
     "SpatialComplianceController": ".controllers",
     "SpatialImpedanceController": ".controllers",
+    "VariableImpedanceController": ".controllers",
+    "EnergyTank": ".controllers",
+    "DirectionalStiffness": ".controllers",
+    "SinusoidalStiffness": ".controllers",
+    "StabilityMonitor": ".monitor",
+    "MonitoredController": ".monitor",
     "EncoderFeedback": ".encoders",
     "JointEncoder": ".encoders",
     "ConstantWrench": ".environments",
@@ -87,6 +93,8 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
     from .controllers import (
         AdmittanceController,
         Controller,
+        DirectionalStiffness,
+        EnergyTank,
         HybridCompliantController,
         HybridRigidController,
         ImpedanceController,
@@ -97,8 +105,10 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         OperationalSpacePD,
         ParallelForcePositionController,
         Reference,
+        SinusoidalStiffness,
         SpatialComplianceController,
         SpatialImpedanceController,
+        VariableImpedanceController,
     )
     from .encoders import EncoderFeedback, JointEncoder
     from .environments import (
@@ -124,6 +134,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
+    from .monitor import MonitoredController, StabilityMonitor
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .scenarios import scenario
@@ -212,4 +223,10 @@ __all__ = [
     "Transform",
     "Twist",
     "Wrench",
+    "VariableImpedanceController",
+    "EnergyTank",
+    "DirectionalStiffness",
+    "SinusoidalStiffness",
+    "StabilityMonitor",
+    "MonitoredController",
 ]
