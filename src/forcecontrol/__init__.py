@@ -37,6 +37,10 @@ _LAZY: dict[str, str] = {
     "Reference": ".controllers",
     "SpatialComplianceController": ".controllers",
     "SpatialImpedanceController": ".controllers",
+    "CalibrationResult": ".calibration",
+    "DriftDetector": ".calibration",
+    "calibrate": ".calibration",
+    "plan_calibration_poses": ".calibration",
     "EncoderFeedback": ".encoders",
     "JointEncoder": ".encoders",
     "ConstantWrench": ".environments",
@@ -62,6 +66,7 @@ _LAZY: dict[str, str] = {
     "PlanarTwoLink": ".robots",
     "PlanarTwoLinkParameters": ".robots",
     "RobotModel": ".robots",
+    "RateLimiter": ".realtime",
     "Safety": ".safety",
     "ForceSensor": ".sensors",
     "RealisticForceSensor": ".sensors",
@@ -84,6 +89,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
+    from .calibration import CalibrationResult, DriftDetector, calibrate, plan_calibration_poses
     from .controllers import (
         AdmittanceController,
         Controller,
@@ -124,6 +130,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
+    from .realtime import RateLimiter
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .scenarios import scenario
@@ -184,6 +191,11 @@ __all__ = [
     "RealisticForceSensor",
     "ToolGravity",
     "identify_tool_gravity",
+    "calibrate",
+    "plan_calibration_poses",
+    "CalibrationResult",
+    "DriftDetector",
+    "RateLimiter",
     "JointEncoder",
     "EncoderFeedback",
     "Safety",
