@@ -287,6 +287,37 @@ def test_drift_detector_stays_quiet_on_noise_and_fires_on_a_bias_step():
     assert c.offset[0] == pytest.approx(0.1, abs=4 * SIGMA_F / 10 + 4 * r.force_bias_std[0])
 
 
+def test_drift_detector_reset_measures_the_noise_again():
+    """After reset() a detector without a given noise_std warms up again and measures the new noise (0.2 N here)."""
+    Rs = np.array([rot2(a) for a in np.linspace(-2.5, 2.5, 24)])
+    rng = np.random.default_rng(5)
+    r = calibrate(Rs, *readings(TRUE2, Rs, rng, SIGMA_F / 10, SIGMA_T / 10))
+    det = DriftDetector(r, window=200)
+    for k in range(200):
+        F, T = readings(TRUE2, rot2(0.01 * k)[None], rng, SIGMA_F, SIGMA_T)
+        det.update(rot2(0.01 * k), F[0], T[0])
+    assert det.noise_std[0] == pytest.approx(SIGMA_F, rel=0.2)
+    det.reset()
+    assert det.noise_std is None and not det.update(rot2(0.0), *(x[0] for x in readings(TRUE2, rot2(0.0)[None]))).ready
+    for k in range(200):
+        F, T = readings(TRUE2, rot2(0.01 * k)[None], rng, 0.2, SIGMA_T)
+        det.update(rot2(0.01 * k), F[0], T[0])
+    assert det.noise_std[0] == pytest.approx(0.2, rel=0.2)
+
+
+def test_identified_tool_predicts_like_the_result():
+    """result.tool (c = p/m) reads what result.predict says, in any orientation; the result's arrays are read-only."""
+    Rs = Rotation.random(10, random_state=12).as_matrix()
+    r = calibrate(Rs, *readings(TRUE3, Rs, np.random.default_rng(1), SIGMA_F, SIGMA_T))
+    for R in Rotation.random(5, random_state=13).as_matrix():
+        f, t = r.predict(R)
+        f2, t2 = r.tool.reading(R)
+        np.testing.assert_allclose(f, f2, atol=1e-12)
+        np.testing.assert_allclose(t, t2, atol=1e-12)
+    with pytest.raises(ValueError):
+        r.force_bias[0] = 0.0
+
+
 def test_drift_detector_refuses_bad_settings():
     """Window < 2, k_sigma <= 0, a wrongly shaped noise_std, a missing moment: clear errors."""
     Rs = np.array([rot2(a) for a in np.linspace(-2.5, 2.5, 6)])
@@ -356,6 +387,8 @@ def test_plan_refuses_bad_requests():
         plan_calibration_poses(CHAPTER_ARM, 5, joint_limits=([0.0, -1.0], [0.05, 1.0]))
     with pytest.raises(ParameterError, match="robot must be a robot model"):
         plan_calibration_poses(object(), 5)
+    with pytest.raises(ParameterError, match="margin must be a non-negative number"):
+        plan_calibration_poses(CHAPTER_ARM, 5, margin=-0.1)
 
 
 # ----------------------------------------------------------------------------- tables of columns

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import positive_scalar
+from ._validate import nonnegative_scalar, positive_scalar
 from .errors import DimensionError, MeasurementError, ParameterError
 from .sensors import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor, planar_sensor_rotation
 
@@ -140,7 +140,7 @@ def regressor_condition(rotations: Any, *, torques: bool = True) -> float:
 # ----------------------------------------------------------------------------- result
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CalibrationResult:
     """Identified tool payload and sensor biases with their standard uncertainties.
 
@@ -184,6 +184,15 @@ class CalibrationResult:
     torque_residual_rms: float | None = None
     torque_covariance: np.ndarray | None = None
     notes: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        for name in ("force_bias", "force_bias_std", "force_covariance", "com", "com_std", "first_moment", "torque_bias",
+                     "torque_bias_std", "torque_covariance"):
+            v = getattr(self, name)
+            if v is not None:
+                a = np.array(v, dtype=np.float64)
+                a.flags.writeable = False
+                object.__setattr__(self, name, a)
 
     @property
     def tool(self) -> ToolGravity:
@@ -523,25 +532,22 @@ class DriftDetector:
         self.k_sigma = positive_scalar("k_sigma", k_sigma)
         self.floor = positive_scalar("floor", floor)
         self.n = result.dim + ((1 if result.dim == 2 else 3) if result.has_torques else 0)
-        if noise_std is None:
-            self.noise_std: np.ndarray | None = None
-        else:
+        self._given: np.ndarray | None = None
+        if noise_std is not None:
             s = np.array(noise_std, dtype=np.float64)
             if s.ndim > 1 or (s.ndim == 1 and s.shape != (self.n,)):
                 raise DimensionError(f"noise_std must be a scalar or have shape ({self.n},); got shape {s.shape}")
             if not np.all(np.isfinite(s)) or np.any(s < 0):
                 raise ParameterError(f"noise_std must be finite and >= 0; got {s.tolist()}")
-            self.noise_std = np.broadcast_to(s, (self.n,)).copy()
+            self._given = np.broadcast_to(s, (self.n,)).copy()
         self.reset()
 
     def reset(self) -> None:
-        """Forget the readings (and the measured noise, when it was measured)."""
+        """Forget the readings (and the measured noise, when it was measured: it is measured again)."""
         self._buf: deque[np.ndarray] = deque(maxlen=self.window)
         self._sum = np.zeros(self.n)
         self._warm: list[np.ndarray] = []
-        self._measured = self.noise_std is None
-        if self._measured:
-            self.noise_std = None
+        self.noise_std: np.ndarray | None = None if self._given is None else self._given.copy()
         self.count = 0
 
     def residual(self, R: Any, force: Any, torque: Any = None) -> np.ndarray:
@@ -687,7 +693,8 @@ def plan_calibration_poses(
         A :class:`CalibrationPlan`.
 
     Raises:
-        ParameterError: n_poses or candidates too small, an empty joint range, an unknown robot.
+        ParameterError: n_poses or candidates too small, a negative margin, an empty joint range, an
+            unknown robot.
     """
     for name, v, low in (("n_poses", n_poses, 3), ("candidates", candidates, 1)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
@@ -698,7 +705,7 @@ def plan_calibration_poses(
     if nq < 1:
         raise ParameterError(f"robot must be a robot model with nq joints; got {type(robot).__name__}")
     orient = orientation if orientation is not None else sensor_orientation(robot)
-    lo, hi = _joint_limits(robot, nq, joint_limits, float(margin))
+    lo, hi = _joint_limits(robot, nq, joint_limits, nonnegative_scalar("margin", margin))
     rng = np.random.default_rng(seed)
     Q = lo + (hi - lo) * rng.random((candidates, nq))
     Rs = np.array([np.asarray(orient(q), dtype=np.float64) for q in Q])
