@@ -127,3 +127,22 @@ def test_rate_limiter_refuses_misuse():
         RateLimiter(T, cycles=0)
     with pytest.raises(DimensionError, match="non-empty"):
         RateLimiter(T).statistics()
+
+
+def test_own_loop_example_runs_both_arms_and_reports_statistics():
+    """examples/own_loop.py on both arms for 100 cycles: one timing record per cycle (no wall time asserted)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
+    try:
+        import own_loop
+    finally:
+        sys.path.pop(0)
+    stats = own_loop.chapter_arm(100)
+    st = stats["statistics"]
+    assert st.cycles == 100 and st.period == own_loop.PERIOD and len(stats["compute"]) == 100
+    assert st.lateness_max >= 0.0 and st.compute_median > 0.0
+    pytest.importorskip("pinocchio")
+    st = own_loop.panda(100)["statistics"]
+    assert st.cycles == 100
