@@ -43,6 +43,10 @@ _LAZY: dict[str, str] = {
     "SinusoidalStiffness": ".controllers",
     "StabilityMonitor": ".monitor",
     "MonitoredController": ".monitor",
+    "CalibrationResult": ".calibration",
+    "DriftDetector": ".calibration",
+    "calibrate": ".calibration",
+    "plan_calibration_poses": ".calibration",
     "EncoderFeedback": ".encoders",
     "JointEncoder": ".encoders",
     "ConstantWrench": ".environments",
@@ -68,6 +72,7 @@ _LAZY: dict[str, str] = {
     "PlanarTwoLink": ".robots",
     "PlanarTwoLinkParameters": ".robots",
     "RobotModel": ".robots",
+    "RateLimiter": ".realtime",
     "Safety": ".safety",
     "ForceSensor": ".sensors",
     "RealisticForceSensor": ".sensors",
@@ -90,6 +95,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
+    from .calibration import CalibrationResult, DriftDetector, calibrate, plan_calibration_poses
     from .controllers import (
         AdmittanceController,
         Controller,
@@ -135,6 +141,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         WorkspaceError,
     )
     from .monitor import MonitoredController, StabilityMonitor
+    from .realtime import RateLimiter
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .scenarios import scenario
@@ -195,6 +202,11 @@ __all__ = [
     "RealisticForceSensor",
     "ToolGravity",
     "identify_tool_gravity",
+    "calibrate",
+    "plan_calibration_poses",
+    "CalibrationResult",
+    "DriftDetector",
+    "RateLimiter",
     "JointEncoder",
     "EncoderFeedback",
     "Safety",

@@ -150,6 +150,38 @@ def _skew(w: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
+def _force_regressor(u: np.ndarray) -> np.ndarray:
+    """Stacked regressor of ``f_i = −u_i m + b_f`` in (m, b_f): rows ``[−u_i, I]``, (k d, 1 + d).
+
+    ``u_i = R_iᵀ g`` is gravity in the sensor frame of pose i, (k, d).
+    """
+    k, d = u.shape
+    A = np.zeros((k * d, 1 + d))
+    for i in range(k):
+        A[i * d : (i + 1) * d, 0] = -u[i]
+        A[i * d : (i + 1) * d, 1:] = np.eye(d)
+    return A
+
+
+def _torque_regressor(w: np.ndarray) -> np.ndarray:
+    """Stacked regressor of the moments in (c, b_τ) given the tool weights ``w_i`` in S, (k, d).
+
+    ``τ_i = [w_i]× c + b_τ`` (3-D, rows (3 k, 6)) or ``τ_i = w_x c_y − w_y c_x + b_τ`` (planar,
+    rows (k, 3)). With ``w_i = u_i`` (unit mass) the unknowns are the first moment ``p = m c``.
+    """
+    k, d = w.shape
+    nt = 1 if d == 2 else 3
+    At = np.zeros((k * nt, d + nt))
+    for i in range(k):
+        if d == 2:
+            At[i, 0:2] = [-w[i, 1], w[i, 0]]
+            At[i, 2] = 1.0
+        else:
+            At[3 * i : 3 * i + 3, 0:3] = _skew(w[i])
+            At[3 * i : 3 * i + 3, 3:] = np.eye(3)
+    return At
+
+
 class ToolGravity:
     """The tool mounted after the sensor: mass, centre of mass and the sensor's bias.
 
@@ -210,6 +242,59 @@ class ToolGravity:
             tau = -np.cross(self.com, w)
         return -w + self.force_bias, tau + self.torque_bias
 
+    def compensate(
+        self, R: Any, force: Any, torque: Any = None, *, frame: str = "sensor"
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Gravity compensation in any orientation: the contact wrench h_e from a raw reading.
+
+        ``h_S = f_S − (−w_S + b_f)`` and ``μ_S = τ_S − (−c × w_S + b_τ)``: the reading minus the
+        free-space reading :meth:`reading` predicts at orientation R (the library's sense, the
+        force the end-effector exerts on the environment).
+
+        Args:
+            R: sensor orientation R_S, (d, d), or one per reading (k, d, d).
+            force: force reading(s) in the sensor frame, (d,) or (k, d) [N].
+            torque: moment reading(s), (1,)/(3,) or (k, 1)/(k,)/(k, 3) [N m]; None = forces only.
+            frame: ``"sensor"`` (S) or ``"base"`` (rotated by R_S; the planar moment is unchanged).
+
+        Returns:
+            (force, moment) with the shapes of the inputs; moment None when ``torque`` is None.
+
+        Raises:
+            DimensionError: shapes do not match the tool's dimension. ParameterError: unknown frame.
+        """
+        if frame not in ("sensor", "base"):
+            raise ParameterError(f"frame must be 'sensor' or 'base'; got {frame!r}")
+        d, nt = self.dim, (1 if self.dim == 2 else 3)
+        Rs = np.asarray(R, dtype=np.float64)
+        single = Rs.ndim == 2
+        Rs = Rs.reshape(-1, *Rs.shape[-2:]) if Rs.ndim in (2, 3) else Rs
+        if Rs.ndim != 3 or Rs.shape[1:] != (d, d):
+            raise DimensionError(f"R must have shape ({d}, {d}) or (k, {d}, {d}); got shape {np.shape(R)}")
+        k = Rs.shape[0]
+        F = np.asarray(force, dtype=np.float64)
+        if F.size != k * d:
+            raise DimensionError(f"force must have shape {(d,) if single else (k, d)}; got shape {F.shape}")
+        u = np.einsum("kji,j->ki", Rs, _gravity_vector(d, self.gravity))
+        w = self.mass * u
+        f = F.reshape(k, d) + w - self.force_bias
+        if frame == "base":
+            f = np.einsum("kij,kj->ki", Rs, f)
+        tau_out = None
+        if torque is not None:
+            T = np.asarray(torque, dtype=np.float64)
+            if T.size != k * nt:
+                raise DimensionError(f"torque must have {nt} entries per reading ({k} readings); got shape {T.shape}")
+            if d == 2:
+                pred = -(self.com[0] * w[:, 1] - self.com[1] * w[:, 0])[:, None]
+            else:
+                pred = -np.cross(self.com, w)
+            tau = T.reshape(k, nt) - pred - self.torque_bias
+            if frame == "base" and d == 3:
+                tau = np.einsum("kij,kj->ki", Rs, tau)
+            tau_out = tau[0] if single else tau.reshape(T.shape)
+        return (f[0] if single else f), tau_out
+
     def describe(self) -> dict[str, Any]:
         return {"mass": self.mass, "com": self.com.tolist(), "force_bias": self.force_bias.tolist(),
                 "torque_bias": self.torque_bias.tolist()}
@@ -242,10 +327,7 @@ def identify_tool_gravity(rotations: Any, forces: Any, torques: Any = None, *, g
     if F.shape != (k, d):
         raise DimensionError(f"forces must have shape ({k}, {d}) like the rotations; got shape {F.shape}")
     g = _gravity_vector(d, positive_scalar("gravity", gravity))
-    A = np.zeros((k * d, 1 + d))
-    for i in range(k):
-        A[i * d : (i + 1) * d, 0] = -(R[i].T @ g)
-        A[i * d : (i + 1) * d, 1:] = np.eye(d)
+    A = _force_regressor(np.einsum("kji,j->ki", R, g))  # u_i = R_iᵀ g
     if np.linalg.matrix_rank(A) < 1 + d:
         raise ParameterError(
             f"the {k} poses do not excite the tool mass: give at least two sensor orientations with "
@@ -263,15 +345,7 @@ def identify_tool_gravity(rotations: Any, forces: Any, torques: Any = None, *, g
     if T.reshape(k, -1).shape != (k, nt) or T.size != k * nt:
         raise DimensionError(f"torques must have shape ({k},) (planar) or ({k}, 3); got shape {T.shape}")
     T = T.reshape(k, nt)
-    At = np.zeros((k * nt, d + nt))
-    for i in range(k):
-        w = tool.weight_in_sensor(R[i])
-        if d == 2:
-            At[i, 0:2] = [-w[1], w[0]]
-            At[i, 2] = 1.0
-        else:
-            At[3 * i : 3 * i + 3, 0:3] = _skew(w)
-            At[3 * i : 3 * i + 3, 3:] = np.eye(3)
+    At = _torque_regressor(np.array([tool.weight_in_sensor(R[i]) for i in range(k)]))
     if np.linalg.matrix_rank(At) < d + nt:
         need = "two" if d == 2 else "three"
         raise ParameterError(

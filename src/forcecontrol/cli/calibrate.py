@@ -1,0 +1,156 @@
+"""``forcecontrol calibrate DATA`` and ``forcecontrol calibrate-plan ROBOT N``: F/T sensor calibration.
+
+``calibrate`` reads static free-space readings (CSV or Parquet: an orientation per row as a
+quaternion ``qx, qy, qz, qw``, a rotation matrix ``r11 … r33`` or a planar ``angle``, and
+``fx, fy, fz`` [, ``tx, ty, tz``]) and prints the identified tool mass, centre of mass and
+sensor biases with their standard uncertainties and the condition number of the poses
+(:func:`forcecontrol.calibration.calibrate`). ``calibrate-plan`` prints (or writes as CSV) joint
+configurations that make a well-conditioned calibration for a robot
+(:func:`forcecontrol.calibration.plan_calibration_poses`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from .app import _fail
+
+__all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
+
+
+def calibration_report(path: Path, gravity: float = 9.81, max_condition: float | None = None) -> dict[str, Any]:
+    """The calibration of a data file as plain data (the ``--json`` output)."""
+    from ..calibration import MAX_CONDITION, calibrate, read_calibration_data
+
+    R, F, T = read_calibration_data(path)
+    limit = MAX_CONDITION if max_condition is None else max_condition
+    res = calibrate(R, F, T, gravity=gravity, max_condition=limit)
+    return {"file": str(path), "max_condition": limit, **res.as_dict()}
+
+
+def _fmt(v: float, s: float) -> tuple[str, str]:
+    import math
+
+    if not math.isfinite(v):
+        return "undefined", ""
+    return f"{v:.6g}", f"{s:.2g}"
+
+
+def calibrate_command(
+    data: Annotated[Path, typer.Argument(help="CSV or Parquet: qx,qy,qz,qw | r11..r33 | angle, and fx,fy,fz[,tx,ty,tz]")],
+    gravity: Annotated[float, typer.Option("--gravity", help="|g| [m/s²], along −z (3-D) or −y (planar)")] = 9.81,
+    max_condition: Annotated[
+        float | None, typer.Option("--max-condition", help="refuse poses whose normalised regressor is worse (default 100)")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
+) -> None:
+    """Identify a tool's mass, centre of mass and the F/T sensor's biases, with their uncertainty."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from ..errors import ForceControlError
+
+    try:
+        report = calibration_report(data, gravity, max_condition)
+    except (ForceControlError, ImportError) as exc:
+        _fail(exc)
+    if json_out:
+        from .._json import json_safe
+
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        return
+    console = Console(width=None if sys.stdout.isatty() else 132)
+    kind = "planar" if report["dim"] == 2 else "3-D"
+    t = Table(title=f"{data.name}: {kind} F/T sensor, {report['n_readings']} readings", title_justify="left",
+              caption="sensor frame; ± one standard uncertainty", caption_justify="left")
+    for col in ("parameter", "value", "± std", "unit"):
+        t.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
+    for row in report["parameters"]:
+        v, s = _fmt(row["value"], row["std"])
+        t.add_row(row["name"], v, s, row["unit"])
+    console.print(t)
+    console.print(f"condition number of the poses: {report['condition_number']:.3g} (1 is ideal; refused above "
+                  f"{report['max_condition']:g})")
+    line = f"residual RMS: forces {report['force_residual_rms']:.3g} N"
+    if report["torque_residual_rms"] is not None:
+        line += f", moments {report['torque_residual_rms']:.3g} N m"
+    console.print(line)
+    for note in report["notes"]:
+        console.print(f"note: {note}")
+
+
+class RobotChoice(str, Enum):
+    chapter_arm = "chapter-arm"
+    panda = "panda"
+    ur5 = "ur5"
+
+
+def plan_report(robot: str, n_poses: int, seed: int = 0, torques: bool = True) -> dict[str, Any]:
+    """A calibration plan for a named robot as plain data."""
+    from ..calibration import plan_calibration_poses
+
+    if robot == "chapter-arm":
+        from ..robots import CHAPTER_ARM as model
+    else:
+        from ..robots import pinocchio as pm
+
+        model = pm.panda() if robot == "panda" else pm.ur5()
+    plan = plan_calibration_poses(model, n_poses, seed=seed, torques=torques)
+    return {"robot": robot, "n_poses": n_poses, "seed": seed, "condition_number": plan.condition_number,
+            "joint_positions": plan.joint_positions.tolist(), "rotations": plan.rotations.tolist()}
+
+
+def calibrate_plan_command(
+    robot: Annotated[RobotChoice, typer.Argument(help="the robot model")],
+    n_poses: Annotated[int, typer.Argument(help="number of poses (>= 3; planar with moments >= 4)")],
+    seed: Annotated[int, typer.Option("--seed", help="seed of the random candidates")] = 0,
+    forces_only: Annotated[bool, typer.Option("--forces-only", help="plan for mass and force bias only")] = False,
+    out: Annotated[Path | None, typer.Option("--out", help="write the poses as CSV (q1..qn)")] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
+) -> None:
+    """Plan well-conditioned calibration poses within a robot's joint limits."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from ..errors import ForceControlError
+
+    try:
+        report = plan_report(robot.value, n_poses, seed, not forces_only)
+    except (ForceControlError, ImportError) as exc:
+        _fail(exc)
+    if out is not None:
+        import csv
+
+        try:
+            with out.open("w", newline="", encoding="utf-8") as fh:
+                w = csv.writer(fh)
+                nq = len(report["joint_positions"][0])
+                w.writerow([f"q{i + 1}" for i in range(nq)])
+                w.writerows([[repr(float(v)) for v in q] for q in report["joint_positions"]])
+        except OSError as exc:
+            from ..errors import OutputError
+
+            _fail(OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}"))
+    if json_out:
+        from .._json import json_safe
+
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        return
+    console = Console(width=None if sys.stdout.isatty() else 132)
+    nq = len(report["joint_positions"][0])
+    t = Table(title=f"{report['robot']}: {n_poses} calibration poses (rad)", title_justify="left")
+    t.add_column("pose", justify="right")
+    for i in range(nq):
+        t.add_column(f"q{i + 1}", justify="right")
+    for k, q in enumerate(report["joint_positions"]):
+        t.add_row(str(k + 1), *(f"{v:.4f}" for v in q))
+    console.print(t)
+    console.print(f"condition number of the poses: {report['condition_number']:.3g} (1 is ideal)")
+    if out is not None:
+        console.print(f"written: {out}")

@@ -1,0 +1,148 @@
+"""Loop timing: statistics on synthetic timestamps, and the rate limiter driven by a fake clock (no wall-clock asserts)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forcecontrol.errors import DimensionError, ParameterError
+from forcecontrol.realtime import RateLimiter, loop_statistics
+
+T = 1e-3
+
+
+def test_statistics_of_a_perfect_loop():
+    """Wake-ups on the deadlines, 200 µs of work each: lateness 0, compute 200 µs, no overrun, utilisation 20 %."""
+    d = np.arange(1000) * T
+    st = loop_statistics(T, d, d, d + 2e-4)
+    assert st.cycles == 1000 and st.overruns == 0 and st.dropped_ticks == 0
+    assert st.lateness_median == 0.0 and st.lateness_max == 0.0
+    assert st.compute_median == pytest.approx(2e-4) and st.utilisation == pytest.approx(0.2)
+
+
+def test_statistics_percentiles_against_a_known_distribution():
+    """Lateness k µs for k = 0..99 (each once): median 49.5 µs, p99 98.01 µs (linear interpolation), max 99 µs."""
+    d = np.arange(100) * T
+    late = np.random.default_rng(0).permutation(np.arange(100)) * 1e-6
+    st = loop_statistics(T, d, d + late, d + late + 1e-4)
+    assert st.lateness_median == pytest.approx(49.5e-6)
+    assert st.lateness_p99 == pytest.approx(98.01e-6)
+    assert st.lateness_max == pytest.approx(99e-6)
+    assert st.compute_p99 == pytest.approx(1e-4)
+
+
+def test_overruns_and_dropped_ticks_are_counted():
+    """Cycle 3 works 2.5 ms: an overrun, next deadline 3 ticks later (2 dropped); cycle 4 ending on the tick is not one."""
+    d = np.array([0, 1, 2, 3, 6, 7, 8], dtype=float) * T
+    s = d.copy()
+    e = s + 1e-4
+    e[3] = s[3] + 2.5e-3
+    e[4] = d[4] + T  # exactly on the next tick: not an overrun
+    st = loop_statistics(T, d, s, e)
+    assert st.overruns == 1 and st.dropped_ticks == 2
+
+
+@pytest.mark.parametrize(
+    "args, exc, match",
+    [
+        ((0.0, [0.0], [0.0], [0.0]), ParameterError, "period must be a positive number"),
+        ((T, [0.0, T], [0.0], [0.0]), DimensionError, r"non-empty arrays of one length; got lengths 2, 1, 1"),
+        ((T, [], [], []), DimensionError, "non-empty"),
+        ((T, [0.0, T], [0.0, T], [1e-4, np.nan]), ParameterError, "ends must be finite; got NaN or inf at cycle 1"),
+        ((T, [0.0, T], [0.0, 2 * T], [1e-4, T]), ParameterError, "ends must not precede wakeups; cycle 1"),
+        ((T, [0.0, 0.0], [0.0, 0.0], [1e-4, 1e-4]), ParameterError, "deadlines must increase; cycle 1"),
+    ],
+)
+def test_bad_timestamps_are_refused(args, exc, match):
+    """Non-positive period, mismatched/empty arrays, NaN, ends before wake-ups, non-increasing deadlines: clear errors."""
+    with pytest.raises(exc, match=match):
+        loop_statistics(*args)
+
+
+class FakeClock:
+    """A clock that advances only when slept on or when work is simulated; sleep overshoots by a fixed amount."""
+
+    def __init__(self, overshoot: float = 0.0) -> None:
+        self.t, self.overshoot, self.sleeps = 100.0, overshoot, []
+
+    def __call__(self) -> float:
+        self.t += 1e-7  # each reading of the clock costs 0.1 µs (so spinning terminates)
+        return self.t
+
+    def sleep(self, dt: float) -> None:
+        self.sleeps.append(dt)
+        self.t += dt + self.overshoot
+
+    def work(self, dt: float) -> None:
+        self.t += dt
+
+
+def test_rate_limiter_keeps_the_schedule_and_spins_the_last_part():
+    """Fake clock, sleep overshooting 50 µs < spin 300 µs: every wake-up within 0.2 µs after its deadline, deadlines t0 + k T."""
+    clk = FakeClock(overshoot=5e-5)
+    lim = RateLimiter(T, cycles=50, spin=3e-4, clock=clk, sleep=clk.sleep)
+    for _ in range(50):
+        lim.wait()
+        clk.work(2e-4)
+        assert not lim.done()
+    d, s, e = lim.record()
+    np.testing.assert_allclose(np.diff(d), T, rtol=1e-9)
+    assert np.all(s >= d) and np.all(s - d < 2e-7)
+    st = lim.statistics()
+    assert st.overruns == 0 and st.compute_median == pytest.approx(2e-4, abs=1e-6)
+    assert all(x > 0 for x in clk.sleeps)
+
+
+def test_rate_limiter_drops_missed_ticks_and_keeps_the_phase():
+    """One cycle works 3.5 ms: done() reports an overrun; the next deadline is t0 + 5 T (3 ticks dropped), the phase kept."""
+    clk = FakeClock()
+    lim = RateLimiter(T, cycles=10, clock=clk, sleep=clk.sleep)
+    works = [1e-4, 1e-4, 3.5e-3, 1e-4, 1e-4]
+    flags = []
+    for w in works:
+        lim.wait()
+        clk.work(w)
+        flags.append(lim.done())
+    d, _, _ = lim.record()
+    assert flags == [False, False, True, False, False]
+    np.testing.assert_allclose((d - d[0]) / T, [0, 1, 2, 6, 7], atol=1e-6)
+    st = lim.statistics()
+    assert st.overruns == 1 and st.dropped_ticks == 3
+
+
+def test_rate_limiter_refuses_misuse():
+    """done() before wait(), wait() twice, a zero period, a negative spin: clear errors."""
+    clk = FakeClock()
+    lim = RateLimiter(T, clock=clk, sleep=clk.sleep)
+    with pytest.raises(ParameterError, match=r"done\(\) called without wait\(\)"):
+        lim.done()
+    lim.wait()
+    with pytest.raises(ParameterError, match=r"wait\(\) called twice without done\(\)"):
+        lim.wait()
+    with pytest.raises(ParameterError, match="period must be a positive number"):
+        RateLimiter(0.0)
+    with pytest.raises(ParameterError, match="spin must be a non-negative number"):
+        RateLimiter(T, spin=-1.0)
+    with pytest.raises(ParameterError, match="cycles must be a positive integer"):
+        RateLimiter(T, cycles=0)
+    with pytest.raises(DimensionError, match="non-empty"):
+        RateLimiter(T).statistics()
+
+
+def test_own_loop_example_runs_both_arms_and_reports_statistics():
+    """examples/own_loop.py on both arms for 100 cycles: one timing record per cycle (no wall time asserted)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
+    try:
+        import own_loop
+    finally:
+        sys.path.pop(0)
+    stats = own_loop.chapter_arm(100)
+    st = stats["statistics"]
+    assert st.cycles == 100 and st.period == own_loop.PERIOD and len(stats["compute"]) == 100
+    assert st.lateness_max >= 0.0 and st.compute_median > 0.0
+    pytest.importorskip("pinocchio")
+    st = own_loop.panda(100)["statistics"]
+    assert st.cycles == 100
