@@ -93,6 +93,42 @@ class ReplayResult:
 
         return pd.DataFrame(self.columns())
 
+    def plot(self, path: str | Path | None = None) -> Any:
+        """Replayed against recorded torques, and the force error, over time (matplotlib).
+
+        Args:
+            path: save a PNG there (the figure is then closed and the path returned).
+        """
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True)
+        for i in range(self.torque.shape[1]):
+            line = axes[0].plot(self.t, self.torque[:, i], lw=1.2, label=f"u{i + 1} replayed")[0]
+            if self.torque_recorded is not None:
+                axes[0].plot(self.t, self.torque_recorded[:, i], "--", lw=1.0, color=line.get_color(), label=f"u{i + 1} recorded")
+        axes[0].set_ylabel("joint torque [N m]")
+        for j, name in enumerate(wrench_axis_names(self.force_error.shape[1])):
+            axes[1].plot(self.t, self.force_error[:, j], lw=1.0, label=f"{name}_d − {name}")
+        axes[1].set_ylabel("force error [N]")
+        axes[1].set_xlabel("t [s]")
+        for ax in axes:
+            ax.grid(True, lw=0.3)
+            ax.legend(fontsize=7, ncol=2)
+        kind = self.metadata.get("controller", {}).get("type", "controller")
+        fig.suptitle(f"{kind} replayed over {self.metadata.get('source', '')}", fontsize=9)
+        fig.tight_layout()
+        if path is not None:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            return path
+        return fig
+
 
 def recorded_from_simulation(result: SimulationResult, *, wrench: str = "measured") -> RecordedRun:
     """A simulation log as a :class:`~forcecontrol.io.RecordedRun` (torques: what was applied).

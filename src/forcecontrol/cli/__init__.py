@@ -6,12 +6,14 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, compare, sweep, task
+from . import analyze, compare, compare_trace, replay, sweep, task
 from .app import app, main
 
 app.command("analyze")(analyze.analyze_command)
 app.command("task")(task.task_command)
 app.command("sweep")(sweep.sweep_command)
 app.command("compare")(compare.compare_command)
+app.command("replay")(replay.replay_command)
+app.command("compare-trace")(compare_trace.compare_trace_command)
 
 __all__ = ["app", "main"]
