@@ -23,6 +23,12 @@ _numba_cache.configure()
 
 # public name -> submodule that defines it (resolved by __getattr__ on first access)
 _LAZY: dict[str, str] = {
+    "Actuator": ".actuators",
+    "SensedWrench": ".conventions",
+    "RecordedRun": ".io",
+    "read_recording": ".io",
+    "replay": ".replay",
+    "compare_traces": ".replay",
     "AdmittanceController": ".controllers",
     "Controller": ".controllers",
     "HybridCompliantController": ".controllers",
@@ -84,6 +90,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
+    from .actuators import Actuator
     from .controllers import (
         AdmittanceController,
         Controller,
@@ -100,6 +107,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SpatialComplianceController,
         SpatialImpedanceController,
     )
+    from .conventions import SensedWrench
     from .encoders import EncoderFeedback, JointEncoder
     from .environments import (
         ConstantWrench,
@@ -124,6 +132,8 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
+    from .io import RecordedRun, read_recording
+    from .replay import compare_traces, replay
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .scenarios import scenario
@@ -212,4 +222,10 @@ __all__ = [
     "Transform",
     "Twist",
     "Wrench",
+    "Actuator",
+    "SensedWrench",
+    "RecordedRun",
+    "read_recording",
+    "replay",
+    "compare_traces",
 ]
