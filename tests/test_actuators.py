@@ -166,3 +166,21 @@ def test_per_joint_vectors_must_fit_the_arm():
     ctl = fc.ImpedanceController(arm, inertia=100, damping=500, stiffness=2500)
     with pytest.raises(DimensionError, match=r"coulomb must be a scalar or have shape \(2,\)"):
         fc.simulate(arm, plane, ctl, fc.Setpoint([1.1, 0.1]), q0=q0, duration=0.01, actuator=Actuator(coulomb=[1, 2, 3]))
+
+
+def test_stiff_friction_gets_enough_substeps():
+    """A narrow Coulomb band (steep tanh) raises the automatic RK4 substeps so the run stays accurate."""
+    tau_c, vs, u = 2.0, 1e-3, 1.0
+    rotor = Rotor()
+    res = fc.simulate(rotor, FreeSpace(), ConstantTorque(rotor, u), fc.Setpoint([0.0]), q0=[0.0], qd0=[0.0],
+                      duration=0.5, actuator=Actuator(coulomb=tau_c, coulomb_band=vs))
+    assert res.metadata["substeps"] >= math.ceil(tau_c / vs / J_ROTOR * 1e-3 / 0.05)
+    assert abs(res.qd[-1, 0] - vs * math.atanh(u / tau_c)) < 1e-7
+
+
+def test_a_non_actuator_is_refused():
+    """actuator= must be an Actuator."""
+    rotor = Rotor()
+    with pytest.raises(ParameterError, match="actuator must be a forcecontrol Actuator; got dict"):
+        fc.simulate(rotor, FreeSpace(), ConstantTorque(rotor, 0.0), fc.Setpoint([0.0]), q0=[0.0], duration=0.01,
+                    actuator={"coulomb": 1.0})

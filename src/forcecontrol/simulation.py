@@ -360,8 +360,17 @@ def simulate(
     N = check_run_size(duration, Ts, n, m, max_log_bytes)  # before anything is allocated
     if N < 1:
         raise ParameterError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
+    if actuator is not None:
+        if not isinstance(actuator, Actuator):
+            raise ParameterError(f"actuator must be a forcecontrol Actuator; got {type(actuator).__name__}")
+        actuator.check(n)
     if substeps is None:
         nsub = choose_substeps(robot, environment, q0, Ts)
+        if actuator is not None and actuator.has_friction:
+            # friction's fastest rate: (F_v + τ_c / v_s) / λ_min(B), resolved like a contact mode (ω h <= 0.05)
+            lam = float(np.linalg.eigvalsh(np.asarray(robot.mass_matrix(q0), dtype=np.float64)).min())
+            slope = float(np.max(np.broadcast_to(actuator.viscous + actuator.coulomb / actuator.coulomb_band, (n,))))
+            nsub = max(nsub, int(math.ceil(slope / max(lam, 1e-9) * Ts / 0.05)))
     else:
         if int(substeps) != substeps or substeps < 1:
             raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
@@ -384,9 +393,6 @@ def simulate(
             f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
         )
     if actuator is not None:
-        if not isinstance(actuator, Actuator):
-            raise ParameterError(f"actuator must be a forcecontrol Actuator; got {type(actuator).__name__}")
-        actuator.check(n)
         if engine == "compiled":
             raise ParameterError(
                 "engine='compiled' does not model an actuator (friction, delay, quantisation); "
