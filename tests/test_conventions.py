@@ -215,3 +215,41 @@ def test_mujoco_force_torque_sensor_reads_the_parent_on_the_child():
     np.testing.assert_allclose(w.rotated(X).h_e("world", "ft"), -np.concatenate([f_env, mu_env]), atol=1e-6)
     f, mu = to_mujoco(w, site="ft")
     np.testing.assert_allclose(np.concatenate([f, mu]), d.sensordata[:6], atol=1e-12)
+
+
+def test_convention_errors_name_what_is_wrong():
+    """Each refused conversion says which frame, point or sense was expected and what was given."""
+    from forcecontrol.conventions.ros import seconds_to_stamp
+    from forcecontrol.spatial import Wrench
+
+    w = SensedWrench.from_vector([1, 2, 3, 4, 5, 6], frame="base", point="flange", sense=ON_END_EFFECTOR)
+    with pytest.raises(FrameError, match="libfranka's external wrench is about 'panda_K'; got one about 'flange'"):
+        to_franka(w)
+    with pytest.raises(FrameError, match="frame 'site' about 'site'"):
+        to_mujoco(w)
+    with pytest.raises(FrameError, match="must have sense 'by-end-effector'; got 'on-end-effector'"):
+        w.require("base", "flange", BY_END_EFFECTOR)
+    assert w.require("base", "flange", ON_END_EFFECTOR).tolist() == [1, 2, 3, 4, 5, 6]
+    with pytest.raises(ParameterError, match="wrench must be a forcecontrol Wrench; got list"):
+        SensedWrench([1, 2, 3], BY_END_EFFECTOR)
+    with pytest.raises(ParameterError, match="stamp must be finite"):
+        SensedWrench(Wrench([0, 0, 0], [0, 0, 0]), BY_END_EFFECTOR, stamp=float("nan"))
+    with pytest.raises(ParameterError, match="stamp must be finite"):
+        seconds_to_stamp(float("inf"))
+    assert seconds_to_stamp(1.25) == {"sec": 1, "nanosec": 250_000_000}
+    X = Transform(RZ90, [0, 0, 0], parent="base", child="tool")
+    with pytest.raises(FrameError, match="needs a twist in 'tool'; got 'base'"):
+        twist_rotated(Twist([0, 0, 0], [0, 0, 0], "base", "base"), X)
+    bad_frame = {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""},
+                 "wrench": {"force": {"x": 0, "y": 0, "z": 0}, "torque": {"x": 0, "y": 0, "z": 0}}}
+    with pytest.raises(FrameError, match="header.frame_id must name the frame"):
+        wrench_from_ros(bad_frame, sense=BY_END_EFFECTOR)
+    with pytest.raises(FrameError, match="TwistStamped header.frame_id must name a frame"):
+        twist_from_ros({"header": bad_frame["header"], "twist": {"linear": {"x": 0, "y": 0, "z": 0},
+                                                                  "angular": {"x": 0, "y": 0, "z": 0}}})
+    with pytest.raises(ParameterError, match="unknown ROS message type 'geometry_msgs/msg/Nope'"):
+        ros_message({}, "geometry_msgs/msg/Nope")
+    with pytest.raises(ParameterError, match="geometry_msgs/msg/WrenchStamped needs field 'wrench'"):
+        ros_message({"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "a"}}, "geometry_msgs/msg/WrenchStamped")
+    with pytest.raises(ParameterError, match="a Wrench has no 'force'|missing field"):
+        wrench_from_ros({"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "a"}, "wrench": 3}, sense=BY_END_EFFECTOR)

@@ -128,3 +128,71 @@ def test_resample_refuses_gaps_and_windows_outside_the_recording():
         rec.resample(0.001, start=-1.0, max_gap=1)
     with pytest.raises(ParameterError, match="period must be a positive number"):
         rec.resample(0.0)
+
+
+def test_reader_option_and_file_errors(tmp_path):
+    """Bad options, missing files and unreadable files are errors naming what was wrong."""
+    t, q, qd, tau, t_w, wrench = _signals(N=5)
+    bag = write_bag(tmp_path / "bag", t, q, qd, tau, t_w[:5], wrench[:5])
+    with pytest.raises(ParameterError, match="stamps must be 'header'"):
+        read_bag(bag, stamps="bag")
+    with pytest.raises(ParameterError, match="wrench_components must be 1, 2, 3 or 6"):
+        read_bag(bag, wrench_components=4)
+    with pytest.raises(ParameterError, match="ROS 2 bag .* does not exist"):
+        read_bag(tmp_path / "nope")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ParameterError, match="cannot be opened as a ROS 2 bag"):
+        read_bag(tmp_path / "empty")
+    with pytest.raises(ParameterError, match="MCAP file .* does not exist"):
+        read_mcap(tmp_path / "nope.mcap")
+    (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all")
+    with pytest.raises(ParameterError, match="cannot be read as an MCAP file"):
+        read_mcap(tmp_path / "junk.mcap")
+    with pytest.raises(ParameterError, match="recorded data file .* does not exist"):
+        read_table(tmp_path / "nope.csv")
+    (tmp_path / "a.csv").write_text("t,q1,qd1\n0,a,1\n1,b,2\n")
+    with pytest.raises(MeasurementError, match="column 'q1' is not numeric"):
+        read_table(tmp_path / "a.csv")
+    with pytest.raises(ParameterError, match="wrench must be 'measured' or 'true'"):
+        read_table(tmp_path / "a.csv", wrench="both")
+    with pytest.raises(ParameterError, match="format must be 'csv' or 'parquet'"):
+        read_table(tmp_path / "a.csv", format="xlsx")
+    with pytest.raises(ParameterError, match="format must be 'csv', 'parquet', 'bag' or 'mcap'"):
+        read_recording(tmp_path / "a.csv", format="hdf5")
+
+
+def test_mcap_with_another_encoding_is_refused(tmp_path):
+    """A JointState channel encoded as JSON (not CDR) is refused, naming the encoding."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "json.mcap"
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema(name="sensor_msgs/msg/JointState", encoding="jsonschema", data=b"{}")
+        ch = w.register_channel(topic="/joint_states", message_encoding="json", schema_id=sid)
+        w.add_message(ch, log_time=0, data=b"{}", publish_time=0)
+        w.finish()
+    with pytest.raises(ParameterError, match="topic '/joint_states' is encoded as 'json'; expected 'cdr'"):
+        read_mcap(path, wrench_topic=None)
+
+
+def test_recorded_run_consistency_errors():
+    """Inconsistent RecordedRun parts are refused: t_wrench alone, joint names, sense, one time base for columns."""
+    t = np.array([0.0, 0.1, 0.2])
+    q = np.zeros((3, 2))
+    with pytest.raises(ParameterError, match="t_wrench is given without a wrench"):
+        RecordedRun(t=t, q=q, qd=q, t_wrench=t)
+    with pytest.raises(DimensionError, match="1 joint names for 2 joints"):
+        RecordedRun(t=t, q=q, qd=q, joint_names=("a",))
+    with pytest.raises(ParameterError, match="wrench_sense must be one of"):
+        RecordedRun(t=t, q=q, qd=q, wrench_sense="measured")
+    with pytest.raises(MeasurementError, match="needs at least 2 samples"):
+        RecordedRun(t=[0.0], q=q[:1], qd=q[:1])
+    with pytest.raises(DimensionError, match="q must have 3 rows"):
+        RecordedRun(t=t, q=q[:2], qd=q)
+    rec = RecordedRun(t=t, q=q, qd=q, wrench=np.zeros((4, 1)), t_wrench=[0.0, 0.05, 0.1, 0.2])
+    with pytest.raises(ParameterError, match="own time base; resample"):
+        rec.columns()
+    with pytest.raises(MeasurementError, match="shorter than one period"):
+        rec.resample(0.5)

@@ -108,3 +108,28 @@ def test_compare_traces_figure(tmp_path, example_9_2):
     assert cmp.shift == 0.0 and cmp.metrics["force_error_max"] == 0.0
     path = cmp.plot(tmp_path / "cmp.png")
     assert path.stat().st_size > 10_000
+
+
+def test_replay_and_compare_argument_errors(example_9_2):
+    """Wrong controller, robot or reference, and traces that cannot be compared, are refused with the reason."""
+    from forcecontrol.errors import ParameterError
+
+    res, parts = example_9_2
+    p = parts()
+    rec = recorded_from_simulation(res)
+    with pytest.raises(ParameterError, match="controller must be a forcecontrol Controller; got str"):
+        replay("impedance", rec, p["reference"])
+    with pytest.raises(ParameterError, match="is not the robot given"):
+        replay(p["controller"], rec, p["reference"], robot=object())  # not the controller's arm
+    with pytest.raises(ParameterError, match="reference must be a ReferenceSignal"):
+        replay(p["controller"], rec, fc.Reference.setpoint([1.1, 0.1]))
+    with pytest.raises(DimensionError, match="reference must be 2-dimensional"):
+        replay(p["controller"], rec, fc.Setpoint([1.1, 0.1, 0.0]))
+    with pytest.raises(ParameterError, match="wrench must be 'measured' or 'true'"):
+        recorded_from_simulation(res, wrench="both")
+    three = RecordedRun(t=rec.t, q=np.hstack([rec.q, rec.q[:, :1]]), qd=np.hstack([rec.qd, rec.qd[:, :1]]))
+    with pytest.raises(DimensionError, match="the simulated trace has 2 joints, the recorded one 3"):
+        compare_traces(res, three)
+    later = RecordedRun(t=rec.t + 50.0, q=rec.q, qd=rec.qd)  # 50 s later: no overlap within ±10 ms
+    with pytest.raises(MeasurementError, match="overlap by fewer than 10 samples"):
+        compare_traces(res, later, max_shift=0.01)

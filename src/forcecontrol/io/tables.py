@@ -92,7 +92,7 @@ def read_table(
     for c in cols:
         if not (re.fullmatch(r"t|q\d+|qd\d+|tau\d+|u\d+|[fm][xyz](_measured)?", c)):
             continue
-        if not np.issubdtype(df[c].dtype, np.number):
+        if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
             raise MeasurementError(
                 f"{path}: column {c!r} is not numeric (dtype {df[c].dtype}); first values {df[c].head(3).tolist()}"
             )
