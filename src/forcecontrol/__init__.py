@@ -23,6 +23,12 @@ _numba_cache.configure()
 
 # public name -> submodule that defines it (resolved by __getattr__ on first access)
 _LAZY: dict[str, str] = {
+    "Actuator": ".actuators",
+    "SensedWrench": ".conventions",
+    "RecordedRun": ".io",
+    "read_recording": ".io",
+    "replay": ".replay",
+    "compare_traces": ".replay",
     "AdmittanceController": ".controllers",
     "Controller": ".controllers",
     "HybridCompliantController": ".controllers",
@@ -95,6 +101,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
+    from .actuators import Actuator
     from .calibration import CalibrationResult, DriftDetector, calibrate, plan_calibration_poses
     from .controllers import (
         AdmittanceController,
@@ -116,6 +123,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SpatialImpedanceController,
         VariableImpedanceController,
     )
+    from .conventions import SensedWrench
     from .encoders import EncoderFeedback, JointEncoder
     from .environments import (
         ConstantWrench,
@@ -140,8 +148,10 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
+    from .io import RecordedRun, read_recording
     from .monitor import MonitoredController, StabilityMonitor
     from .realtime import RateLimiter
+    from .replay import compare_traces, replay
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
     from .safety import Safety
     from .scenarios import scenario
@@ -241,4 +251,10 @@ __all__ = [
     "SinusoidalStiffness",
     "StabilityMonitor",
     "MonitoredController",
+    "Actuator",
+    "SensedWrench",
+    "RecordedRun",
+    "read_recording",
+    "replay",
+    "compare_traces",
 ]

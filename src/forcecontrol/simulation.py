@@ -10,6 +10,10 @@ The loop, written out (this is exactly what :func:`simulate` does with ``engine=
         log(t, q, q̇, x, ẋ, h_e, h_m, u, reference)
         integrate B q̈ + C q̇ + F q̇ + g = u − Jᵀ h_e over [t, t + Ts] with u held  (RK4, nsub steps)
 
+With ``actuator=Actuator(...)`` (Python engine) the command passes through its quantiser and
+delay line before it is held, and its joint friction ``τ_f(q̇)`` joins the plant inside every RK4
+stage: ``B q̈ + C q̇ + F q̇ + τ_f(q̇) + g = u − Jᵀ h_e``.
+
 ``engine="compiled"`` runs the same loop compiled with Numba for the chapter's arm and the
 built-in environments and controllers (the control laws are the very same compiled functions);
 ``engine="auto"`` picks it when it applies. The two engines agree to round-off (tested).
@@ -28,6 +32,7 @@ import numpy as np
 
 from . import __version__
 from ._validate import as_vector, positive_scalar
+from .actuators import Actuator
 from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from .controllers.dispatch import COMPILED_KINDS
 from .environments.base import Environment
@@ -67,6 +72,8 @@ class SimulationResult:
         signals: per-sample signals the controller logged through its ``signals()`` method
             (e.g. ``tank_energy`` of a variable impedance), name -> (N+1,) or (N+1, k) array;
             empty when the controller logs none. Scalar ones are also :meth:`columns`.
+        torque_commanded: with an :class:`~forcecontrol.actuators.Actuator`, what the controller
+            commanded (N+1, n) [N m] (``torque`` is then what the actuator applied); else None.
     """
 
     t: np.ndarray
@@ -82,6 +89,7 @@ class SimulationResult:
     metadata: dict[str, Any] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
     signals: dict[str, np.ndarray] = field(default_factory=dict)
+    torque_commanded: np.ndarray | None = None
 
     @property
     def m(self) -> int:
@@ -176,6 +184,8 @@ class SimulationResult:
             cols[f"q{i + 1}"] = self.q[:, i]
             cols[f"qd{i + 1}"] = self.qd[:, i]
             cols[f"u{i + 1}"] = self.torque[:, i]
+            if self.torque_commanded is not None:
+                cols[f"uc{i + 1}"] = self.torque_commanded[:, i]
         for i in range(self.m):
             cols[pose[i]] = self.x[:, i]
             cols[twist[i]] = self.xd[:, i]
@@ -307,6 +317,7 @@ def simulate(
     label: str = "",
     metadata: dict[str, Any] | None = None,
     max_log_bytes: float = MAX_LOG_BYTES,
+    actuator: Actuator | None = None,
 ) -> SimulationResult:
     """Simulate the closed loop for ``duration`` seconds at the controller's sample time.
 
@@ -326,8 +337,13 @@ def simulate(
         label: the case's label; metadata: extra metadata merged into the result's.
         max_log_bytes: memory the logs may take [bytes] (default 2 GiB): a longer run is refused
             before anything is allocated (see :mod:`forcecontrol.limits`).
+        actuator: joint friction, actuation delay and torque quantisation
+            (:class:`~forcecontrol.actuators.Actuator`); runs on the Python engine (``"auto"``
+            picks it; ``"compiled"`` is refused). The log's ``torque`` is then the applied torque
+            and ``torque_commanded`` the controller's.
 
     Raises:
+        ParameterError: ``engine="compiled"`` with an actuator, or a bad argument.
         SimulationDivergedError: the state became non-finite, ran away or met a singularity;
             the message says when and where, ``err.partial`` holds the log up to then.
     """
@@ -351,8 +367,17 @@ def simulate(
     N = check_run_size(duration, Ts, n, m, max_log_bytes)  # before anything is allocated
     if N < 1:
         raise ParameterError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
+    if actuator is not None:
+        if not isinstance(actuator, Actuator):
+            raise ParameterError(f"actuator must be a forcecontrol Actuator; got {type(actuator).__name__}")
+        actuator.check(n)
     if substeps is None:
         nsub = choose_substeps(robot, environment, q0, Ts)
+        if actuator is not None and actuator.has_friction:
+            # friction's fastest rate: (F_v + τ_c / v_s) / λ_min(B), resolved like a contact mode (ω h <= 0.05)
+            lam = float(np.linalg.eigvalsh(np.asarray(robot.mass_matrix(q0), dtype=np.float64)).min())
+            slope = float(np.max(np.broadcast_to(actuator.viscous + actuator.coulomb / actuator.coulomb_band, (n,))))
+            nsub = max(nsub, int(math.ceil(slope / max(lam, 1e-9) * Ts / 0.05)))
     else:
         if int(substeps) != substeps or substeps < 1:
             raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
@@ -374,6 +399,13 @@ def simulate(
             f"built-in controller (and the simple ForceSensor); got {type(robot).__name__}, "
             f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
         )
+    if actuator is not None:
+        if engine == "compiled":
+            raise ParameterError(
+                "engine='compiled' does not model an actuator (friction, delay, quantisation); "
+                "use engine='python' or 'auto' (which picks the Python loop when an actuator is given)"
+            )
+        compiled_ok = False
     use_compiled = compiled_ok and engine != "python"
     check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python")
 
@@ -389,6 +421,8 @@ def simulate(
         "wrench": np.full((N + 1, m), np.nan), "wrench_measured": np.full((N + 1, m), np.nan),
         "torque": np.full((N + 1, n), np.nan),
     }
+    if actuator is not None:
+        logs["torque_commanded"] = np.full((N + 1, n), np.nan)
     meta = {
         "label": label,
         "robot": type(robot).__name__,
@@ -400,6 +434,7 @@ def simulate(
         "duration": duration,
         "substeps": nsub,
         "engine": "compiled" if use_compiled else "python",
+        **({"actuator": actuator.describe()} if actuator is not None else {}),
         "versions": _versions(),
         **(metadata or {}),
     }
@@ -413,7 +448,8 @@ def simulate(
         )
     else:
         status, k = _python_loop(
-            robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=rich
+            robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=rich,
+            actuator=actuator,
         )
     events = [dict(e) for e in getattr(controller, "events", [])]
     if events:
@@ -463,6 +499,7 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
         wrench=result.wrench[sl], wrench_measured=result.wrench_measured[sl], torque=result.torque[sl],
         reference=result.reference[sl], label=result.label, metadata=result.metadata, events=result.events,
         signals={name: v[sl] for name, v in result.signals.items()},
+        torque_commanded=None if result.torque_commanded is None else result.torque_commanded[sl],
     )
     err = SimulationDivergedError(
         f"simulation '{result.label or 'case'}' diverged at t = {t:.4f} s (sample {k}): {cause}: {detail}; "
@@ -474,22 +511,31 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
     raise err
 
 
-def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=None):
-    """The reference loop in plain Python/NumPy (any robot, environment, controller, sensor)."""
+def _python_loop(
+    robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=None, actuator=None
+):
+    """The reference loop in plain Python/NumPy (any robot, environment, controller, sensor, actuator)."""
     N = refs.shape[0] - 1
     m = int(robot.task_dim)
     q, qd = q0.copy(), qd0.copy()
     hm = np.zeros(m)
     dt = Ts / nsub
 
-    def accel(q, qd, u):
-        return environment.acceleration(robot, q, qd, u)[0]
-
     u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see pre_start_wrench)
+    friction = actuator.friction if actuator is not None and actuator.has_friction else None
+    line = actuator.start(robot.nq, u) if actuator is not None else None
+
+    if friction is None:
+        def accel(q, qd, u):
+            return environment.acceleration(robot, q, qd, u)[0]
+    else:  # joint friction is part of the plant: it opposes q̇ at every RK4 stage
+        def accel(q, qd, u):
+            return environment.acceleration(robot, q, qd, u - friction(qd))[0]
+
     for k in range(N + 1):
         t = k * Ts
         T = robot.terms(q, qd)
-        h = environment.sampled_wrench(robot, q, qd, u)
+        h = environment.sampled_wrench(robot, q, qd, u if friction is None else u - friction(qd))
         if sensor is not None:  # stateful sensor model (started in simulate)
             hm = sensor.measure(k, t, h, q)
         else:
@@ -500,6 +546,10 @@ def _python_loop(robot, environment, controller, refs, bias, noise, alpha, q0, q
         try:
             u = np.asarray(controller.step(t, Measurement(q.copy(), qd.copy(), hm.copy()), ref), dtype=np.float64)
             status = 0 if np.all(np.isfinite(u)) else 4
+            if line is not None:
+                logs["torque_commanded"][k] = u
+                if not status:
+                    u = line.apply(u)
         except SingularityError:
             u = np.full(robot.nq, np.nan)
             status = 3

@@ -1,0 +1,88 @@
+"""``forcecontrol compare-trace SIM_OR_SCENARIO RECORDED``: a simulated trace against a recorded one."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from .app import _fail, _slug, compile_notice, console, prepare_output
+from .replay import RecordFormat, pick_case, read_log
+
+__all__ = ["compare_trace_command"]
+
+_DATA_SUFFIXES = (".csv", ".parquet", ".pq", ".mcap", ".db3")
+
+
+def _simulated(source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str]) -> tuple[Any, str, int]:
+    """The simulated trace: a data file as it is, or a scenario's case simulated now."""
+    from ..scenarios import load_scenario
+    from ..simulation import simulate
+
+    p = Path(source)
+    if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
+        rec = read_log(p, fmt, 6, *args)
+        return rec, str(p), rec.m
+    scn = load_scenario(source)
+    spec, parts = pick_case(scn, case)
+    res = simulate(parts["robot"], parts["environment"], parts["controller"], parts["reference"], q0=parts["q0"],
+                   qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
+                   label=spec.label)
+    return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim)
+
+
+def compare_trace_command(
+    simulated: Annotated[str, typer.Argument(help="a scenario (simulated now) or a data file of a simulated trace")],
+    recorded: Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet, a ROS 2 bag folder or an .mcap file")],
+    format: Annotated[RecordFormat, typer.Option("--format", help="format of RECORDED (default: from the path)")] = (
+        RecordFormat.auto
+    ),
+    case: Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")] = None,
+    max_shift: Annotated[float, typer.Option(help="largest time shift searched to align the traces [s]")] = 0.1,
+    out: Annotated[Path, typer.Option(help="folder for the figure")] = Path("forcecontrol-out"),
+    joint_topic: Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")] = "/joint_states",
+    wrench_topic: Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")] = (
+        "/force_torque_sensor_broadcaster/wrench"
+    ),
+    wrench_sense: Annotated[str, typer.Option(help="what the log's wrench is: by-end-effector (h_e) or on-end-effector")] = (
+        "by-end-effector"
+    ),
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
+) -> None:
+    """Compare a simulated trace with a recorded one: time shift, RMS and max force/position errors, a figure."""
+    from rich.table import Table
+
+    from ..errors import ForceControlError
+    from ..replay import compare_traces
+
+    compile_notice()
+    args = (joint_topic, wrench_topic, wrench_sense)
+    try:
+        sim, name, m = _simulated(simulated, case, format, args)
+        rec = read_log(recorded, format, m, *args)
+        cmp = compare_traces(sim, rec, max_shift=max_shift)
+        folder = prepare_output(out, _slug(f"{Path(name).stem}-compare-trace"), force)
+        figure = cmp.plot(folder / "compare-trace.png")
+    except (ForceControlError, ImportError) as exc:
+        _fail(exc)
+        return
+    report = {"simulated": name, "recorded": str(recorded), "samples": int(cmp.t.size), "metrics": cmp.metrics,
+              "files": {"figure": str(figure)}}
+    if json_out:
+        from .._json import json_safe
+
+        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        return
+    t = Table(title=f"{name} against {recorded}", title_justify="left")
+    t.add_column("metric")
+    t.add_column("value", justify="right")
+    units = {"shift": "s", "position_error_rms": "rad", "position_error_max": "rad", "force_error_rms": "N",
+             "force_error_max": "N"}
+    for k, v in cmp.metrics.items():
+        t.add_row(k, f"{v:.6g} {units.get(k, '')}")
+    console.print(t)
+    console.print(f"figure: {figure}", markup=False, highlight=False)

@@ -1,0 +1,66 @@
+"""Conventions made explicit: which frame, which point, which sense — and converters between them.
+
+The chapter's (and this library's) convention: ``h_e`` is the wrench the end-effector exerts
+**on** the environment, in the base frame, the moment about the end-effector origin
+(Sect. 9.1, (9.1)). Real arms and tools report other things: the wrench the environment exerts
+on the end-effector, in a sensor or tool frame, about a flange point. A :class:`SensedWrench`
+carries its frame, reference point and sense, and converts:
+
+* change of sense (:meth:`SensedWrench.in_sense`): ``h → −h``;
+* change of reference point (:meth:`SensedWrench.about`): ``μ' = μ − r × f`` (moment transport);
+* change of frame (:meth:`SensedWrench.rotated`, :meth:`SensedWrench.transformed`).
+
+Adapters: ROS 2 messages (``geometry_msgs`` WrenchStamped / PoseStamped / TwistStamped, as plain
+dictionaries or rosbags message objects; quaternions x, y, z, w) in :mod:`.ros`; libfranka's
+estimated external wrench, Universal Robots' RTDE ``actual_TCP_force`` and force-mode wrench, and
+MuJoCo's force/torque sensors in :mod:`.vendors`, each with the vendor's documented convention.
+"""
+
+from __future__ import annotations
+
+from .ros import (
+    pose_from_ros,
+    pose_to_ros,
+    ros_dict,
+    ros_message,
+    twist_from_ros,
+    twist_to_ros,
+    wrench_from_ros,
+    wrench_to_ros,
+)
+from .vendors import (
+    from_franka,
+    from_mujoco,
+    from_ur_force_mode,
+    from_ur_tcp_force,
+    to_franka,
+    to_mujoco,
+    to_ur_force_mode,
+    to_ur_tcp_force,
+)
+from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR, SENSES, SensedWrench, twist_about, twist_rotated
+
+__all__ = [
+    "SensedWrench",
+    "BY_END_EFFECTOR",
+    "ON_END_EFFECTOR",
+    "SENSES",
+    "twist_about",
+    "twist_rotated",
+    "wrench_from_ros",
+    "wrench_to_ros",
+    "pose_from_ros",
+    "pose_to_ros",
+    "twist_from_ros",
+    "twist_to_ros",
+    "ros_message",
+    "ros_dict",
+    "from_franka",
+    "to_franka",
+    "from_ur_tcp_force",
+    "to_ur_tcp_force",
+    "from_ur_force_mode",
+    "to_ur_force_mode",
+    "from_mujoco",
+    "to_mujoco",
+]

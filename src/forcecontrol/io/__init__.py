@@ -1,0 +1,22 @@
+"""Recorded data in: joint positions, velocities, torques and wrenches from files, resampled.
+
+One result type, :class:`RecordedRun` (time, q, q̇, τ, wrench and the wrench's frame, point and
+sense), from
+
+* CSV and Parquet tables (:func:`read_table`; the columns the simulator's ``save`` writes);
+* ROS 2 bags (:func:`read_bag`, rosbags: ``sensor_msgs/JointState`` and
+  ``geometry_msgs/WrenchStamped`` topics) and MCAP files (:func:`read_mcap`, CDR-encoded ROS 2
+  messages decoded with rosbags' serde);
+
+and :meth:`RecordedRun.resample` puts it on the controller's period (linear interpolation;
+non-monotonic time, gaps and NaNs are refused with the column and the time named).
+:func:`read_recording` picks the reader from the file's suffix.
+"""
+
+from __future__ import annotations
+
+from .recorded import RecordedRun
+from .rosfiles import read_bag, read_mcap
+from .tables import TABLE_COLUMNS, read_recording, read_table
+
+__all__ = ["RecordedRun", "read_table", "read_bag", "read_mcap", "read_recording", "TABLE_COLUMNS"]

@@ -1,0 +1,380 @@
+"""Recorded data through a controller ("replay"), and simulated traces against recorded ones.
+
+:func:`replay` runs any library controller over a recorded log: at each sample of the log,
+resampled onto the controller's period Ts, it calls ``controller.step(t, Measurement(q, q̇, h_e),
+reference)`` exactly as the simulator does, and returns the torques it would have commanded
+and its force errors ``f_d − h_e`` side by side with the torques that were recorded. A log of
+the simulator replayed through the same controller gives back the simulated torques (tested):
+what differs on a real log is the arm, not the law.
+
+:func:`compare_traces` puts a simulated trace beside a recorded one: the time shift that best
+aligns them (searched over ±``max_shift``), then RMS and maximum force and joint-position
+errors, and a figure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
+from .conventions import BY_END_EFFECTOR
+from .errors import DimensionError, FrameError, MeasurementError, ParameterError
+from .io import RecordedRun
+from .io.recorded import wrench_axis_names
+from .robots.base import RobotModel
+from .simulation import SimulationResult
+from .trajectories import ReferenceSignal
+
+__all__ = ["replay", "ReplayResult", "recorded_from_simulation", "compare_traces", "TraceComparison"]
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """What a controller would have commanded over a recorded log, beside what was recorded.
+
+    Attributes:
+        t: controller sample times (N,) [s], from 0 at the first replayed sample.
+        torque: the torques the controller commands (N, n) [N m].
+        torque_recorded: the log's torques on the same grid (N, n) [N m], or None.
+        wrench: the wrench fed to the controller, h_e in the base frame (N, m) [N].
+        force_reference: f_d (N, m) [N]; force_error: ``f_d − h_e`` (N, m) [N].
+        q, qd: the joint signals fed to the controller (N, n).
+        metadata: controller, source file, period.
+    """
+
+    t: np.ndarray
+    torque: np.ndarray
+    torque_recorded: np.ndarray | None
+    wrench: np.ndarray
+    force_reference: np.ndarray
+    force_error: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def torque_difference(self) -> np.ndarray | None:
+        """``torque − torque_recorded`` (N, n) [N m], or None without recorded torques."""
+        return None if self.torque_recorded is None else self.torque - self.torque_recorded
+
+    def metrics(self) -> dict[str, float]:
+        """RMS and maximum of the torque difference (per all joints) and of the force error norm."""
+        out: dict[str, float] = {}
+        d = self.torque_difference()
+        if d is not None:
+            out["torque_difference_rms"] = float(np.sqrt(np.mean(d**2)))
+            out["torque_difference_max"] = float(np.max(np.abs(d)))
+        fe = np.linalg.norm(self.force_error, axis=1)
+        out["force_error_rms"] = float(np.sqrt(np.mean(fe**2)))
+        out["force_error_max"] = float(np.max(fe))
+        return out
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Flat named columns: ``t``, ``q1 qd1 u1 u1_recorded ...``, ``fx ...``, ``fd_x ...``, ``ef_x ...``."""
+        cols: dict[str, np.ndarray] = {"t": self.t}
+        for i in range(self.torque.shape[1]):
+            cols[f"q{i + 1}"] = self.q[:, i]
+            cols[f"qd{i + 1}"] = self.qd[:, i]
+            cols[f"u{i + 1}"] = self.torque[:, i]
+            if self.torque_recorded is not None:
+                cols[f"u{i + 1}_recorded"] = self.torque_recorded[:, i]
+        for j, name in enumerate(wrench_axis_names(self.wrench.shape[1])):
+            cols[name] = self.wrench[:, j]
+            cols[f"{name}_reference"] = self.force_reference[:, j]
+            cols[f"{name}_error"] = self.force_error[:, j]
+        return cols
+
+    def to_pandas(self) -> Any:
+        """The columns as a pandas DataFrame (pandas imported here only)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.columns())
+
+    def plot(self, path: str | Path | None = None) -> Any:
+        """Replayed against recorded torques, and the force error, over time (matplotlib).
+
+        Args:
+            path: save a PNG there (the figure is then closed and the path returned).
+        """
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True)
+        for i in range(self.torque.shape[1]):
+            line = axes[0].plot(self.t, self.torque[:, i], lw=1.2, label=f"u{i + 1} replayed")[0]
+            if self.torque_recorded is not None:
+                axes[0].plot(self.t, self.torque_recorded[:, i], "--", lw=1.0, color=line.get_color(), label=f"u{i + 1} recorded")
+        axes[0].set_ylabel("joint torque [N m]")
+        for j, name in enumerate(wrench_axis_names(self.force_error.shape[1])):
+            axes[1].plot(self.t, self.force_error[:, j], lw=1.0, label=f"{name}_d − {name}")
+        axes[1].set_ylabel("force error [N]")
+        axes[1].set_xlabel("t [s]")
+        for ax in axes:
+            ax.grid(True, lw=0.3)
+            ax.legend(fontsize=7, ncol=2)
+        kind = self.metadata.get("controller", {}).get("type", "controller")
+        fig.suptitle(f"{kind} replayed over {self.metadata.get('source', '')}", fontsize=9)
+        fig.tight_layout()
+        if path is not None:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            return path
+        return fig
+
+
+def recorded_from_simulation(result: SimulationResult, *, wrench: str = "measured") -> RecordedRun:
+    """A simulation log as a :class:`~forcecontrol.io.RecordedRun` (torques: what was applied).
+
+    Args:
+        result: the simulation; wrench: ``"measured"`` (what the controller read) or ``"true"``.
+    """
+    if wrench not in ("measured", "true"):
+        raise ParameterError(f"wrench must be 'measured' or 'true'; got {wrench!r}")
+    h = result.wrench_measured if wrench == "measured" else result.wrench
+    return RecordedRun(t=result.t, q=result.q, qd=result.qd, tau=result.torque, wrench=h,
+                       source=f"simulation {result.label!r}" if result.label else "simulation")
+
+
+def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: RobotModel | None) -> tuple[int, int]:
+    if not isinstance(controller, Controller):
+        raise ParameterError(f"controller must be a forcecontrol Controller; got {type(controller).__name__}")
+    if robot is not None and controller.robot is not robot and type(controller.robot) is not type(robot):
+        raise ParameterError(
+            f"controller.robot ({type(controller.robot).__name__}) is not the robot given ({type(robot).__name__})"
+        )
+    model = robot if robot is not None else controller.robot
+    n, m = int(model.nq), int(model.task_dim)
+    if recorded.n != n:
+        raise DimensionError(
+            f"the controller's robot has {n} joints; the log {recorded.source} has {recorded.n} "
+            f"({', '.join(recorded.joint_names)})"
+        )
+    if recorded.wrench is not None and recorded.m != m:
+        raise DimensionError(
+            f"the controller works in a {m}-dimensional task space and needs a {m}-component wrench "
+            f"({' '.join(wrench_axis_names(m))}); the log {recorded.source} has {recorded.m} components "
+            "(read it with wrench_components=m)"
+        )
+    if recorded.wrench is None and controller.uses_force:
+        raise MeasurementError(
+            f"{type(controller).__name__} reads the contact force, but the log {recorded.source} has no wrench"
+        )
+    return n, m
+
+
+def replay(
+    controller: Controller,
+    recorded: RecordedRun,
+    reference: ReferenceSignal,
+    robot: RobotModel | None = None,
+    *,
+    base_frame: str = "base",
+    max_gap: float | None = None,
+    start: float | None = None,
+    end: float | None = None,
+) -> ReplayResult:
+    """Run a controller over a recorded log: the torques and force errors it would have produced.
+
+    The log is resampled onto the controller's period (linear interpolation, see
+    :meth:`RecordedRun.resample`); the controller is ``reset`` with the first sample and then
+    stepped at every sample with ``Measurement(q, q̇, h_e)`` and the reference at ``t − t₀``.
+    The wrench is converted to the chapter's sense (by the end-effector on the environment).
+
+    Args:
+        controller: any library controller (its ``sample_time`` is the period).
+        recorded: the log (:mod:`forcecontrol.io`).
+        reference: references as functions of time, from t = 0 at the first replayed sample.
+        robot: the robot model (default: the controller's); its joints and task dimension must
+            match the log's.
+        base_frame: the name of the frame the controller's wrench is expressed in; the log's
+            wrench must be in it (convert with :mod:`forcecontrol.conventions` first).
+        max_gap, start, end: passed to :meth:`RecordedRun.resample`.
+
+    Returns:
+        A :class:`ReplayResult`.
+
+    Raises:
+        DimensionError: joints or wrench components differ from the controller's; FrameError:
+            the wrench is in another frame; MeasurementError: the log cannot be resampled, or the
+            controller needs a wrench the log does not have.
+    """
+    n, m = _check_dimensions(controller, recorded, robot)
+    if not isinstance(reference, ReferenceSignal):
+        raise ParameterError(f"reference must be a ReferenceSignal (e.g. Setpoint); got {type(reference).__name__}")
+    if reference.dim != m:
+        raise DimensionError(f"reference must be {m}-dimensional like the controller's task space; got {reference.dim}")
+    if recorded.wrench is not None and recorded.wrench_frame != base_frame:
+        # (the moment's point is the user's to convert: the log cannot say where the end-effector was)
+        raise FrameError(
+            f"the controller needs the wrench in the base frame {base_frame!r}; the log's is in {recorded.wrench_frame!r}: "
+            "convert it first (forcecontrol.conventions), or pass base_frame= if that is the base frame's name"
+        )
+    Ts = controller.sample_time
+    rec = recorded.resample(Ts, max_gap=max_gap, start=start, end=end)
+    N = rec.t.size
+    t = rec.t - rec.t[0]
+    t = np.where(np.abs(t - Ts * np.arange(N)) < 1e-9 * Ts, Ts * np.arange(N), t)  # exact grid when it is one
+    sign = 1.0 if rec.wrench_sense == BY_END_EFFECTOR else -1.0
+    h = np.zeros((N, m)) if rec.wrench is None else sign * rec.wrench
+    refs = np.ascontiguousarray(reference.sample(t), dtype=np.float64)
+    k_f = REFERENCE_FIELDS.index("force")
+    controller.reset(Measurement(rec.q[0].copy(), rec.qd[0].copy(), h[0].copy()), reference.at(0.0))
+    u = np.empty((N, n))
+    for k in range(N):
+        row = refs[k]
+        ref = Reference(*(row[i * m : (i + 1) * m] for i in range(len(REFERENCE_FIELDS))))
+        u[k] = controller.step(float(t[k]), Measurement(rec.q[k].copy(), rec.qd[k].copy(), h[k].copy()), ref)
+    f_d = refs[:, k_f * m : (k_f + 1) * m]
+    return ReplayResult(
+        t=t, torque=u, torque_recorded=rec.tau, wrench=h, force_reference=f_d.copy(), force_error=f_d - h,
+        q=rec.q, qd=rec.qd,
+        metadata={"controller": {"type": type(controller).__name__, **controller.gains()}, "source": recorded.source,
+                  "period": Ts, "time_origin": float(recorded.time_origin + rec.t[0])},
+    )
+
+
+@dataclass(frozen=True)
+class TraceComparison:
+    """A simulated and a recorded trace after time alignment.
+
+    Attributes:
+        t: common times (N,) [s] (simulated clock).
+        q_simulated, q_recorded: joint positions (N, n) [rad].
+        wrench_simulated, wrench_recorded: wrenches (N, m) [N], or None when either has none.
+        shift: the recorded trace's time shift that aligns it best [s] (recorded t − shift ≈ simulated t).
+        metrics: ``shift``, ``position_error_rms``/``_max`` [rad], ``force_error_rms``/``_max`` [N].
+    """
+
+    t: np.ndarray
+    q_simulated: np.ndarray
+    q_recorded: np.ndarray
+    wrench_simulated: np.ndarray | None
+    wrench_recorded: np.ndarray | None
+    shift: float
+    metrics: dict[str, float]
+
+    def plot(self, path: str | Path | None = None) -> Any:
+        """Simulated against recorded: joint positions and wrench components over time (matplotlib).
+
+        Args:
+            path: save a PNG there (the figure is then closed and the path returned).
+        """
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        panels = [("q", self.q_simulated, self.q_recorded, "rad")]
+        if self.wrench_simulated is not None and self.wrench_recorded is not None:
+            panels.append(("f", self.wrench_simulated, self.wrench_recorded, "N"))
+        fig, axes = plt.subplots(len(panels), 1, figsize=(7.5, 3.2 * len(panels)), squeeze=False, sharex=True)
+        for ax, (name, a, b, unit) in zip(axes[:, 0], panels):
+            names = wrench_axis_names(a.shape[1]) if name == "f" else [f"q{i + 1}" for i in range(a.shape[1])]
+            for j, lab in enumerate(names):
+                line = ax.plot(self.t, a[:, j], lw=1.2, label=f"{lab} simulated")[0]
+                ax.plot(self.t, b[:, j], "--", lw=1.0, color=line.get_color(), label=f"{lab} recorded")
+            ax.set_ylabel(f"{'force' if name == 'f' else 'joint position'} [{unit}]")
+            ax.grid(True, lw=0.3)
+            ax.legend(fontsize=7, ncol=2)
+        axes[-1, 0].set_xlabel("t [s]")
+        m = self.metrics
+        title = f"shift {m['shift'] * 1e3:.1f} ms; RMS position error {m['position_error_rms']:.3g} rad"
+        if "force_error_rms" in m:
+            title += f", RMS force error {m['force_error_rms']:.3g} N"
+        fig.suptitle(title, fontsize=9)
+        fig.tight_layout()
+        if path is not None:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            return path
+        return fig
+
+
+def compare_traces(
+    simulated: RecordedRun | SimulationResult,
+    recorded: RecordedRun,
+    *,
+    period: float | None = None,
+    max_shift: float = 0.1,
+    max_gap: float | None = None,
+) -> TraceComparison:
+    """Align a recorded trace with a simulated one in time and measure how far apart they are.
+
+    Both are resampled onto ``period`` (default: the simulated trace's median step); the shift
+    of the recorded trace within ±``max_shift`` that minimises the mean squared difference of the
+    joint positions (each joint scaled by its simulated range) and, when both have one, of the
+    wrench (scaled likewise) is taken; the errors are then measured on the overlap.
+
+    Returns:
+        A :class:`TraceComparison` (``metrics``: shift [s], RMS and max joint-position error
+        [rad] over all joints, RMS and max of the force-error norm [N]).
+
+    Raises:
+        DimensionError: different numbers of joints or wrench components.
+        MeasurementError: the traces do not overlap by at least 10 samples after the shift.
+    """
+    sim = recorded_from_simulation(simulated) if isinstance(simulated, SimulationResult) else simulated
+    if sim.n != recorded.n:
+        raise DimensionError(f"the simulated trace has {sim.n} joints, the recorded one {recorded.n}")
+    both_wrench = sim.wrench is not None and recorded.wrench is not None
+    if both_wrench and sim.m != recorded.m:
+        raise DimensionError(f"the simulated wrench has {sim.m} components, the recorded one {recorded.m}")
+    if period is None:
+        period = float(np.median(np.diff(sim.t)))
+    a = sim.resample(period, max_gap=max_gap)
+    b = recorded.resample(period, max_gap=max_gap)
+    if both_wrench and recorded.wrench_sense != sim.wrench_sense:
+        b = RecordedRun(t=b.t, q=b.q, qd=b.qd, tau=b.tau, wrench=-b.wrench, wrench_frame=b.wrench_frame,
+                        wrench_point=b.wrench_point, wrench_sense=sim.wrench_sense, source=b.source)
+
+    def stack(r: RecordedRun) -> np.ndarray:
+        return np.hstack([r.q, r.wrench]) if both_wrench else r.q
+
+    A, B = stack(a), stack(b)
+    scale = np.maximum(np.ptp(A, axis=0), 1e-12)
+    ta0, tb0 = a.t[0], b.t[0]
+    max_lag = int(round(max_shift / period))
+    best: tuple[float, int] | None = None
+    for lag in range(-max_lag, max_lag + 1):
+        # recorded sample j matches simulated sample i when tb0 + j·Ts − shift = ta0 + i·Ts; lag counts samples
+        off = int(round((tb0 - ta0) / period)) - lag  # index of a's sample aligned with b's first
+        i0, j0 = max(off, 0), max(-off, 0)
+        L = min(A.shape[0] - i0, B.shape[0] - j0)
+        if L < 10:
+            continue
+        cost = float(np.mean(((A[i0 : i0 + L] - B[j0 : j0 + L]) / scale) ** 2))
+        if best is None or cost < best[0] - 1e-15:
+            best = (cost, lag)
+    if best is None:
+        raise MeasurementError(
+            f"the traces overlap by fewer than 10 samples for every shift within ±{max_shift:.6g} s "
+            f"(simulated {a.t[0]:.6g}..{a.t[-1]:.6g} s, recorded {b.t[0]:.6g}..{b.t[-1]:.6g} s)"
+        )
+    lag = best[1]
+    off = int(round((tb0 - ta0) / period)) - lag
+    i0, j0 = max(off, 0), max(-off, 0)
+    L = min(A.shape[0] - i0, B.shape[0] - j0)
+    sl_a, sl_b = slice(i0, i0 + L), slice(j0, j0 + L)
+    shift = lag * period
+    dq = a.q[sl_a] - b.q[sl_b]
+    metrics = {
+        "shift": shift, "position_error_rms": float(np.sqrt(np.mean(dq**2))), "position_error_max": float(np.max(np.abs(dq))),
+    }
+    ws = wr = None
+    if both_wrench:
+        ws, wr = a.wrench[sl_a], b.wrench[sl_b]
+        df = np.linalg.norm(ws - wr, axis=1)
+        metrics.update({"force_error_rms": float(np.sqrt(np.mean(df**2))), "force_error_max": float(np.max(df))})
+    return TraceComparison(t=a.t[sl_a], q_simulated=a.q[sl_a], q_recorded=b.q[sl_b], wrench_simulated=ws,
+                           wrench_recorded=wr, shift=shift, metrics=metrics)

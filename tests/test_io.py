@@ -1,0 +1,198 @@
+"""Recorded data: CSV/Parquet tables, ROS 2 bags and MCAP files written by their own libraries, resampling."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from forcecontrol.conventions import ON_END_EFFECTOR
+from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
+from forcecontrol.io import RecordedRun, read_bag, read_mcap, read_recording, read_table
+from rosfiles_helpers import write_bag, write_mcap
+
+
+def _signals(N=51, dt=0.002):
+    t = 100.0 + dt * np.arange(N)  # absolute stamps, as a robot's clock gives them
+    q = np.column_stack([np.sin(t), np.cos(2 * t)])
+    qd = np.column_stack([np.cos(t), -2 * np.sin(2 * t)])
+    tau = np.column_stack([t, -t])
+    t_w = 100.0005 + 0.001 * np.arange(2 * N - 3)  # a faster sensor, offset
+    wrench = np.column_stack([np.full_like(t_w, 3.0), t_w - 100, np.zeros_like(t_w), 0.1 + 0 * t_w, 0.2 + 0 * t_w, t_w])
+    return t, q, qd, tau, t_w, wrench
+
+
+@pytest.mark.parametrize("kind", ["bag-sqlite3", "bag-mcap", "mcap"])
+def test_ros_files_written_by_their_libraries_read_back_equal(tmp_path, kind):
+    """JointState and WrenchStamped written with rosbags' / mcap's writers read back as the arrays written."""
+    t, q, qd, tau, t_w, wrench = _signals()
+    if kind == "mcap":
+        path = write_mcap(tmp_path / "run.mcap", t, q, qd, tau, t_w, wrench, frame="ft_frame")
+        rec = read_mcap(path, wrench_sense=ON_END_EFFECTOR)
+    else:
+        path = write_bag(tmp_path / "bag", t, q, qd, tau, t_w, wrench, frame="ft_frame", storage=kind.split("-")[1])
+        rec = read_bag(path, wrench_sense=ON_END_EFFECTOR)
+    assert rec.time_origin == pytest.approx(100.0, abs=1e-9) and rec.joint_names == ("j1", "j2")
+    np.testing.assert_allclose(rec.t + rec.time_origin, t, atol=1e-9)
+    np.testing.assert_array_equal(rec.q, q)
+    np.testing.assert_array_equal(rec.qd, qd)
+    np.testing.assert_array_equal(rec.tau, tau)
+    np.testing.assert_allclose(rec.t_wrench + rec.time_origin, t_w, atol=1e-9)
+    np.testing.assert_array_equal(rec.wrench, wrench)
+    assert (rec.wrench_frame, rec.wrench_point, rec.wrench_sense) == ("ft_frame", "ft_frame", ON_END_EFFECTOR)
+    assert read_recording(path).n == 2  # the format told from the path
+
+
+def test_joint_names_reorder_and_wrench_components(tmp_path):
+    """joint_names picks joints by name, in that order; wrench_components keeps fx fy only."""
+    t, q, qd, tau, t_w, wrench = _signals()
+    path = write_bag(tmp_path / "bag", t, q, qd, tau, t_w, wrench)
+    rec = read_bag(path, joint_names=["j2", "j1"], wrench_components=2)
+    np.testing.assert_array_equal(rec.q, q[:, ::-1])
+    assert rec.wrench.shape == (t_w.size, 2)
+    with pytest.raises(ParameterError, match=r"joint\(s\) \['j9'\] are not in the JointState names"):
+        read_bag(path, joint_names=["j9"])
+
+
+def test_missing_topic_lists_the_topics_present(tmp_path):
+    """A missing wrench topic is an error naming the topics (and types) the file has."""
+    t, q, qd, tau, t_w, wrench = _signals()
+    bag = write_bag(tmp_path / "bag", t, q, qd)
+    with pytest.raises(ParameterError, match=r"no wrench topic '/wrench'; the file has: /joint_states \(sensor_msgs/msg/Joint"):
+        read_bag(bag, wrench_topic="/wrench")
+    mc = write_mcap(tmp_path / "x.mcap", t, q, qd, tau, t_w, wrench)
+    with pytest.raises(ParameterError, match="no joint-state topic '/js'; the file has: /force_torque"):
+        read_mcap(mc, joint_topic="/js")
+    with pytest.raises(ParameterError, match="is geometry_msgs/msg/WrenchStamped, not sensor_msgs/msg/JointState"):
+        read_mcap(mc, joint_topic="/force_torque_sensor_broadcaster/wrench")
+    rec = read_bag(bag, wrench_topic=None)
+    assert rec.wrench is None and rec.tau is None  # no efforts in those messages
+
+
+def test_csv_and_parquet_tables_read_back(tmp_path):
+    """A table with t, q, qd, tau and fx fy is read as written, in both formats."""
+    import pandas as pd
+
+    t, q, qd, tau, _, _ = _signals()
+    df = pd.DataFrame({"t": t, "q1": q[:, 0], "q2": q[:, 1], "qd1": qd[:, 0], "qd2": qd[:, 1], "tau1": tau[:, 0],
+                       "tau2": tau[:, 1], "fx": 2 * t, "fy": -t})
+    df.to_csv(tmp_path / "a.csv", index=False)
+    df.to_parquet(tmp_path / "a.parquet")
+    for p in (tmp_path / "a.csv", tmp_path / "a.parquet"):
+        rec = read_recording(p)
+        np.testing.assert_allclose(rec.q, q, rtol=1e-15)
+        np.testing.assert_allclose(rec.tau, tau, rtol=1e-15)
+        np.testing.assert_allclose(rec.wrench, np.column_stack([2 * t, -t]), rtol=1e-15)
+        assert rec.to_pandas().columns.tolist()[:3] == ["t", "q1", "qd1"]
+    df.drop(columns=["qd2", "t"]).to_csv(tmp_path / "b.csv", index=False)
+    with pytest.raises(ParameterError, match=r"missing column\(s\) t, qd2; .* the file has t?.*q1"):
+        read_table(tmp_path / "b.csv")
+    with pytest.raises(ParameterError, match="cannot tell the format"):
+        read_recording(tmp_path / "a.txt")
+
+
+def test_bad_time_and_nan_are_refused_naming_the_row():
+    """Non-increasing time and NaN measurements are errors with the column and the row."""
+    q = np.zeros((4, 2))
+    with pytest.raises(MeasurementError, match=r"t must be strictly increasing; row 2 has t = 0.1 s after t = 0.2 s"):
+        RecordedRun(t=[0.0, 0.2, 0.1, 0.3], q=q, qd=q)
+    bad = q.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(MeasurementError, match=r"qd\[1\] is not finite at row 3"):
+        RecordedRun(t=[0.0, 0.1, 0.2, 0.3], q=q, qd=bad)
+    with pytest.raises(DimensionError, match=r"tau must have the shape of q \(4, 2\)"):
+        RecordedRun(t=[0.0, 0.1, 0.2, 0.3], q=q, qd=q, tau=np.zeros((4, 3)))
+
+
+def test_resample_reproduces_linear_signals_and_aligns_streams():
+    """Linear signals are reproduced exactly on the new grid; the wrench stream is brought onto it."""
+    t = np.array([0.0, 0.0013, 0.0021, 0.0042, 0.005, 0.0071, 0.0093, 0.0101])
+    q = np.column_stack([2 * t + 1, -t])
+    tw = np.linspace(0.0005, 0.0105, 40)
+    rec = RecordedRun(t=t, q=q, qd=q, wrench=np.column_stack([5 * tw, tw]), t_wrench=tw)
+    r = rec.resample(0.001)
+    np.testing.assert_allclose(r.t, 0.0005 + 0.001 * np.arange(10), atol=1e-15)
+    np.testing.assert_allclose(r.q, np.column_stack([2 * r.t + 1, -r.t]), atol=1e-14)
+    np.testing.assert_allclose(r.wrench, np.column_stack([5 * r.t, r.t]), atol=1e-14)
+    assert r.t_wrench is None
+
+
+def test_resample_refuses_gaps_and_windows_outside_the_recording():
+    """A gap larger than max_gap is refused naming the stream and time; so is a window beyond the data."""
+    t = np.array([0.0, 0.001, 0.002, 0.05, 0.051])
+    q = np.zeros((5, 1))
+    rec = RecordedRun(t=t, q=q, qd=q)
+    with pytest.raises(MeasurementError, match=r"joint states stream has a gap of 0.048 s after t = 0.002 s"):
+        rec.resample(0.001)
+    assert rec.resample(0.001, max_gap=0.05).t.size == 52
+    with pytest.raises(MeasurementError, match=r"outside the joint states recording"):
+        rec.resample(0.001, start=-1.0, max_gap=1)
+    with pytest.raises(ParameterError, match="period must be a positive number"):
+        rec.resample(0.0)
+
+
+def test_reader_option_and_file_errors(tmp_path):
+    """Bad options, missing files and unreadable files are errors naming what was wrong."""
+    t, q, qd, tau, t_w, wrench = _signals(N=5)
+    bag = write_bag(tmp_path / "bag", t, q, qd, tau, t_w[:5], wrench[:5])
+    with pytest.raises(ParameterError, match="stamps must be 'header'"):
+        read_bag(bag, stamps="bag")
+    with pytest.raises(ParameterError, match="wrench_components must be 1, 2, 3 or 6"):
+        read_bag(bag, wrench_components=4)
+    with pytest.raises(ParameterError, match="ROS 2 bag .* does not exist"):
+        read_bag(tmp_path / "nope")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ParameterError, match="cannot be opened as a ROS 2 bag"):
+        read_bag(tmp_path / "empty")
+    with pytest.raises(ParameterError, match="MCAP file .* does not exist"):
+        read_mcap(tmp_path / "nope.mcap")
+    (tmp_path / "junk.mcap").write_bytes(b"not an mcap file at all")
+    with pytest.raises(ParameterError, match="cannot be read as an MCAP file"):
+        read_mcap(tmp_path / "junk.mcap")
+    with pytest.raises(ParameterError, match="recorded data file .* does not exist"):
+        read_table(tmp_path / "nope.csv")
+    (tmp_path / "a.csv").write_text("t,q1,qd1\n0,a,1\n1,b,2\n")
+    with pytest.raises(MeasurementError, match="column 'q1' is not numeric"):
+        read_table(tmp_path / "a.csv")
+    with pytest.raises(ParameterError, match="wrench must be 'measured' or 'true'"):
+        read_table(tmp_path / "a.csv", wrench="both")
+    with pytest.raises(ParameterError, match="format must be 'csv' or 'parquet'"):
+        read_table(tmp_path / "a.csv", format="xlsx")
+    with pytest.raises(ParameterError, match="format must be 'csv', 'parquet', 'bag' or 'mcap'"):
+        read_recording(tmp_path / "a.csv", format="hdf5")
+
+
+def test_mcap_with_another_encoding_is_refused(tmp_path):
+    """A JointState channel encoded as JSON (not CDR) is refused, naming the encoding."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "json.mcap"
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema(name="sensor_msgs/msg/JointState", encoding="jsonschema", data=b"{}")
+        ch = w.register_channel(topic="/joint_states", message_encoding="json", schema_id=sid)
+        w.add_message(ch, log_time=0, data=b"{}", publish_time=0)
+        w.finish()
+    with pytest.raises(ParameterError, match="topic '/joint_states' is encoded as 'json'; expected 'cdr'"):
+        read_mcap(path, wrench_topic=None)
+
+
+def test_recorded_run_consistency_errors():
+    """Inconsistent RecordedRun parts are refused: t_wrench alone, joint names, sense, one time base for columns."""
+    t = np.array([0.0, 0.1, 0.2])
+    q = np.zeros((3, 2))
+    with pytest.raises(ParameterError, match="t_wrench is given without a wrench"):
+        RecordedRun(t=t, q=q, qd=q, t_wrench=t)
+    with pytest.raises(DimensionError, match="1 joint names for 2 joints"):
+        RecordedRun(t=t, q=q, qd=q, joint_names=("a",))
+    with pytest.raises(ParameterError, match="wrench_sense must be one of"):
+        RecordedRun(t=t, q=q, qd=q, wrench_sense="measured")
+    with pytest.raises(MeasurementError, match="needs at least 2 samples"):
+        RecordedRun(t=[0.0], q=q[:1], qd=q[:1])
+    with pytest.raises(DimensionError, match="q must have 3 rows"):
+        RecordedRun(t=t, q=q[:2], qd=q)
+    rec = RecordedRun(t=t, q=q, qd=q, wrench=np.zeros((4, 1)), t_wrench=[0.0, 0.05, 0.1, 0.2])
+    with pytest.raises(ParameterError, match="own time base; resample"):
+        rec.columns()
+    with pytest.raises(MeasurementError, match="shorter than one period"):
+        rec.resample(0.5)

@@ -1,0 +1,135 @@
+"""Replay: a controller run over a recorded log gives back the simulated torques; trace comparison."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.errors import DimensionError, FrameError, MeasurementError
+from forcecontrol.io import RecordedRun, read_bag, read_recording
+from forcecontrol.replay import compare_traces, recorded_from_simulation, replay
+from forcecontrol.scenarios import build_case
+from rosfiles_helpers import write_bag
+
+
+@pytest.fixture(scope="module")
+def example_9_2():
+    """Example 9.2's first case, simulated (1 s), and a builder of fresh parts."""
+    scn = fc.scenario("example-9.2").with_(duration=1.0)
+
+    def parts():
+        return build_case(scn.cases[0])
+
+    p = parts()
+    res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=p["duration"],
+                      sensor=p["sensor"])
+    return res, parts
+
+
+def test_replaying_a_simulation_log_gives_back_its_torques(tmp_path, example_9_2):
+    """The same controller over the simulator's own log (Parquet and CSV) commands the simulated torques."""
+    res, parts = example_9_2
+    data, _ = res.save(tmp_path / "run", format="parquet")
+    p = parts()
+    out = replay(p["controller"], read_recording(data), p["reference"], p["robot"])
+    assert out.t.size == res.t.size
+    np.testing.assert_allclose(out.torque, res.torque, rtol=0, atol=1e-9 * np.abs(res.torque).max())
+    np.testing.assert_array_equal(out.torque_recorded, res.torque)
+    np.testing.assert_allclose(out.force_error, res.reference_block("force") - res.wrench_measured, atol=1e-12)
+    assert out.metrics()["torque_difference_max"] < 1e-9 * np.abs(res.torque).max()
+    df = out.to_pandas()
+    assert {"u1", "u1_recorded", "fx", "fx_error", "fx_reference"} <= set(df.columns)
+    # CSV keeps 10 significant digits: the torques agree to that accuracy
+    csv, _ = res.save(tmp_path / "run", format="csv")
+    p = parts()
+    out_csv = replay(p["controller"], read_recording(csv), p["reference"])
+    np.testing.assert_allclose(out_csv.torque, res.torque, rtol=0, atol=1e-6 * np.abs(res.torque).max())
+
+
+def test_replaying_a_ros_bag_of_the_simulation(tmp_path, example_9_2):
+    """The log written to a ROS 2 bag (rosbags' writer) replays to the same torques."""
+    res, parts = example_9_2
+    bag = write_bag(tmp_path / "bag", res.t, res.q, res.qd, res.torque, res.t, res.wrench_measured, frame="base")
+    rec = read_bag(bag, wrench_components=2)
+    p = parts()
+    out = replay(p["controller"], rec, p["reference"], p["robot"])
+    np.testing.assert_allclose(out.torque, res.torque, rtol=0, atol=1e-8 * np.abs(res.torque).max())
+
+
+def test_replay_refuses_mismatched_logs(tmp_path, example_9_2):
+    """Wrong joint count, wrench components or frame, and a force controller without a wrench are refused first."""
+    res, parts = example_9_2
+    p = parts()
+    rec = recorded_from_simulation(res)
+    three = RecordedRun(t=rec.t, q=np.hstack([rec.q, rec.q[:, :1]]), qd=np.hstack([rec.qd, rec.qd[:, :1]]), wrench=rec.wrench)
+    with pytest.raises(DimensionError, match="the controller's robot has 2 joints; the log .* has 3"):
+        replay(p["controller"], three, p["reference"])
+    six = RecordedRun(t=rec.t, q=rec.q, qd=rec.qd, wrench=np.hstack([rec.wrench, rec.wrench, rec.wrench]))
+    with pytest.raises(DimensionError, match=r"needs a 2-component wrench \(fx fy\); the log .* has 6"):
+        replay(p["controller"], six, p["reference"])
+    other = RecordedRun(t=rec.t, q=rec.q, qd=rec.qd, wrench=rec.wrench, wrench_frame="ft_sensor")
+    with pytest.raises(FrameError, match="in the base frame 'base'; the log's is in 'ft_sensor'"):
+        replay(p["controller"], other, p["reference"])
+    bare = RecordedRun(t=rec.t, q=rec.q, qd=rec.qd)
+    with pytest.raises(MeasurementError, match="reads the contact force, but the log .* has no wrench"):
+        replay(p["controller"], bare, p["reference"])
+
+
+def test_replay_converts_the_wrench_sense(example_9_2):
+    """A log of the wrench on the end-effector (−h_e) replays like the chapter's h_e."""
+    res, parts = example_9_2
+    rec = recorded_from_simulation(res)
+    flipped = RecordedRun(t=rec.t, q=rec.q, qd=rec.qd, tau=rec.tau, wrench=-rec.wrench, wrench_sense="on-end-effector")
+    p = parts()
+    out = replay(p["controller"], flipped, p["reference"])
+    np.testing.assert_allclose(out.torque, res.torque, rtol=0, atol=1e-9 * np.abs(res.torque).max())
+
+
+def test_compare_traces_finds_the_shift_and_the_noise_level(example_9_2):
+    """A recorded trace = the simulation delayed by 25 ms plus known noise: the shift and RMS errors come back."""
+    res, _ = example_9_2
+    rng = np.random.default_rng(3)
+    sigma_q, sigma_f = 1e-4, 0.5
+    n = res.t.size
+    rec = RecordedRun(t=res.t + 0.025, q=res.q + sigma_q * rng.standard_normal(res.q.shape), qd=res.qd,
+                      wrench=res.wrench_measured + sigma_f * rng.standard_normal((n, 2)))
+    cmp = compare_traces(res, rec, max_shift=0.05)
+    assert cmp.shift == pytest.approx(0.025, abs=1e-9)
+    assert cmp.metrics["position_error_rms"] == pytest.approx(sigma_q, rel=0.1)
+    assert cmp.metrics["force_error_rms"] == pytest.approx(sigma_f * np.sqrt(2), rel=0.1)
+    assert cmp.metrics["force_error_max"] < 6 * sigma_f
+
+
+def test_compare_traces_figure(tmp_path, example_9_2):
+    """The comparison draws joint positions and forces to a PNG."""
+    res, _ = example_9_2
+    cmp = compare_traces(res, recorded_from_simulation(res))
+    assert cmp.shift == 0.0 and cmp.metrics["force_error_max"] == 0.0
+    path = cmp.plot(tmp_path / "cmp.png")
+    assert path.stat().st_size > 10_000
+
+
+def test_replay_and_compare_argument_errors(example_9_2):
+    """Wrong controller, robot or reference, and traces that cannot be compared, are refused with the reason."""
+    from forcecontrol.errors import ParameterError
+
+    res, parts = example_9_2
+    p = parts()
+    rec = recorded_from_simulation(res)
+    with pytest.raises(ParameterError, match="controller must be a forcecontrol Controller; got str"):
+        replay("impedance", rec, p["reference"])
+    with pytest.raises(ParameterError, match="is not the robot given"):
+        replay(p["controller"], rec, p["reference"], robot=object())  # not the controller's arm
+    with pytest.raises(ParameterError, match="reference must be a ReferenceSignal"):
+        replay(p["controller"], rec, fc.Reference.setpoint([1.1, 0.1]))
+    with pytest.raises(DimensionError, match="reference must be 2-dimensional"):
+        replay(p["controller"], rec, fc.Setpoint([1.1, 0.1, 0.0]))
+    with pytest.raises(ParameterError, match="wrench must be 'measured' or 'true'"):
+        recorded_from_simulation(res, wrench="both")
+    three = RecordedRun(t=rec.t, q=np.hstack([rec.q, rec.q[:, :1]]), qd=np.hstack([rec.qd, rec.qd[:, :1]]))
+    with pytest.raises(DimensionError, match="the simulated trace has 2 joints, the recorded one 3"):
+        compare_traces(res, three)
+    later = RecordedRun(t=rec.t + 50.0, q=rec.q, qd=rec.qd)  # 50 s later: no overlap within ±10 ms
+    with pytest.raises(MeasurementError, match="overlap by fewer than 10 samples"):
+        compare_traces(res, later, max_shift=0.01)
