@@ -48,6 +48,7 @@ _LAZY: dict[str, str] = {
     "DirectionalStiffness": ".controllers",
     "SinusoidalStiffness": ".controllers",
     "StabilityMonitor": ".monitor",
+    "StiffnessEstimator": ".estimation",
     "MonitoredController": ".monitor",
     "CalibrationResult": ".calibration",
     "DriftDetector": ".calibration",
@@ -148,6 +149,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
+    from .estimation import StiffnessEstimator
     from .io import RecordedRun, read_recording
     from .monitor import MonitoredController, StabilityMonitor
     from .realtime import RateLimiter
@@ -257,4 +259,5 @@ __all__ = [
     "read_recording",
     "replay",
     "compare_traces",
+    "StiffnessEstimator",
 ]

@@ -10,6 +10,11 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 _LAZY = {
+    "DESIGN_SCHEMES": ".design",
+    "GainDesign": ".design",
+    "LoopModel": ".design",
+    "design_gains": ".design",
+    "loop_model": ".design",
     "ComplianceEquilibrium": ".compliance",
     "compliance_equilibrium": ".compliance",
     "joint_space_compliance": ".compliance",
@@ -27,6 +32,7 @@ _LAZY = {
 
 if TYPE_CHECKING:  # pragma: no cover
     from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
+    from .design import DESIGN_SCHEMES, GainDesign, LoopModel, design_gains, loop_model
     from .force import (
         ForceGains,
         ForceLoopAxis,
@@ -47,6 +53,11 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "DESIGN_SCHEMES",
+    "GainDesign",
+    "LoopModel",
+    "design_gains",
+    "loop_model",
     "ComplianceEquilibrium",
     "compliance_equilibrium",
     "joint_space_compliance",

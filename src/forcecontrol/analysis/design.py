@@ -111,10 +111,11 @@ class LoopModel:
         mag = np.abs(L)
         pm = math.inf
         lm = np.log(np.maximum(mag, 1e-300))
+        phase = np.degrees(np.unwrap(np.angle(L)))  # continuous from the lowest frequency
         for i in np.flatnonzero(np.sign(lm[:-1]) != np.sign(lm[1:])):
             s = lm[i] / (lm[i] - lm[i + 1])
-            Lc = L[i] + s * (L[i + 1] - L[i])
-            pm = min(pm, 180.0 - abs(math.degrees(math.atan2(Lc.imag, Lc.real))))
+            ph = phase[i] + s * (phase[i + 1] - phase[i])
+            pm = min(pm, (180.0 + ph + 180.0) % 360.0 - 180.0)  # in (−180, 180]: negative = unstable crossing
         gm = math.inf
         im = L.imag
         for i in np.flatnonzero(np.sign(im[:-1]) != np.sign(im[1:])):
@@ -359,11 +360,16 @@ class GainDesign:
                 lines.append(f"integral_gain = [{g['integral_gain']:.6g}, 0.0]")
                 lines.append('integrator_start = "hold"' if self.scheme == "inner-position" else 'integrator_start = "zero"')
             lines += ["", "[reference]", 'type = "setpoint"', "position = [1.0, 0.0]", f"force = [{axis_force:g}, 0.0]"]
+        cutoff, delay = self.requirements.get("filter_cutoff"), int(self.requirements.get("delay_samples") or 0)
+        if cutoff is not None or delay:  # the sensor the gains were designed for
+            lines += ["", "[sensor]"]
+            if cutoff is not None:
+                lines += ['filter = "first-order"', f"cutoff = {cutoff:g}"]
+            if delay:
+                lines.append(f"delay_samples = {delay}")
         lines += ["", "[figure]", f'title = "{self.scheme}: designed gains over the stiffness range"', 'signals = ["x", "fx"]']
         for c in self.checks:
             lines += ["", "[[case]]", f'label = "k = {c["k"]:g} N/m"', f"environment.stiffness = {c['k']:g}"]
-            if self.scheme == "hybrid":
-                pass  # the nominal compliance stays that of the design
         return "\n".join(lines) + "\n"
 
 

@@ -1,0 +1,87 @@
+"""The ``forcecontrol design`` command: gains for a stiffness range (registered in :mod:`forcecontrol.cli`)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .app import _fail
+
+__all__ = ["design_command"]
+
+
+def design_command(
+    scheme: Annotated[str, typer.Argument(help="impedance, inner-position, inner-velocity, parallel or hybrid")],
+    k_min: Annotated[float, typer.Option("--k-min", help="lowest environment stiffness [N/m]")],
+    k_max: Annotated[float, typer.Option("--k-max", help="highest environment stiffness [N/m]")],
+    sample_time: Annotated[float, typer.Option(help="control period Ts [s]")] = 1e-3,
+    delay: Annotated[int, typer.Option(help="sensor delay [samples]")] = 0,
+    filter_cutoff: Annotated[float | None, typer.Option(help="sensor first-order filter cutoff [Hz] (default: none)")] = None,
+    phase_margin: Annotated[float, typer.Option(help="required phase margin [deg]")] = 45.0,
+    gain_margin: Annotated[float, typer.Option(help="required gain margin [dB]")] = 6.0,
+    settling_time: Annotated[
+        float | None, typer.Option(help="required worst-case 2 % settling time [s] (default: as fast as the margins allow)")
+    ] = None,
+    damping_ratio: Annotated[float, typer.Option(help="ζ of the placed poles (force schemes, hybrid)")] = 0.8,
+    inertia: Annotated[float, typer.Option(help="M_d / m_d [kg]")] = 100.0,
+    stiffness: Annotated[float, typer.Option(help="K_P / k_P [N/m] (the task's choice, kept)")] = 2500.0,
+    arm_inertia: Annotated[float | None, typer.Option(help="the arm's operational mass along the axis [kg]")] = None,
+    out: Annotated[Path | None, typer.Option(help="write a scenario (TOML) with one case per checked stiffness")] = None,
+    force: Annotated[bool, typer.Option("--force", help="overwrite --out if it exists")] = False,
+    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
+) -> None:
+    """Gains that keep a phase and gain margin over [k_min, k_max], with sampling, sensor delay and filter.
+
+    Prints the gains and, at k_min, √(k_min k_max) and k_max, the margins and 2 % settling time of
+    the sampled loop (see forcecontrol.analysis.design); --out writes a runnable scenario.
+    """
+    from ..errors import ForceControlError, OutputError
+
+    try:
+        from ..analysis.design import design_gains
+
+        d = design_gains(
+            scheme, (k_min, k_max), sample_time, delay_samples=delay, filter_cutoff=filter_cutoff,
+            phase_margin=phase_margin, gain_margin=gain_margin, settling_time=settling_time,
+            damping_ratio=damping_ratio, inertia=inertia, stiffness=stiffness, arm_inertia=arm_inertia,
+        )
+        written = None
+        if out is not None:
+            if out.exists() and not force:
+                raise OutputError(f"{str(out)!r} exists; pass --force to overwrite it")
+            try:
+                out.parent.mkdir(parents=True, exist_ok=True)
+                out.write_text(d.scenario_toml(name=out.stem), encoding="utf-8")
+            except OSError as exc:
+                raise OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}") from exc
+            written = str(out)
+    except ForceControlError as exc:
+        _fail(exc)
+    if json_out:
+        from .._json import json_safe
+
+        sys.stdout.write(json.dumps(json_safe({**d.as_dict(), "scenario": written}), indent=2, allow_nan=False) + "\n")
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(width=None if sys.stdout.isatty() else 132)
+    g = Table(title=f"{scheme} gains for k in [{k_min:g}, {k_max:g}] N/m", title_justify="left")
+    g.add_column("gain")
+    g.add_column("value", justify="right")
+    for name, v in d.gains.items():
+        g.add_row(name, f"{v:.6g}")
+    console.print(g)
+    c = Table(title="the sampled loop at the ends and the middle of the range", title_justify="left")
+    for col in ("k [N/m]", "phase margin [deg]", "gain margin [dB]", "settling 2 % [s]", "spectral radius"):
+        c.add_column(col, justify="right")
+    for row in d.checks:
+        c.add_row(f"{row['k']:.6g}", f"{row['phase_margin_deg']:.1f}", f"{row['gain_margin_db']:.1f}",
+                  f"{row['settling_time']:.4g}", f"{row['spectral_radius']:.4f}")
+    console.print(c)
+    if written:
+        console.print(f"scenario: {written}  (run it: forcecontrol run {written})")
