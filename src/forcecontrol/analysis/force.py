@@ -23,7 +23,8 @@ the controller reads x, ẋ and f_e at t_k, computes x_F with ξ_k, then ξ_{k+1
 double integrator ``ẍ = a_k`` over the sample; if the arm's operational mass ``m_x`` along the
 axis is given, the contact force's change within the sample (not compensated, since the law
 adds ``Jᵀ h_e(t_k)``) enters as ``ẍ = a_k + (f_k − k (x − x_r)) / m_x``. The plant is
-discretised exactly with ``control.sample_system(..., method="zoh")``.
+discretised exactly (zero-order hold, the matrix exponential; the same as
+``control.sample_system(..., method="zoh")``, tested).
 """
 
 from __future__ import annotations
@@ -294,7 +295,8 @@ class ForceLoopAxis:
         Plant over one sample (zero-order hold on a and on the compensated force f_k), states
         ``[x, ẋ]``: ``ẍ = a`` (exact inverse dynamics), or ``ẍ = a + (f_k − k (x − x_r)) / m_x``
         when ``arm_inertia`` m_x [kg] is given (the contact force's change within the sample acts
-        on the arm's operational mass). Discretised with ``control.sample_system(..., "zoh")``.
+        on the arm's operational mass). Discretised exactly (zero-order hold: the exponential of
+        the augmented matrix, as ``control.sample_system(..., "zoh")``).
         Controller at t_k: ``a_k`` from x_k, ẋ_k, f_k = k (x_k − x_r) and ξ_k; then
         ``ξ_{k+1} = ξ_k + Ts k_I (f_d − f_k)``.
 
@@ -302,6 +304,14 @@ class ForceLoopAxis:
             Discrete state space, states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x].
         """
         Ts = positive_scalar("sample_time", sample_time)
+        A, B, C, D = self._sampled_matrices(Ts, arm_inertia)
+        return control.ss(A, B, C, D, Ts, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
+                          name=f"{self.scheme}-sampled")
+
+    def _sampled_matrices(self, Ts: float, arm_inertia: float | None) -> tuple[np.ndarray, ...]:
+        """(A, B, C, D) of :meth:`sampled` (``Ts`` already checked)."""
+        from scipy.linalg import expm
+
         k = self.environment_stiffness
         # continuous plant: states [x, v]; inputs [a, f_hold, x_r]
         Ap = np.array([[0.0, 1.0], [0.0, 0.0]])
@@ -311,9 +321,11 @@ class ForceLoopAxis:
             Ap[1, 0] = -k / mx
             Bp[1, 1] = 1.0 / mx
             Bp[1, 2] = k / mx
-        plant = control.ss(Ap, Bp, np.eye(2), np.zeros((2, 3)))
-        pd = control.sample_system(plant, Ts, method="zoh")
-        Ad, Bd = np.asarray(pd.A), np.asarray(pd.B)
+        # zero-order hold: expm([[Ap, Bp], [0, 0]] Ts) = [[Ad, Bd], [0, I]]
+        M = np.zeros((5, 5))
+        M[:2, :2], M[:2, 2:] = Ap * Ts, Bp * Ts
+        E = expm(M)
+        Ad, Bd = E[:2, :2], E[:2, 2:]
         Gz, Gw, Hz, Hw = self._law()
         nz = len(self.states)
         # a_k = Gz z + Gw w ; f_k = k x − k x_r
@@ -334,12 +346,12 @@ class ForceLoopAxis:
         D = np.zeros((2, 3))
         C[0, 0], D[0, 2] = k, -k
         C[1, 0] = 1.0
-        return control.ss(A, B, C, D, Ts, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
-                          name=f"{self.scheme}-sampled")
+        return A, B, C, D
 
     def spectral_radius(self, sample_time: float, arm_inertia: float | None = None) -> float:
         """Largest |pole| of :meth:`sampled` (< 1: the sampled loop is stable)."""
-        return float(np.max(np.abs(control.poles(self.sampled(sample_time, arm_inertia)))))
+        A = self._sampled_matrices(positive_scalar("sample_time", sample_time), arm_inertia)[0]
+        return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 
 def _clean_tf(tf: control.TransferFunction) -> control.TransferFunction:
