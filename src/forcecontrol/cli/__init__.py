@@ -6,12 +6,14 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, compare, sweep, task
+from . import analyze, compare, report, sweep, task, tune
 from .app import app, main
 
 app.command("analyze")(analyze.analyze_command)
 app.command("task")(task.task_command)
 app.command("sweep")(sweep.sweep_command)
 app.command("compare")(compare.compare_command)
+app.command("tune")(tune.tune_command)
+app.command("report")(report.report_command)
 
 __all__ = ["app", "main"]
