@@ -32,6 +32,11 @@ _LABELS = {
 }
 
 
+def _labelled(widget: Any, label: str, **kwargs: Any) -> Any:
+    """A Panel widget with its label (``label=`` from Panel 1.9 on, ``name=`` before)."""
+    return widget(label=label, **kwargs) if "label" in widget.param else widget(name=label, **kwargs)
+
+
 def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
@@ -55,11 +60,12 @@ class TuneApp:
         self.latencies: list[float] = []  # seconds, slider change to updated data sources
         self.last: Evaluation | None = None
         self._root = pn.Column(sizing_mode="stretch_width")
-        self.case_select = pn.widgets.Select(
-            name="case", options=self.session.labels, value=self.session.case.label, width=420,
+        self.case_select = _labelled(
+            pn.widgets.Select, "case", options=self.session.labels, value=self.session.case.label, width=420,
         )
         self.case_select.param.watch(self._on_case, "value")
-        self.save_button = pn.widgets.Button(name="Save tuned scenario (TOML)", button_type="primary", width=260)
+        color = {"color": "primary"} if "color" in pn.widgets.Button.param else {"button_type": "primary"}
+        self.save_button = _labelled(pn.widgets.Button, "Save tuned scenario (TOML)", width=260, **color)
         self.save_button.on_click(self._on_save)
         self.save_message = pn.pane.Markdown(f"writes `{self.save_path}`", width=600)
         self.status = pn.pane.Markdown("", sizing_mode="stretch_width")
@@ -76,9 +82,8 @@ class TuneApp:
             opts = {_fmt(v): v for v in k.options}
             label = _fmt(k.value)
             opts[label] = k.value
-            w = pn.widgets.DiscreteSlider(
-                name=f"{k.name} [{k.unit}]" if k.unit else k.name, options=opts, value=k.value, width=300,
-            )
+            w = _labelled(pn.widgets.DiscreteSlider, f"{k.name} [{k.unit}]" if k.unit else k.name, options=opts,
+                          value=k.value, width=300)
             w.param.watch(lambda ev, name=k.name: self._on_slider(name, ev.new), "value")
             self.sliders[k.name] = w
         book = s.evaluate()

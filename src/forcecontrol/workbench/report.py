@@ -176,7 +176,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
         xs = np.sort(sub[x].unique().astype(float))
         fig = make_subplots(rows=1, cols=len(metrics), subplot_titles=[_METRIC_LABELS.get(m, m) for m in metrics],
                             horizontal_spacing=0.08)
-        cfg = cases.get(label)
+        cfg = _case_config(cases, str(label))
         stable = sub["stable"].to_numpy(dtype=bool) if "stable" in sub else np.ones(len(sub), dtype=bool)
         if y is not None:
             ys = np.sort(sub[y].unique().astype(float))
@@ -227,6 +227,17 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                           legend={"orientation": "h", "y": -0.25})
         out.append((title, fig))
     return out
+
+
+def _case_config(cases: dict[str, Any], row_label: str) -> dict[str, Any] | None:
+    """The scenario case of a table row: its label, or its label marked ``"<label> [<paths> swept]"``
+    (:func:`forcecontrol.sweep.run.sweep_label`)."""
+    if row_label in cases:
+        return cases[row_label]
+    for label, cfg in cases.items():
+        if row_label.startswith(label + " [") and row_label.endswith(" swept]"):
+            return cfg
+    return None
 
 
 def _safe_radius(radius, cfg: dict[str, Any], label: str, assign: dict[str, Any]) -> float:

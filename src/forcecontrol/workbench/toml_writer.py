@@ -6,7 +6,6 @@ Writes what scenario files hold: strings, booleans, integers, finite floats, arr
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from typing import Any
@@ -18,10 +17,26 @@ __all__ = ["dumps_toml"]
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _string(s: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters (U+0000-U+001F, U+007F) escaped."""
+    out = []
+    for ch in s:
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
 def _key(k: Any) -> str:
     if not isinstance(k, str):
         raise ParameterError(f"TOML keys must be strings; got {k!r} ({type(k).__name__})")
-    return k if _BARE.match(k) else json.dumps(k, ensure_ascii=False)
+    return k if _BARE.match(k) else _string(k)
 
 
 def _value(v: Any, where: str) -> str:
@@ -34,7 +49,7 @@ def _value(v: Any, where: str) -> str:
             raise ParameterError(f"{where}: must be a finite number to be written; got {v!r}")
         return repr(v)
     if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=False)  # JSON string escapes are valid TOML basic-string escapes
+        return _string(v)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x, where) for x in v) + "]"
     if isinstance(v, dict):
