@@ -159,7 +159,7 @@ def test_app_slider_change_updates_the_plotted_data_and_saves(tmp_path):
     ref = fc.scenario("example-9.2").with_({"environment.stiffness": 1e5}).run().cases[0].result
     np.testing.assert_allclose(after, ref.wrench[:, 0], rtol=1e-12, atol=1e-9)
     assert not np.allclose(before, after)
-    assert a.sources["fx"][1].location == pytest.approx(2500.0 * 1e5 * 0.1 / (2500.0 + 1e5), rel=1e-9)
+    assert a.sources["fx"][1].data["v"][0] == pytest.approx(2500.0 * 1e5 * 0.1 / (2500.0 + 1e5), rel=1e-9)
     assert len(a.latencies) == 2 and "updated in" in a.status.object
     a.save_button.clicks += 1
     assert fc.scenario(tmp_path / "t.toml").cases[0].config["environment"]["stiffness"] == 1e5

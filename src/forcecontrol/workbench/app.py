@@ -100,13 +100,15 @@ class TuneApp:
             ref = ColumnDataSource(self._series(book, sig), name=f"book-{sig}")
             f.line("t", "v", source=ref, line_dash="dashed", color="gray", line_width=1.5, legend_label="book's settings")
             f.line("t", "v", source=src, color="#1f77b4", line_width=2.0, legend_label="tuned")
+            t_end = float(t_max if t_max is not None else s.case.config["duration"])
             if sig in s.book_values:
-                f.add_layout(Span(location=s.book_values[sig], dimension="width", line_dash="dotted", line_color="black"))
-                f.line([], [], line_dash="dotted", color="black", legend_label=f"book: {sig} = {_fmt(s.book_values[sig])}")
-            steady = Span(location=float("nan"), dimension="width", line_dash="dotdash", line_color="#d62728",
-                          line_width=1.2, visible=False, name=f"steady-{sig}")
-            f.add_layout(steady)
-            f.line([], [], line_dash="dotdash", color="#d62728", legend_label="analysis: settled value")
+                v = s.book_values[sig]
+                f.line([0.0, t_end], [v, v], line_dash="dotted", color="black", line_width=1.5,
+                       legend_label=f"book's value: {sig} = {_fmt(v)}")
+            steady = ColumnDataSource({"t": [], "v": []}, name=f"steady-{sig}")
+            f.line("t", "v", source=steady, line_dash="dotdash", color="#d62728", line_width=1.2,
+                   legend_label="analysis: settled value (tuned)")
+            self._t_end = t_end
             f.legend.location = "bottom_right"
             f.legend.label_text_font_size = "8pt"
             self.sources[sig] = (src, steady)
@@ -115,6 +117,7 @@ class TuneApp:
                     y_axis_label="Im [rad/s]", tools="pan,wheel_zoom,box_zoom,reset,save")
         self.pole_source = ColumnDataSource({"re": [], "im": [], "axis": []}, name="poles")
         book_poles = ColumnDataSource(self._poles(book), name="book-poles")
+        pf.scatter([0.0], [0.0], marker="cross", size=10, color="black", legend_label="origin (Re < 0: stable)")
         pf.scatter("re", "im", source=book_poles, marker="circle", size=9, fill_alpha=0.0, color="gray",
                    legend_label="book's settings")
         pf.scatter("re", "im", source=self.pole_source, marker="x", size=11, line_width=2.5, color="#1f77b4",
@@ -180,9 +183,8 @@ class TuneApp:
         for sig, (src, steady) in self.sources.items():
             src.data = self._series(ev, sig)
             val = ev.analysis.get(f"steady_{sig}")
-            steady.visible = val is not None and math.isfinite(float(val))
-            if steady.visible:
-                steady.location = float(val)
+            ok = val is not None and math.isfinite(float(val))
+            steady.data = {"t": [0.0, self._t_end], "v": [float(val)] * 2} if ok else {"t": [], "v": []}
         self.pole_source.data = self._poles(ev)
         if ev.stability is not None and self.limit_span is not None:
             self.stability_source.data = {"k": ev.stability.stiffness, "rho": ev.stability.radius}
@@ -272,6 +274,7 @@ def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | P
     scn = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     if port == 0:
         port = free_port(address)
+    TuneSession(scn).evaluate()  # compile (or load) the simulator's kernels now, not on the first page load
 
     def page() -> Any:
         return TuneApp(scn, save_path).panel()

@@ -175,7 +175,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
     for label, sub in df[sel].groupby("case", sort=False):
         xs = np.sort(sub[x].unique().astype(float))
         fig = make_subplots(rows=1, cols=len(metrics), subplot_titles=[_METRIC_LABELS.get(m, m) for m in metrics],
-                            horizontal_spacing=0.08)
+                            horizontal_spacing=0.09)
         cfg = _case_config(cases, str(label))
         stable = sub["stable"].to_numpy(dtype=bool) if "stable" in sub else np.ones(len(sub), dtype=bool)
         if y is not None:
@@ -191,7 +191,8 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                 ix = np.searchsorted(xs, sub[x].to_numpy(dtype=float))
                 iy = np.searchsorted(ys, sub[y].to_numpy(dtype=float))
                 Z[iy, ix] = sub[metric].to_numpy(dtype=float)
-                bar_x = (c - 0.5) / len(metrics) + 0.5 / len(metrics) - 0.01
+                domain = fig.layout[f"xaxis{'' if c == 1 else c}"].domain
+                bar_x = domain[1] + 0.005
                 fig.add_heatmap(x=xs, y=ys, z=Z, colorscale="Viridis", name=metric, row=1, col=c,
                                 colorbar={"x": bar_x, "len": 0.8, "thickness": 10},
                                 hovertemplate=f"{x}=%{{x:.4g}}<br>{y}=%{{y:.4g}}<br>{metric}=%{{z:.4g}}<extra>{html.escape(label)}</extra>")
@@ -200,7 +201,8 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                                 name="unstable (simulated)", legendgroup="unstable", showlegend=(c == 1), row=1, col=c)
                 if rho is not None:
                     fig.add_contour(x=fx, y=fy, z=rho, contours={"start": 1.0, "end": 1.0, "size": 1.0, "coloring": "lines"},
-                                    line={"color": "black", "width": 2}, showscale=False, name="analytic ρ = 1",
+                                    line={"color": "black", "width": 2}, colorscale=[[0, "black"], [1, "black"]],
+                                    showscale=False, name="analytic ρ = 1",
                                     showlegend=(c == 1), hoverinfo="skip", row=1, col=c)
                 fig.update_xaxes(title_text=x, type="log" if _log_axis(xs) else "linear", row=1, col=c)
                 fig.update_yaxes(title_text=y, type="log" if _log_axis(ys) else "linear", row=1, col=c)
@@ -223,7 +225,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                     fig.add_vline(x=xl, line_dash="dash", line_color="black", row=1, col=c)
                 fig.update_xaxes(title_text=x, type="log" if _log_axis(xs) else "linear", row=1, col=c)
         title = f"{label}" + (f" ({json.dumps(fixed, default=str)})" if fixed else "")
-        fig.update_layout(height=420, width=max(900, 380 * len(metrics)), template="plotly_white", title=title,
+        fig.update_layout(height=420, template="plotly_white", title=title, margin={"r": 40},
                           legend={"orientation": "h", "y": -0.25})
         out.append((title, fig))
     return out
