@@ -239,3 +239,36 @@ def test_reports_render_in_the_browser(driver, tmp_path):
         assert drawn > 0, f"{name}: no traces drawn"
         _shot(driver, name)
         assert _errors(driver) == [], f"{name}: console errors"
+
+
+def test_tune_page_of_example_9_3_draws_the_sampled_loop_stability_curve(driver, tmp_path):
+    """A direct force scheme: the page shows ρ(k) with the current point, as the session computes them."""
+    from forcecontrol.workbench.app import free_port, serve
+    from forcecontrol.workbench.session import TuneSession
+
+    port = free_port()
+    server = serve("example-9.3", port=port, show=False, save_path=tmp_path / "t.toml", threaded=True)
+    try:
+        t0 = time.time()
+        while True:
+            try:
+                driver.get(f"http://localhost:{port}/")
+                break
+            except Exception:  # noqa: BLE001 - the server thread is still binding its port
+                if time.time() - t0 > 20:
+                    raise
+                time.sleep(0.2)
+        assert driver.execute_async_script(_WAIT_MODEL)
+        time.sleep(0.5)
+        got = driver.execute_script("""
+          const d = Bokeh.documents[0];
+          const s = d.get_model_by_name('stability'), p = d.get_model_by_name('stability-point');
+          return [Array.from(s.data.k), Array.from(s.data.rho), Array.from(p.data.k), Array.from(p.data.rho)];""")
+        want = TuneSession("example-9.3").evaluate().stability
+        np.testing.assert_allclose(got[0], want.stiffness, rtol=1e-12)
+        np.testing.assert_allclose(got[1], want.radius, rtol=1e-12)
+        assert got[2] == [1e4] and got[3][0] == pytest.approx(want.current[1], rel=1e-12) and got[3][0] < 1.0
+        _shot(driver, "tune-example-9.3")
+        assert _errors(driver) == []
+    finally:
+        server.stop()
