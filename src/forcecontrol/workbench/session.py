@@ -43,7 +43,8 @@ class Knob:
     """One tunable number of a case: ``table.key`` or one component ``table.key[i]`` of a diagonal gain.
 
     Attributes:
-        table: ``"controller"`` or ``"environment"``; key: the field; index: the component (None: a scalar).
+        table: ``"controller"``, ``"environment"`` or a nested controller's path (``"controller.contact"``);
+            key: the field; index: the component (None: a scalar).
         value: the case's value; options: the slider's values (log-spaced over two decades around
             ``value``, which is one of them; from 0 when ``value`` is 0); unit: SI unit text.
     """
@@ -75,7 +76,9 @@ def discover_knobs(config: dict[str, Any]) -> list[Knob]:
     """The knobs of a case configuration (``CaseSpec.config``): controller gains, environment stiffness and damping.
 
     Scalars give one knob; vectors one per component; matrices one per diagonal entry when the
-    matrix is diagonal (else none: a coupled gain is not tuned entry by entry). Fields the case
+    matrix is diagonal (else none: a coupled gain is not tuned entry by entry). Controllers nested
+    in the controller (a contact supervisor's phases, a safety layer's wrapped law) give their
+    gains too, named by their path (``controller.contact.force_gain[0]``). Fields the case
     does not set take their schema default; unset fields without a default are left out.
 
     Raises:
@@ -84,45 +87,55 @@ def discover_knobs(config: dict[str, Any]) -> list[Knob]:
     from ..scenarios import CONTROLLERS, ENVIRONMENTS
 
     out: list[Knob] = []
-    for table, registry, wanted in (
-        ("controller", CONTROLLERS, None),
-        ("environment", ENVIRONMENTS, ("stiffness", "damping")),
-    ):
-        tbl = config.get(table) or {}
-        kind = tbl.get("type")
-        if kind not in registry:
-            raise ScenarioError(f"[{table}] key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
-        for key, fld in registry[kind].fields.items():
-            if fld.kind not in ("gain", "number"):
-                continue
-            if wanted is not None and key not in wanted:
-                continue
-            if wanted is None and any(s in key for s in _NOT_GAINS):
-                continue
-            value = tbl.get(key, fld.default)
-            if value is None:
-                continue
-            unit = _UNITS.get(key, "")
-            if isinstance(value, (int, float)) and not isinstance(value, bool):
-                scale = _ZERO_SCALE.get(key, 1.0)
-                out.append(Knob(table, key, None, float(value), _options(float(value), scale), unit))
-                continue
-            arr = np.asarray(value, dtype=float)
-            if arr.ndim == 2:
-                if np.any(arr - np.diag(np.diag(arr))):
-                    continue
-                arr = np.diag(arr)
-            nonzero = arr[arr > 0]
-            scale = float(np.max(nonzero)) if nonzero.size else _ZERO_SCALE.get(key, 1.0)
-            for i, v in enumerate(arr.tolist()):
-                if v < 0:
-                    continue
-                out.append(Knob(table, key, i, float(v), _options(float(v), scale), unit))
+    _table_knobs(config.get("controller") or {}, "controller", CONTROLLERS, None, out)
+    _table_knobs(config.get("environment") or {}, "environment", ENVIRONMENTS, ("stiffness", "damping"), out)
     return out
 
 
+def _table_knobs(tbl: dict[str, Any], path: str, registry: dict[str, Any], wanted: tuple[str, ...] | None,
+                 out: list[Knob]) -> None:
+    """Knobs of one part's table; a controller nested in a controller (``[controller.contact]``,
+    ``[controller.wrapped]``) gives its own, named by its path."""
+    from ..scenarios import CONTROLLERS
+
+    kind = tbl.get("type")
+    if kind not in registry:
+        raise ScenarioError(f"[{path}] key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
+    for key, fld in registry[kind].fields.items():
+        value = tbl.get(key, fld.default)
+        if fld.kind == "table" and registry is CONTROLLERS and isinstance(value, dict) and value.get("type") in CONTROLLERS:
+            _table_knobs(value, f"{path}.{key}", CONTROLLERS, None, out)
+            continue
+        if fld.kind not in ("gain", "number"):
+            continue
+        if wanted is not None and key not in wanted:
+            continue
+        if wanted is None and any(s in key for s in _NOT_GAINS):
+            continue
+        if value is None:
+            continue
+        unit = _UNITS.get(key, "")
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            scale = _ZERO_SCALE.get(key, 1.0)
+            out.append(Knob(path, key, None, float(value), _options(float(value), scale), unit))
+            continue
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim == 2:
+            if np.any(arr - np.diag(np.diag(arr))):
+                continue
+            arr = np.diag(arr)
+        nonzero = arr[arr > 0]
+        scale = float(np.max(nonzero)) if nonzero.size else _ZERO_SCALE.get(key, 1.0)
+        for i, v in enumerate(arr.tolist()):
+            if v < 0:
+                continue
+            out.append(Knob(path, key, i, float(v), _options(float(v), scale), unit))
+
+
 def _apply_knob(config: dict[str, Any], knob: Knob, value: float) -> None:
-    tbl = config[knob.table]
+    tbl = config
+    for part in knob.table.split("."):
+        tbl = tbl[part]
     if knob.index is None:
         tbl[knob.key] = float(value)
         return
