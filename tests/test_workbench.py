@@ -246,7 +246,8 @@ def test_tune_command_refuses_an_unknown_scenario():
 
 def test_nested_controllers_give_their_gains_and_a_change_reaches_the_run():
     """impact-safety: safety layer -> contact supervisor -> impedance (approach) and inner velocity (contact)."""
-    s = TuneSession("impact-safety", 0)
+    short = fc.scenario("impact-safety").with_(duration=0.3)
+    s = TuneSession(short, 0)
     names = [k.name for k in s.knobs]
     assert "controller.wrapped.contact.force_gain[0]" in names and "controller.wrapped.approach.stiffness[1]" in names
     assert not any(n.startswith("controller.max_") for n in names)  # limits are not gains
@@ -255,5 +256,5 @@ def test_nested_controllers_give_their_gains_and_a_change_reaches_the_run():
     assert cfg["controller"]["wrapped"]["contact"]["force_gain"] == [0.0012, 0.0]
     assert fc.scenario("impact-safety").cases[0].config["controller"]["wrapped"]["contact"]["force_gain"] == [0.0024, 0.0]
     ev = s.evaluate()
-    ref = fc.scenario("impact-safety").with_({"controller.wrapped.contact.force_gain": [0.0012, 0.0]}).run().cases[0].result
+    ref = short.with_({"controller.wrapped.contact.force_gain": [0.0012, 0.0]}).run().cases[0].result
     np.testing.assert_allclose(ev.result.wrench, ref.wrench, rtol=1e-12, atol=1e-9)
