@@ -181,7 +181,12 @@ class TuneApp:
         ev = self.session.evaluate()
         t1 = time.perf_counter()
         for sig, (src, steady) in self.sources.items():
-            src.data = self._series(ev, sig)
+            new = self._series(ev, sig)
+            old_t = src.data["t"]
+            if len(old_t) and len(old_t) == len(new["t"]) and np.array_equal(old_t, new["t"]):
+                src.data["v"] = new["v"]  # the same time grid: send only the changed column
+            else:
+                src.data = new
             val = ev.analysis.get(f"steady_{sig}")
             ok = val is not None and math.isfinite(float(val))
             steady.data = {"t": [0.0, self._t_end], "v": [float(val)] * 2} if ok else {"t": [], "v": []}
