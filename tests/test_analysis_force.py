@@ -108,6 +108,31 @@ def test_sampled_model_tends_to_the_continuous_one():
     np.testing.assert_allclose(zd, zc, atol=1e-8)
 
 
+@pytest.mark.parametrize("scheme,gains,mx", [("inner-position", PI, 160.0), ("inner-velocity", P, None), ("parallel", PI, 80.0)])
+def test_sampled_plant_is_python_controls_zero_order_hold(scheme, gains, mx):
+    """The plant's discretisation equals control.sample_system(..., "zoh"): the closed loop's first two
+    rows are [Ad + Bd_a Gz + Bd_f k e1] with Ad, Bd from python-control (Ts = 1 ms, k = 3e4 N/m)."""
+    k = 3e4
+    ax = ForceLoopAxis(scheme, **gains, environment_stiffness=k)
+    Ap = np.array([[0.0, 1.0], [0.0, 0.0]])
+    Bp = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    if mx is not None:
+        Ap[1, 0], Bp[1, 1], Bp[1, 2] = -k / mx, 1.0 / mx, k / mx
+    pd = control.sample_system(control.ss(Ap, Bp, np.eye(2), np.zeros((2, 3))), TS, method="zoh")
+    Ad, Bd = np.asarray(pd.A), np.asarray(pd.B)
+    sys = ax.sampled(TS, arm_inertia=mx)
+    A, B = np.asarray(sys.A), np.asarray(sys.B)
+    Gz, Gw, _, _ = ax._law()  # the law's part (continuous, not discretised): a_k = Gz z + Gw [f_d, x_d, x_r]
+    nz = A.shape[0]
+    Fz = np.zeros(nz)
+    Fz[0] = k
+    want = Ad @ np.eye(2, nz) + np.outer(Bd[:, 0], Gz) + np.outer(Bd[:, 1], Fz)
+    np.testing.assert_allclose(A[:2], want, rtol=1e-10, atol=1e-13)
+    np.testing.assert_allclose(B[:2], np.outer(Bd[:, 0], Gw) + np.outer(Bd[:, 1], [0.0, 0.0, -k])
+                               + np.outer(Bd[:, 2], [0.0, 0.0, 1.0]), rtol=1e-10, atol=1e-13)
+    assert ax.spectral_radius(TS, mx) == pytest.approx(float(np.max(np.abs(control.poles(sys)))), rel=1e-12)
+
+
 def test_double_integrator_is_the_infinite_arm_inertia_limit():
     """arm_inertia → ∞ gives the perfect-inverse-dynamics double integrator ẍ = a held."""
     ax = ForceLoopAxis("inner-velocity", **P, environment_stiffness=1e5)

@@ -23,7 +23,8 @@ the controller reads x, ẋ and f_e at t_k, computes x_F with ξ_k, then ξ_{k+1
 double integrator ``ẍ = a_k`` over the sample; if the arm's operational mass ``m_x`` along the
 axis is given, the contact force's change within the sample (not compensated, since the law
 adds ``Jᵀ h_e(t_k)``) enters as ``ẍ = a_k + (f_k − k (x − x_r)) / m_x``. The plant is
-discretised exactly with ``control.sample_system(..., method="zoh")``.
+discretised exactly (zero-order hold, in closed form; the same as
+``control.sample_system(..., method="zoh")``, tested).
 """
 
 from __future__ import annotations
@@ -294,7 +295,8 @@ class ForceLoopAxis:
         Plant over one sample (zero-order hold on a and on the compensated force f_k), states
         ``[x, ẋ]``: ``ẍ = a`` (exact inverse dynamics), or ``ẍ = a + (f_k − k (x − x_r)) / m_x``
         when ``arm_inertia`` m_x [kg] is given (the contact force's change within the sample acts
-        on the arm's operational mass). Discretised with ``control.sample_system(..., "zoh")``.
+        on the arm's operational mass). Discretised exactly (zero-order hold, in closed form: the
+        plant is an undamped oscillator; the same as ``control.sample_system(..., "zoh")``, tested).
         Controller at t_k: ``a_k`` from x_k, ẋ_k, f_k = k (x_k − x_r) and ξ_k; then
         ``ξ_{k+1} = ξ_k + Ts k_I (f_d − f_k)``.
 
@@ -302,6 +304,12 @@ class ForceLoopAxis:
             Discrete state space, states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x].
         """
         Ts = positive_scalar("sample_time", sample_time)
+        A, B, C, D = self._sampled_matrices(Ts, arm_inertia)
+        return control.ss(A, B, C, D, Ts, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
+                          name=f"{self.scheme}-sampled")
+
+    def _sampled_matrices(self, Ts: float, arm_inertia: float | None) -> tuple[np.ndarray, ...]:
+        """(A, B, C, D) of :meth:`sampled` (``Ts`` already checked)."""
         k = self.environment_stiffness
         # continuous plant: states [x, v]; inputs [a, f_hold, x_r]
         Ap = np.array([[0.0, 1.0], [0.0, 0.0]])
@@ -311,9 +319,11 @@ class ForceLoopAxis:
             Ap[1, 0] = -k / mx
             Bp[1, 1] = 1.0 / mx
             Bp[1, 2] = k / mx
-        plant = control.ss(Ap, Bp, np.eye(2), np.zeros((2, 3)))
-        pd = control.sample_system(plant, Ts, method="zoh")
-        Ad, Bd = np.asarray(pd.A), np.asarray(pd.B)
+        # zero-order hold: Ad = exp(Ap Ts), Bd = ∫₀^Ts exp(Ap τ) dτ Bp, in closed form (Ap is an
+        # undamped oscillator of ω² = k / m_x, or a double integrator)
+        w2 = -Ap[1, 0]
+        Ad, Gamma = _oscillator_zoh(w2, Ts)
+        Bd = Gamma @ Bp
         Gz, Gw, Hz, Hw = self._law()
         nz = len(self.states)
         # a_k = Gz z + Gw w ; f_k = k x − k x_r
@@ -334,12 +344,29 @@ class ForceLoopAxis:
         D = np.zeros((2, 3))
         C[0, 0], D[0, 2] = k, -k
         C[1, 0] = 1.0
-        return control.ss(A, B, C, D, Ts, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
-                          name=f"{self.scheme}-sampled")
+        return A, B, C, D
 
     def spectral_radius(self, sample_time: float, arm_inertia: float | None = None) -> float:
         """Largest |pole| of :meth:`sampled` (< 1: the sampled loop is stable)."""
-        return float(np.max(np.abs(control.poles(self.sampled(sample_time, arm_inertia)))))
+        A = self._sampled_matrices(positive_scalar("sample_time", sample_time), arm_inertia)[0]
+        return float(np.max(np.abs(np.linalg.eigvals(A))))
+
+
+def _oscillator_zoh(w2: float, Ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """exp(A Ts) and ∫₀^Ts exp(A τ) dτ for ``A = [[0, 1], [−ω², 0]]`` (ω² >= 0), in closed form.
+
+    ``exp(A τ) = [[cos ωτ, sin ωτ / ω], [−ω sin ωτ, cos ωτ]]``; its integral is
+    ``[[sin ωT / ω, (1 − cos ωT) / ω²], [cos ωT − 1, sin ωT / ω]]``, written without cancellation
+    (``1 − cos ωT = 2 sin²(ωT/2)``); ω → 0 gives the double integrator.
+    """
+    w = math.sqrt(w2)
+    c, sn = math.cos(w * Ts), math.sin(w * Ts)
+    sinc = sn / w if w * Ts > 1e-12 else Ts  # sin(ωT)/ω
+    half = math.sin(0.5 * w * Ts)
+    one_minus_cos_over_w2 = 2.0 * (half / w) ** 2 if w * Ts > 1e-12 else 0.5 * Ts * Ts
+    Phi = np.array([[c, sinc], [-w2 * sinc, c]])
+    Gamma = np.array([[sinc, one_minus_cos_over_w2], [-w2 * one_minus_cos_over_w2, sinc]])
+    return Phi, Gamma
 
 
 def _clean_tf(tf: control.TransferFunction) -> control.TransferFunction:

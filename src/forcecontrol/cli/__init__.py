@@ -6,7 +6,7 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, calibrate, compare, compare_trace, design, replay, sweep, task
+from . import analyze, calibrate, compare, compare_trace, design, replay, report, sweep, task, tune
 from .app import app, main
 
 app.command("analyze")(analyze.analyze_command)
@@ -18,5 +18,7 @@ app.command("calibrate-plan")(calibrate.calibrate_plan_command)
 app.command("replay")(replay.replay_command)
 app.command("compare-trace")(compare_trace.compare_trace_command)
 app.command("design")(design.design_command)
+app.command("tune")(tune.tune_command)
+app.command("report")(report.report_command)
 
 __all__ = ["app", "main"]

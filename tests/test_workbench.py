@@ -1,0 +1,260 @@
+"""The workbench without a browser: TOML writer, tuning session, the Panel app driven from Python, reports."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+import forcecontrol as fc
+from forcecontrol.cli import app
+from forcecontrol.errors import OutputError, ParameterError
+from forcecontrol.scenarios import list_scenarios, scenario_source
+from forcecontrol.workbench.session import TuneSession
+from forcecontrol.workbench.toml_writer import dumps_toml
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+runner = CliRunner()
+
+
+# ----------------------------------------------------------------------------- TOML writer
+
+
+@pytest.mark.parametrize("name", sorted(list_scenarios()))
+def test_every_builtin_scenario_round_trips_through_the_writer(name):
+    """tomllib (the standard library's reader) reads back exactly what it read from the built-in file."""
+    with scenario_source(name).open("rb") as f:
+        data = tomllib.load(f)
+    assert tomllib.loads(dumps_toml(data)) == data
+
+
+_scalars = st.one_of(
+    st.booleans(), st.integers(-(2**63), 2**63 - 1), st.floats(allow_nan=False, allow_infinity=False),
+    st.text(max_size=20),
+)
+_keys = st.text(min_size=1, max_size=12)
+_values = st.one_of(_scalars, st.lists(st.floats(allow_nan=False, allow_infinity=False), max_size=4),
+                    st.lists(st.lists(st.integers(-5, 5), min_size=1, max_size=3), max_size=3),
+                    st.dictionaries(_keys, _scalars, max_size=3))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.dictionaries(_keys, st.one_of(_values, st.dictionaries(_keys, _values, max_size=4)), max_size=6))
+def test_writer_round_trips_arbitrary_documents(doc):
+    """Any keys (quoted when not bare), unicode strings, floats to the last bit, nested arrays and tables."""
+    assert tomllib.loads(dumps_toml(doc)) == doc
+
+
+@pytest.mark.parametrize("bad", [{"k": math.nan}, {"t": {"k": math.inf}}, {"k": object()}, {1: 2}])
+def test_writer_refuses_what_toml_cannot_hold(bad):
+    with pytest.raises(ParameterError, match=r"finite|cannot be written|keys must be strings"):
+        dumps_toml(bad)
+
+
+# ----------------------------------------------------------------------------- session
+
+
+def test_knobs_of_example_9_3_are_every_gain_and_the_environment():
+    s = TuneSession("example-9.3", "inner position, k_x = 1e3 N/m")
+    names = [k.name for k in s.knobs]
+    for gain in ("inertia", "damping", "stiffness", "force_gain", "integral_gain"):
+        assert f"controller.{gain}[0]" in names and f"controller.{gain}[1]" in names
+    assert "environment.stiffness" in names and "environment.damping" in names
+    assert not any("integral_limit" in n for n in names)
+    k = next(k for k in s.knobs if k.name == "environment.stiffness")
+    assert k.value == 1000.0 and k.value in k.options
+    assert min(k.options) == pytest.approx(100.0) and max(k.options) == pytest.approx(10000.0)
+    zero = next(k for k in s.knobs if k.name == "controller.force_gain[1]")
+    assert zero.options[0] == 0.0 and zero.value == 0.0
+
+
+def test_tuned_evaluation_is_the_scenario_runner_with_the_same_edit():
+    """A knob change gives the run that Scenario.with_ + run gives (the library's own path), to round-off."""
+    s = TuneSession("example-9.2", 0)
+    s.set("controller.stiffness[0]", 4000.0)
+    ev = s.evaluate()
+    ref = fc.scenario("example-9.2").with_({"controller.stiffness": [4000.0, 2500.0]}).run().cases[0].result
+    np.testing.assert_allclose(ev.result.wrench, ref.wrench, rtol=1e-12, atol=1e-9)
+    # the analysis' settled force: k_P,x k (x_d − x_r) / (k_P,x + k) (9.32 at rest), by hand
+    assert ev.analysis["steady_fx"] == pytest.approx(4000.0 * 1e4 * 0.1 / (4000.0 + 1e4), rel=1e-9)
+
+
+def test_impedance_poles_are_the_closed_form_roots():
+    """Per axis m s² + k_D s + (k_P + k) = 0 (Example 9.2, x in contact with k = 1e4; y free)."""
+    s = TuneSession("example-9.2", 0)
+    s.set("controller.damping[0]", 800.0)
+    ev = s.evaluate()
+    np.testing.assert_allclose(np.sort_complex(ev.poles["x"]), np.sort_complex(np.roots([100.0, 800.0, 2500.0 + 1e4])),
+                               rtol=1e-9)
+    np.testing.assert_allclose(np.sort_complex(ev.poles["y"]), np.sort_complex(np.roots([100.0, 500.0, 2500.0])), rtol=1e-9)
+    assert ev.stability is None and any("no sampled-loop stability analysis" in n for n in ev.notes)
+
+
+def test_force_scheme_poles_and_stability_curve():
+    """Inner velocity loop (Example 9.3): poles of 100 s² + 500 s + 2500·0.0024·k; ρ(k) < 1 exactly below the limit."""
+    s = TuneSession("example-9.3", "inner velocity, k_x = 1e3 N/m")
+    ev = s.evaluate()
+    np.testing.assert_allclose(np.sort_complex(ev.poles["x"]), np.sort_complex(np.roots([100.0, 500.0, 2500 * 0.0024 * 1e3])),
+                               rtol=1e-9)
+    st_ = ev.stability
+    assert st_.axis == "x" and st_.current[0] == 1e3 and st_.current[1] < 1.0
+    assert math.isfinite(st_.limit)
+    below, above = st_.stiffness < st_.limit * (1 - 1e-3), st_.stiffness > st_.limit * (1 + 1e-3)
+    assert np.all(st_.radius[below] < 1.0) and np.all(st_.radius[above] >= 1.0) and above.any()
+
+
+def test_set_refuses_unknown_knobs_and_bad_values():
+    s = TuneSession("example-9.2", 0)
+    with pytest.raises(ParameterError, match="knob must be one of"):
+        s.set("controller.nonsense", 1.0)
+    for bad in (-1.0, math.nan, math.inf, "1"):
+        with pytest.raises(ParameterError, match="must be a finite number >= 0"):
+            s.set("controller.stiffness[0]", bad)
+
+
+def test_a_case_the_scenario_rejects_is_reported_not_raised():
+    s = TuneSession("example-9.2", 0)
+    s.set("controller.inertia[0]", 0.0)  # M_d must be positive definite
+    ev = s.evaluate()
+    assert ev.result is None and "inertia" in ev.error
+
+
+def test_saved_scenario_loads_and_reproduces_the_tuned_run(tmp_path):
+    s = TuneSession("example-9.3", "parallel, k_x = 1e3 N/m")
+    s.set("controller.force_gain[0]", 0.001)
+    s.set("environment.stiffness", 2000.0)
+    path = s.save(tmp_path / "out" / "tuned.toml")
+    scn = fc.scenario(path)
+    assert scn.name == "example-9.3-tuned" and [c.label for c in scn.cases] == ["parallel, k_x = 1e3 N/m (tuned)"]
+    cfg = scn.cases[0].config
+    assert cfg["controller"]["type"] == "parallel" and cfg["controller"]["force_gain"] == [0.001, 0.0]
+    assert cfg["environment"]["stiffness"] == 2000.0 and cfg["controller"]["integral_gain"] == [0.0016, 0.0]
+    run = scn.run().cases[0].result
+    np.testing.assert_allclose(run.wrench, s.evaluate().result.wrench, rtol=1e-12, atol=1e-9)
+    assert "force_gain[0] 0.00064 -> 0.001" in scn.description
+
+
+# ----------------------------------------------------------------------------- the app, from Python
+
+
+def test_app_slider_change_updates_the_plotted_data_and_saves(tmp_path):
+    from forcecontrol.workbench.app import TuneApp
+
+    a = TuneApp("example-9.2", tmp_path / "t.toml")
+    before = np.array(a.sources["fx"][0].data["v"], dtype=float)
+    slider = a.sliders["environment.stiffness"]
+    slider.value = slider.values[-1]  # 1e5 N/m
+    after = np.array(a.sources["fx"][0].data["v"], dtype=float)
+    ref = fc.scenario("example-9.2").with_({"environment.stiffness": 1e5}).run().cases[0].result
+    np.testing.assert_allclose(after, ref.wrench[:, 0], rtol=1e-12, atol=1e-9)
+    assert not np.allclose(before, after)
+    assert a.sources["fx"][1].data["v"][0] == pytest.approx(2500.0 * 1e5 * 0.1 / (2500.0 + 1e5), rel=1e-9)
+    assert len(a.latencies) == 2 and "updated in" in a.status.object
+    a.save_button.clicks += 1
+    assert fc.scenario(tmp_path / "t.toml").cases[0].config["environment"]["stiffness"] == 1e5
+    assert "saved" in a.save_message.object
+    a.case_select.value = a.case_select.options[1]
+    assert a.session.case.label == "k_x = 1e3 N/m" and a.sliders["environment.stiffness"].value == 1000.0
+
+
+def test_workbench_is_not_imported_by_forcecontrol():
+    import subprocess
+
+    code = ("import sys, forcecontrol; bad = [m for m in sys.modules if m.split('.')[0] in ('panel', 'bokeh', 'plotly') "
+            "or m.startswith('forcecontrol.workbench')]; print(bad)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+# ----------------------------------------------------------------------------- reports
+
+
+def _plot_data(html: str, i: int = 0) -> list[dict]:
+    """The traces of the i-th plot of a report, as plotly.js receives them."""
+    start = html.index(f'"plot-{i}",', html.index("Plotly.newPlot(")) + len(f'"plot-{i}",')
+    while html[start].isspace():
+        start += 1
+    return json.JSONDecoder().raw_decode(html, start)[0]
+
+
+def _assert_self_contained(html: str) -> None:
+    assert "<script src=" not in html and "cdn.plot.ly" not in html.split("Plotly.newPlot")[0][-500:]
+    assert "Plotly.newPlot" in html and "plotly.js v" in html  # the library itself is inline
+
+
+def test_report_of_a_run_folder(tmp_path):
+    res = runner.invoke(app, ["run", "example-9.2", "--out", str(tmp_path), "--data", "csv", "--no-figure"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["report", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    _assert_self_contained(html)
+    data = _plot_data(html)
+    names = {tr["name"] for tr in data}
+    assert names == {"k_x = 1e4 N/m", "k_x = 1e3 N/m"}
+    saved = np.loadtxt(next(tmp_path.glob("*/*1e4*.csv")), delimiter=",", skiprows=1)
+    fx = next(tr for tr in data if tr["name"] == "k_x = 1e4 N/m" and tr["yaxis"] == "y3")
+    assert len(fx["x"]["bdata"] if isinstance(fx["x"], dict) else fx["x"]) > 0 and saved.shape[0] == 4001
+    again = runner.invoke(app, ["report", str(tmp_path)])
+    assert again.exit_code == 2 and "--force" in again.output
+
+
+def test_report_of_a_sweep_has_a_map_per_metric_and_the_analytic_boundary(tmp_path):
+    from forcecontrol.sweep import prepare_sweep, run_sweep
+    from forcecontrol.sweep.spec import SweepDefinition
+    from forcecontrol.workbench.report import write_report
+
+    scn = fc.scenario("example-9.3").with_(duration=1.0)
+    definition = SweepDefinition.from_options(
+        ["environment.stiffness=logspace(3,6,4)", "controller.force_gain[0]=0.0012,0.0024"], cases=["4"],
+    )
+    table = tmp_path / "sw" / "s.parquet"
+    run_sweep(prepare_sweep(scn, definition), table, workers=1)
+    out = write_report(table.parent)
+    assert out == table.parent / "report.html"
+    html = out.read_text(encoding="utf-8")
+    _assert_self_contained(html)
+    data = _plot_data(html)
+    kinds = [tr["type"] for tr in data]
+    assert kinds.count("heatmap") == 4 and kinds.count("contour") == 4
+
+
+def test_report_refuses_a_folder_without_runs(tmp_path):
+    res = runner.invoke(app, ["report", str(tmp_path)])
+    assert res.exit_code == 2 and "holds no saved runs" in res.output
+    from forcecontrol.workbench.report import write_report
+
+    with pytest.raises(OutputError, match="does not exist"):
+        write_report(Path(tmp_path / "missing"))
+
+
+def test_tune_command_refuses_an_unknown_scenario():
+    res = runner.invoke(app, ["tune", "no-such-scenario", "--no-browser"])
+    assert res.exit_code == 2 and "unknown scenario" in res.output
+
+
+def test_nested_controllers_give_their_gains_and_a_change_reaches_the_run():
+    """impact-safety: safety layer -> contact supervisor -> impedance (approach) and inner velocity (contact)."""
+    short = fc.scenario("impact-safety").with_(duration=0.3)
+    s = TuneSession(short, 0)
+    names = [k.name for k in s.knobs]
+    assert "controller.wrapped.contact.force_gain[0]" in names and "controller.wrapped.approach.stiffness[1]" in names
+    assert not any(n.startswith("controller.max_") for n in names)  # limits are not gains
+    s.set("controller.wrapped.contact.force_gain[0]", 0.0012)
+    cfg = s.config()
+    assert cfg["controller"]["wrapped"]["contact"]["force_gain"] == [0.0012, 0.0]
+    assert fc.scenario("impact-safety").cases[0].config["controller"]["wrapped"]["contact"]["force_gain"] == [0.0024, 0.0]
+    ev = s.evaluate()
+    ref = short.with_({"controller.wrapped.contact.force_gain": [0.0012, 0.0]}).run().cases[0].result
+    np.testing.assert_allclose(ev.result.wrench, ref.wrench, rtol=1e-12, atol=1e-9)

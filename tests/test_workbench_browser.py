@@ -1,0 +1,274 @@
+"""The workbench in a real browser: headless Chromium (the system's package) driven by Selenium.
+
+Skipped when /usr/bin/chromium or /usr/bin/chromedriver is missing, unless the environment
+variable FORCECONTROL_REQUIRE_BROWSER is set (CI sets it): then a missing browser fails.
+Screenshots go to the folder named by FORCECONTROL_SCREENSHOTS when it is set.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMEDRIVER = Path("/usr/bin/chromedriver")
+_missing = [str(p) for p in (CHROMIUM, CHROMEDRIVER) if not p.exists()]
+try:
+    import selenium  # noqa: F401
+except ImportError:  # pragma: no cover
+    _missing.append("selenium (pip install 'forcecontrol[browser]')")
+if _missing and os.environ.get("FORCECONTROL_REQUIRE_BROWSER"):
+    pytest.fail(f"FORCECONTROL_REQUIRE_BROWSER is set but {', '.join(_missing)} is missing", pytrace=False)
+pytestmark = pytest.mark.skipif(bool(_missing), reason=f"no headless browser: {', '.join(_missing)} missing")
+
+
+def _shot(driver, name: str) -> Path | None:
+    folder = os.environ.get("FORCECONTROL_SCREENSHOTS")
+    if not folder:
+        return None
+    path = Path(folder) / f"{name}.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    driver.save_screenshot(str(path))
+    sys.stderr.write(f"screenshot: {path}\n")
+    return path
+
+
+def _errors(driver) -> list[dict]:
+    return [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+@pytest.fixture(scope="module")
+def driver(tmp_path_factory):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = str(CHROMIUM)
+    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}", "--window-size=1400,1000"):
+        opts.add_argument(arg)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    d = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=opts)
+    d.set_page_load_timeout(60)
+    d.set_script_timeout(20)
+    yield d
+    d.quit()
+
+
+@pytest.fixture(scope="module")
+def tune_server(tmp_path_factory):
+    from forcecontrol.workbench.app import free_port, serve
+
+    save = tmp_path_factory.mktemp("tune") / "tuned.toml"
+    port = free_port()
+    server = serve("example-9.2", port=port, show=False, save_path=save, threaded=True)
+    deadline = time.time() + 20
+    import socket
+
+    while time.time() < deadline:  # the thread binds the port shortly after start
+        with socket.socket() as s:
+            if s.connect_ex(("localhost", port)) == 0:
+                break
+        time.sleep(0.1)
+    yield f"http://localhost:{port}/", save
+    server.stop()
+
+
+_WAIT_MODEL = """
+const done = arguments[arguments.length - 1];
+const t0 = performance.now();
+(function poll() {
+  const doc = window.Bokeh && Bokeh.documents && Bokeh.documents[0];
+  const src = doc && doc.get_model_by_name('response-fx');
+  if (src && src.data.v && src.data.v.length > 0) { done(true); return; }
+  if (performance.now() - t0 > 15000) { done(false); return; }
+  setTimeout(poll, 50);
+})();
+"""
+
+_FX = "return Array.from(Bokeh.documents[0].get_model_by_name('response-fx').data.v);"
+
+# the slider handles of the page, in order (Bokeh widgets live in shadow roots)
+_HANDLES = """
+const out = [];
+(function walk(root) {
+  root.querySelectorAll('*').forEach(el => {
+    if (el.classList && el.classList.contains('noUi-handle')) out.push(el);
+    if (el.shadowRoot) walk(el.shadowRoot);
+  });
+})(document);
+return out;
+"""
+
+# the slider labels ("environment.stiffness [N/m]: 1e+04"), in the same order as the handles
+_LABELS = """
+const out = [];
+(function walk(root) {
+  root.querySelectorAll('*').forEach(el => {
+    const t = el.textContent || '';
+    if (el.classList && el.classList.contains('bk-clearfix') && /^(controller|environment)\\./.test(t)) out.push(t);
+    if (el.shadowRoot) walk(el.shadowRoot);
+  });
+})(document);
+return out;
+"""
+
+# press a key on a handle, then wait for the plotted force to change: the latency in ms
+_KEY_TO_PLOT = """
+const [handle, key] = [arguments[0], arguments[1]];
+const done = arguments[arguments.length - 1];
+const src = Bokeh.documents[0].get_model_by_name('response-fx');
+const sum = () => Array.from(src.data.v).reduce((a, b) => a + b, 0);
+const before = sum();
+const t0 = performance.now();
+handle.dispatchEvent(new KeyboardEvent('keydown', {key: key, bubbles: true}));
+(function poll() {
+  if (sum() !== before) { done(performance.now() - t0); return; }
+  if (performance.now() - t0 > 10000) { done(-1); return; }
+  requestAnimationFrame(poll);
+})();
+"""
+
+
+def test_tune_page_loads_slider_changes_the_response_and_save_writes_a_scenario(driver, tune_server):
+    from selenium.webdriver.common.keys import Keys
+
+    url, save = tune_server
+    driver.get(url)
+    assert driver.execute_async_script(_WAIT_MODEL), "the page never showed the simulated response"
+    time.sleep(0.5)
+    _shot(driver, "tune-example-9.2-loaded")
+    assert _errors(driver) == []
+    before = np.array(driver.execute_script(_FX))
+    ref = fc.scenario("example-9.2").run().cases[0].result.wrench[:, 0]
+    np.testing.assert_allclose(before, ref, rtol=1e-9, atol=1e-6)  # the page plots the first case's run
+
+    handles = driver.execute_script(_HANDLES)
+    labels = driver.execute_script(_LABELS)
+    i = next(j for j, t in enumerate(labels) if t.startswith("environment.stiffness"))
+    assert len(handles) == len(labels)
+    # a real key press on the environment stiffness slider: one step up (1e4 -> 1.12e4 N/m)
+    handles[i].send_keys(Keys.ARROW_RIGHT)
+    t0 = time.time()
+    after = before
+    while time.time() - t0 < 10:
+        after = np.array(driver.execute_script(_FX))
+        if after.shape != before.shape or not np.array_equal(after, before):
+            break
+        time.sleep(0.05)
+    assert not np.array_equal(after, before), "moving the slider did not change the plotted force"
+    # the slider's position (an index into the knob's values) names the stiffness now simulated
+    from forcecontrol.workbench.session import TuneSession
+
+    knob = next(k for k in TuneSession("example-9.2").knobs if k.name == "environment.stiffness")
+    index = int(float(handles[i].get_attribute("aria-valuenow")))
+    assert index == knob.options.index(knob.value) + 1
+    k_new = knob.options[index]
+    assert driver.execute_script(_LABELS)[i].endswith(f"{k_new:.4g}")
+    want = fc.scenario("example-9.2").with_({"environment.stiffness": k_new}).run().cases[0].result.wrench[:, 0]
+    np.testing.assert_allclose(after, want, rtol=1e-9, atol=1e-6)  # and it plots the run with the new stiffness
+
+    # slider-to-plot latency in the browser: key press -> new data in the page's data source
+    lat = [driver.execute_async_script(_KEY_TO_PLOT, handles[i], key) for key in ("ArrowLeft", "ArrowRight") * 3]
+    assert all(v > 0 for v in lat), f"a key press did not update the plot: {lat}"
+    sys.stderr.write(f"slider-to-plot latency in Chromium [ms]: {', '.join(f'{v:.0f}' for v in lat)} "
+                     f"(median {np.median(lat):.0f})\n")
+    out = os.environ.get("FORCECONTROL_SCREENSHOTS")
+    if out:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        (Path(out) / "tune-latency.json").write_text(json.dumps({"browser_ms": lat}))
+    _shot(driver, "tune-example-9.2-tuned")
+
+    buttons = driver.execute_script("""
+      const out = [];
+      (function walk(root) {
+        root.querySelectorAll('button').forEach(b => { if (b.textContent.includes('Save tuned')) out.push(b); });
+        root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); }); })(document);
+      return out;""")
+    assert len(buttons) == 1
+    buttons[0].click()
+    t0 = time.time()
+    while not save.exists() and time.time() - t0 < 10:
+        time.sleep(0.05)
+    scn = fc.scenario(save)
+    assert scn.cases[0].config["environment"]["stiffness"] == pytest.approx(k_new, rel=1e-5)
+    assert _errors(driver) == []
+
+
+def test_reports_render_in_the_browser(driver, tmp_path):
+    """A run report and a sweep report open from file:// (no network) and draw their plots."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+    from forcecontrol.sweep import prepare_sweep, run_sweep
+    from forcecontrol.sweep.spec import SweepDefinition
+    from forcecontrol.workbench.report import write_report
+
+    res = CliRunner().invoke(app, ["run", "example-9.2", "--out", str(tmp_path / "run"), "--data", "csv", "--no-figure"])
+    assert res.exit_code == 0, res.output
+    run_html = write_report(tmp_path / "run")
+    scn = fc.scenario("example-9.3").with_(duration=1.0)
+    definition = SweepDefinition.from_options(
+        ["environment.stiffness=logspace(3,6,4)", "controller.force_gain[0]=0.0012,0.0024"], cases=["4"],
+    )
+    run_sweep(prepare_sweep(scn, definition), tmp_path / "sweep" / "s.parquet", workers=1)
+    sweep_html = write_report(tmp_path / "sweep")
+    for name, page, n_plots in (("report-run", run_html, 1), ("report-sweep", sweep_html, 1)):
+        driver.get(page.resolve().as_uri())
+        t0 = time.time()
+        counts = []
+        while time.time() - t0 < 15:
+            counts = driver.execute_script(
+                "return Array.from(document.querySelectorAll('.plotly-graph-div'))"
+                ".map(d => d.querySelectorAll('.main-svg').length);")
+            if len(counts) == n_plots and all(c > 0 for c in counts):
+                break
+            time.sleep(0.1)
+        assert len(counts) == n_plots and all(c > 0 for c in counts), f"{name}: plots not rendered ({counts})"
+        drawn = driver.execute_script("return document.querySelectorAll('.plotly-graph-div .scatterlayer .trace, "
+                                      ".plotly-graph-div .heatmaplayer image, .plotly-graph-div .contourlayer path').length;")
+        assert drawn > 0, f"{name}: no traces drawn"
+        _shot(driver, name)
+        assert _errors(driver) == [], f"{name}: console errors"
+
+
+def test_tune_page_of_example_9_3_draws_the_sampled_loop_stability_curve(driver, tmp_path):
+    """A direct force scheme: the page shows ρ(k) with the current point, as the session computes them."""
+    from forcecontrol.workbench.app import free_port, serve
+    from forcecontrol.workbench.session import TuneSession
+
+    port = free_port()
+    server = serve("example-9.3", port=port, show=False, save_path=tmp_path / "t.toml", threaded=True)
+    try:
+        t0 = time.time()
+        while True:
+            try:
+                driver.get(f"http://localhost:{port}/")
+                break
+            except Exception:  # noqa: BLE001 - the server thread is still binding its port
+                if time.time() - t0 > 20:
+                    raise
+                time.sleep(0.2)
+        assert driver.execute_async_script(_WAIT_MODEL)
+        time.sleep(0.5)
+        got = driver.execute_script("""
+          const d = Bokeh.documents[0];
+          const s = d.get_model_by_name('stability'), p = d.get_model_by_name('stability-point');
+          return [Array.from(s.data.k), Array.from(s.data.rho), Array.from(p.data.k), Array.from(p.data.rho)];""")
+        want = TuneSession("example-9.3").evaluate().stability
+        np.testing.assert_allclose(got[0], want.stiffness, rtol=1e-12)
+        np.testing.assert_allclose(got[1], want.radius, rtol=1e-12)
+        assert got[2] == [1e4] and got[3][0] == pytest.approx(want.current[1], rel=1e-12) and got[3][0] < 1.0
+        _shot(driver, "tune-example-9.3")
+        assert _errors(driver) == []
+    finally:
+        server.stop()
