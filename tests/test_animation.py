@@ -113,3 +113,27 @@ def test_cli_run_animate(tmp_path):
         assert len(frames) == 7  # 0.3 s at 20 frames/s, both ends
         assert ImageChops.difference(frames[0], frames[-1]).getbbox() is not None
     assert "animation:" in res.stdout
+
+
+def test_panda_stick_figure_gif(tmp_path):
+    """A 6-D run is drawn in 3-D through the Panda's joint origins (last point: the TCP); frames differ."""
+    from forcecontrol.robots.pinocchio import panda
+    from forcecontrol.simulation import SimulationResult
+
+    robot = panda()
+    qa = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    pts = robot.joint_positions(qa)
+    assert pts.shape == (robot.model.njoints + 1, 3)
+    assert np.allclose(pts[0], 0.0) and np.allclose(pts[-1], robot.frame_pose(qa)[1])
+    n = 6
+    q = np.linspace(qa, qa + np.array([0.6, 0.3, 0.0, 0.3, 0.0, -0.3, 0.0]), n)
+    x = np.array([robot.forward_kinematics(qi) for qi in q])
+    wrench = np.zeros((n, 6))
+    wrench[:, 2] = -np.linspace(0.0, 20.0, n)  # pressing down on the table
+    res = SimulationResult(t=np.linspace(0.0, 0.25, n), q=q, qd=np.zeros_like(q), x=x, xd=np.zeros_like(x),
+                           wrench=wrench, wrench_measured=wrench, torque=np.zeros_like(q),
+                           reference=np.zeros((n, 6 * 6)), label="panda")
+    table = fc.Table(point=[0.0, 0.0, float(x[0, 2])])
+    frames = _frames(animate_run(res, robot, table, tmp_path / "panda.gif"))
+    assert len(frames) == n
+    assert all(ImageChops.difference(a, b).getbbox() is not None for a, b in zip(frames, frames[1:]))
