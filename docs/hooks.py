@@ -212,6 +212,8 @@ def _scenario_page(scn, run, figs, anims, elapsed: float) -> str:
     for f, fig in zip(figs, scn.figures or ({},)):
         caption = fig.get("title") or scn.title
         lines += [f"![{caption}](img/{f.name})", ""]
+        if fig.get("note"):
+            lines += ['!!! note "Reading this figure"', "", "    " + " ".join(fig["note"].split()), ""]
     for a in anims:
         lines += [f"![Animation of the first case: the arm, the environment and the contact force](img/{a.name})", ""]
     lines += ["## Settled values", "", "| case | x [m] | y [m] | f_x [N] | f_y [N] | peak \\|f\\| [N] | engine |",
