@@ -172,8 +172,11 @@ def run_command(
     engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected value is missed")] = False,
     force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
+    animate: Annotated[
+        bool, typer.Option("--animate", help="also write an animation (GIF) of each case: the arm, the environment, the force")
+    ] = False,
 ) -> None:
-    """Simulate a scenario: summary table, figure like the chapter's, optional data files."""
+    """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..scenarios import load_scenario, run_scenario
@@ -181,7 +184,7 @@ def run_command(
     compile_notice()
     try:
         scn = load_scenario(scenario)
-        writes = figure or data is not DataFormat.none
+        writes = figure or animate or data is not DataFormat.none
         folder = prepare_output(out, _slug(scn.name), force) if writes else out / _slug(scn.name)
         if json_out:
             run = run_scenario(scn, engine=engine.value)
@@ -202,6 +205,12 @@ def run_command(
         run.files["figure"] = str(paths[0])
         for p in paths[1:]:
             run.files[f"figure:{p.stem}"] = str(p)
+    if animate:
+        try:
+            for label, p in _animate_cases(run, folder, _slug(scn.name)):
+                run.files[f"animation:{label}"] = str(p)
+        except ForceControlError as exc:
+            _fail(exc)
     if data is not DataFormat.none:
         for c in run.cases:
             d, m = c.result.save(folder / f"{_slug(scn.name)}-{_slug(c.label)}", format=data.value)
@@ -214,6 +223,20 @@ def run_command(
         _print_summary(run)
     if check and not run.all_checks_pass:
         raise typer.Exit(code=1)
+
+
+def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
+    """One GIF per case, ``folder/stem-<case>.gif`` (the robot and environment rebuilt from the scenario)."""
+    from ..animation import animate_run
+    from ..scenarios import build_case
+
+    out = []
+    for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
+        parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
+        name = f"{stem}-{_slug(c.label)}" if len(run.cases) > 1 else stem
+        out.append((c.label, animate_run(c.result, parts["robot"], parts["environment"], folder / f"{name}.gif",
+                                         title=f"{run.scenario.name}: {c.label}")))
+    return out
 
 
 def _print_summary(run) -> None:

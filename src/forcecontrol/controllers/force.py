@@ -488,8 +488,8 @@ class InnerPositionForceController(_DirectForceController):
         sample_time: Ts [s].
 
     Raises:
-        DimensionError: a gain has the wrong shape. ParameterError: negative, non-diagonal or
-        all-zero C_F, indefinite motion gains.
+        DimensionError: a gain has the wrong shape.
+        ParameterError: negative, non-diagonal or all-zero C_F, indefinite motion gains.
     """
 
     kind: ClassVar[int] = 4
@@ -571,9 +571,9 @@ class ParallelForcePositionController(_DirectForceController):
     ``reference.position`` x_d (m,) [m]; ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m].
     State: ``state = [ξ (m), ξ₀ (m)]`` [m].
 
-    Args: as :class:`InnerPositionForceController`, except that ``integrator_start`` defaults to
-        ``"zero"`` (x_F is a correction about x_d; the x_d step drives the transient, Fig. 9.11);
-        ``"tip"`` chooses ξ₀ so that x_d + x_F equals the tip position at t = 0.
+    Arguments are those of :class:`InnerPositionForceController`, except that ``integrator_start``
+    defaults to ``"zero"`` (x_F is a correction about x_d; the x_d step drives the transient,
+    Fig. 9.11); ``"tip"`` chooses ξ₀ so that x_d + x_F equals the tip position at t = 0.
     """
 
     kind: ClassVar[int] = 6

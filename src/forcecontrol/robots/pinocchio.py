@@ -189,6 +189,20 @@ class PinocchioRobot:
         M = self.data.oMf[self.frame_id]
         return M.rotation.copy(), M.translation.copy()
 
+    def joint_positions(self, q: Any) -> np.ndarray:
+        """The base, every joint's origin and the controlled frame in the base frame, (n_j + 2, 3) [m]
+        (for drawing the arm as a stick figure).
+
+        Raises:
+            DimensionError, MeasurementError: ``q`` has the wrong size or is not finite.
+        """
+        pin = self._pin
+        q = self._q(q)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        pts = [np.zeros(3)] + [self.data.oMi[i].translation.copy() for i in range(1, self.model.njoints)]
+        pts.append(self.data.oMf[self.frame_id].translation.copy())
+        return np.array(pts)
+
     def _x(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
         if self.task == "pose":
             return np.concatenate([p, rotation_to_euler_xyz(R)])

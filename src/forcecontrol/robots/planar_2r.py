@@ -193,6 +193,17 @@ class PlanarTwoLink:
         """Tip position ``[a1 c1 + a2 c12, a1 s1 + a2 s12]`` [m]."""
         return _fk(_state("q", q), self._K)
 
+    def joint_positions(self, q) -> np.ndarray:
+        """Base, elbow and tip positions in the base frame, (3, 2) [m] (for drawing the arm).
+
+        Raises:
+            DimensionError, MeasurementError: ``q`` is not a finite (2,) vector.
+        """
+        q = _state("q", q)
+        p = self.parameters
+        elbow = np.array([p.a1 * np.cos(q[0]), p.a1 * np.sin(q[0])])
+        return np.vstack([np.zeros(2), elbow, self.forward_kinematics(q)])
+
     def jacobian(self, q) -> np.ndarray:
         """Geometric Jacobian of the tip position, (2, 2)."""
         q = _state("q", q)

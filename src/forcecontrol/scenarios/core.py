@@ -96,6 +96,8 @@ FIGURE_FIELDS: dict[str, Field] = {
     "title": Field("str", default=""),
     "signals": Field("strlist", default=["x", "fx"], doc="columns to plot against time"),
     "t_max": Field("number", doc="time axis limit [s]"),
+    "zoom": Field("number", doc="inset on each force panel with the first `zoom` seconds, one dot per sample [s]"),
+    "note": Field("str", default="", doc="caption printed under the figure (what the reader needs to read it)"),
 }
 
 CASE_FIELDS = ("label", "expected")
@@ -493,6 +495,9 @@ def _check_figures(where: str, raw: Any, labels: list[str], signals: list[str] |
         for sig in fig["signals"] or []:
             if signals is not None and sig not in signals and not sig.startswith("ref_"):
                 raise ScenarioError(f"{fw}: key 'signals' names no signal {sig!r} of this robot; expected one of {signals}")
+        for key in ("t_max", "zoom"):
+            if fig.get(key) is not None and not fig[key] > 0:
+                raise ScenarioError(f"{fw}: key {key!r} must be a positive time [s]; got {fig[key]!r}")
         if isinstance(raw, list) and len(items) > 1 and not fig["name"]:
             raise ScenarioError(f"{fw}: missing key 'name' (several figures need distinct file names)")
         out.append(fig)
