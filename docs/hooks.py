@@ -39,7 +39,7 @@ import diagrams  # noqa: E402
 
 _GENERATED: dict[str, Path] = {}  # src_uri -> file, made once per process (mkdocs serve rebuilds)
 _TIMES: dict[str, float] = {}
-EXEC_PAGES = re.compile(r"^(chapter/|getting-started\.md$|conventions\.md$)")
+EXEC_PAGES = re.compile(r"^(chapter/|guides/|getting-started\.md$|conventions\.md$)")
 
 
 def _outdir() -> Path:

@@ -15,6 +15,9 @@ __all__ = ["plot_results", "plot_run", "plot_run_figures", "case_style", "panel_
 
 #: axis labels of the plottable columns.
 SIGNAL_LABELS: dict[str, str] = {
+    "tank_energy": "tank energy T [J]",
+    "stiffness_scale": "applied / scheduled stiffness [-]",
+    "storage": "impedance storage H [J]",
     "x": "tip x [m]",
     "y": "tip y [m]",
     "z": "tip z [m]",
@@ -162,7 +165,8 @@ def plot_results(
         span = []
         for i, r in enumerate(results):
             y = _series(r, sig)
-            span += [float(np.nanmin(y)), float(np.nanmax(y))]
+            if np.any(np.isfinite(y)):  # a signal a case does not log (NaN) draws nothing, sets no range
+                span += [float(np.nanmin(y)), float(np.nanmax(y))]
             ax.plot(r.t, y, label=r.label or f"case {i + 1}", zorder=3, **case_style(i))
         refs = _draw_references(ax, results, sig) if references else []
         for t, v, lab in (overlays or {}).get(sig, []):
@@ -171,7 +175,7 @@ def plot_results(
             ax.axhline(value, color="0.35", lw=0.9, ls=":", zorder=2)
             ax.annotate(lab, xy=(1.0, value), xycoords=("axes fraction", "data"), xytext=(-3, 2),
                         textcoords="offset points", ha="right", va="bottom", fontsize=7, color="0.25")
-        _set_ylim(ax, (min(span), max(span)), refs, [v for v, _ in (expected or {}).get(sig, [])])
+        _set_ylim(ax, (min(span), max(span)) if span else (0.0, 1.0), refs, [v for v, _ in (expected or {}).get(sig, [])])
         ax.set_xlabel("t [s]")
         ax.set_ylabel(SIGNAL_LABELS.get(sig, sig))
         ax.grid(True, lw=0.3)
