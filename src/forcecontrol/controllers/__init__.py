@@ -13,7 +13,13 @@ from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
 from .redundant import NullSpacePosture, SingularityHandling
 from .spatial import SpatialComplianceController, SpatialHybridController, SpatialImpedanceController
-from .variable import DirectionalStiffness, EnergyTank, SinusoidalStiffness, VariableImpedanceController
+from .variable import (
+    DirectionalStiffness,
+    EnergyTank,
+    SinusoidalStiffness,
+    VariableAdmittanceController,
+    VariableImpedanceController,
+)
 
 __all__ = [
     "Controller",
@@ -36,6 +42,7 @@ __all__ = [
     "NullSpacePosture",
     "SingularityHandling",
     "VariableImpedanceController",
+    "VariableAdmittanceController",
     "EnergyTank",
     "DirectionalStiffness",
     "SinusoidalStiffness",

@@ -134,9 +134,15 @@ class AdmittanceController(_SpatialBase):
             if environment_stiffness is None
             else as_gain_matrix("environment_stiffness", environment_stiffness, 6, definite=False)
         )
-        Mt_inv = np.linalg.inv(self.inertia)
-        self._Mt_inv = Mt_inv
-        # continuous model x = [z; ż]: ẋ = A x + G h, exact ZOH discretisation
+        self._Mt_inv = np.linalg.inv(self.inertia)
+        self._discretise()
+        self.state = np.zeros(12)
+        self._eye6 = np.eye(6)
+        self.bandwidths = self.check_bandwidth()
+
+    def _discretise(self) -> None:
+        """(9.37) as x = [z; ż]: ẋ = A x + G h, discretised exactly with the wrench held (ZOH)."""
+        Mt_inv = self._Mt_inv
         A = np.zeros((12, 12))
         A[:6, 6:] = np.eye(6)
         A[6:, :6] = -Mt_inv @ self.stiffness
@@ -149,9 +155,6 @@ class AdmittanceController(_SpatialBase):
         E = expm(big)
         self._Ad, self._Gd = E[:12, :12], E[:12, 12:]
         self._A, self._G = A, G
-        self.state = np.zeros(12)
-        self._eye6 = np.eye(6)
-        self.bandwidths = self.check_bandwidth()
 
     def check_bandwidth(self) -> dict[str, float]:
         """The two loops' natural frequencies [rad/s]; warns when the motion loop is not faster.

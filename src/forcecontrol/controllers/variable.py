@@ -36,10 +36,18 @@ import numpy as np
 from .._validate import as_gain_matrix, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
+from .admittance import AdmittanceController
 from .base import Measurement, Reference
 from .impedance import ImpedanceController, impedance_acceleration
 
-__all__ = ["EnergyTank", "VariableImpedanceController", "Schedule", "DirectionalStiffness", "SinusoidalStiffness"]
+__all__ = [
+    "EnergyTank",
+    "VariableImpedanceController",
+    "VariableAdmittanceController",
+    "Schedule",
+    "DirectionalStiffness",
+    "SinusoidalStiffness",
+]
 
 #: a gain schedule: ``schedule(t, x_tilde, x_tilde_dot) -> matrix (m, m)`` (or (m,) diagonal, or a scalar).
 Schedule = Callable[[float, np.ndarray, np.ndarray], Any]
@@ -305,3 +313,89 @@ class VariableImpedanceController(ImpedanceController):
         })
         return g
 
+
+
+class VariableAdmittanceController(AdmittanceController):
+    """Admittance control (9.37) whose compliant-frame stiffness K_Pt and damping K_Dt follow schedules.
+
+    The compliant frame's dynamics ``M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d`` are the controller's own
+    (a virtual system), with storage ``H_t = ½ z̃̇ᵀ M_t z̃̇ + ½ z̃ᵀ K_Pt z̃``; a stiffness change
+    injects ``½ z̃ᵀ ΔK_Pt z̃`` into it. With an :class:`EnergyTank` the change is paid from the
+    energy the virtual damper dissipated over the last sample (``σ Ts z̃̇ᵀ K_Dt z̃̇``), scaled down
+    when the tank cannot pay, exactly as :class:`VariableImpedanceController` does; the
+    discretisation of (9.37) is recomputed whenever the gains change. The motion loop that tracks
+    the compliant frame is unchanged.
+
+    Logged signals (``signals()``): ``tank_energy`` [J] (NaN without a tank),
+    ``stiffness_scale``, ``storage`` H_t [J], ``stiffness`` and ``damping`` (flattened 6 × 6).
+
+    Args:
+        robot, inertia, damping, stiffness: as :class:`AdmittanceController` (the gains at t = 0).
+        stiffness_schedule, damping_schedule: ``f(t, z_tilde, z_tilde_dot)`` (z̃ (6,) in
+            desired-frame coordinates) returning a scalar, (6,) or (6, 6) PSD gain; None: constant.
+        tank: an :class:`EnergyTank` or None (naive).
+        **kwargs: the other :class:`AdmittanceController` options.
+    """
+
+    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
+
+    def __init__(self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *,
+                 stiffness_schedule: Schedule | None = None, damping_schedule: Schedule | None = None,
+                 tank: EnergyTank | None = None, **kwargs: Any) -> None:
+        super().__init__(robot, inertia, damping, stiffness, **kwargs)
+        for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
+            if f is not None and not callable(f):
+                raise ParameterError(f"{name} must be a callable f(t, z_tilde, z_tilde_dot) or None; got {f!r}")
+        if tank is not None and not isinstance(tank, EnergyTank):
+            raise ParameterError(f"tank must be an EnergyTank or None; got {type(tank).__name__}")
+        self.stiffness_schedule = stiffness_schedule
+        self.damping_schedule = damping_schedule
+        self.tank = tank
+        self._K0, self._D0 = self.stiffness, self.damping
+        self.reset()
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """The compliant frame on the desired frame at rest, the gains and tank back to their start, the log emptied."""
+        super().reset(measurement, reference)
+        if not hasattr(self, "_K0"):
+            return  # called by the base constructor before this class's attributes exist
+        if self.stiffness is not self._K0 or self.damping is not self._D0:
+            self.stiffness, self.damping = self._K0, self._D0
+            self._discretise()
+        self._started = False
+        self._log: dict[str, list[Any]] = {k: [] for k in ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")}
+        if self.tank is not None:
+            self.tank.reset()
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Update the gains of (9.37) (tank-limited), then the admittance law for this sample."""
+        z, zd = self.state[:6].copy(), self.state[6:].copy()
+        D_prev, K = self.damping, self.stiffness
+        D = D_prev if self.damping_schedule is None else _schedule_matrix(
+            "damping", self.damping_schedule(t, z.copy(), zd.copy()), 6, t)
+        K_s = K if self.stiffness_schedule is None else _schedule_matrix(
+            "stiffness", self.stiffness_schedule(t, z.copy(), zd.copy()), 6, t)
+        if self.tank is not None:
+            if self._started:  # the virtual damper's dissipation over the last sample
+                self.tank.fill(self.sample_time * float(zd @ D_prev @ zd))
+            dK = K_s - K
+            alpha = self.tank.pay(0.5 * float(z @ dK @ z)) if np.any(dK) else 1.0
+            K_new = K + alpha * dK
+        else:
+            K_new = np.array(K_s, dtype=np.float64)
+        self._started = True
+        if not (np.array_equal(K_new, K) and np.array_equal(D, D_prev)):
+            self.stiffness, self.damping = K_new, np.array(D, dtype=np.float64)
+            self._discretise()
+        tr = float(np.trace(K_s))
+        log = self._log
+        log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
+        log["stiffness_scale"].append(float(np.trace(K_new)) / tr if tr > 0.0 else 1.0)
+        log["storage"].append(0.5 * float(zd @ self.inertia @ zd) + 0.5 * float(z @ K_new @ z))
+        log["stiffness"].append(K_new.ravel().copy())
+        log["damping"].append(self.damping.ravel().copy())
+        return super().step(t, measurement, reference)
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """What the controller logged at each step since the last reset (arrays, one row per step)."""
+        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
