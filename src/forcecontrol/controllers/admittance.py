@@ -28,7 +28,6 @@ import warnings
 from typing import Any
 
 import numpy as np
-from scipy.linalg import expm  # type: ignore[import-untyped]
 
 from .._validate import as_gain_matrix, positive_scalar
 from ..errors import BandwidthWarning
@@ -142,6 +141,8 @@ class AdmittanceController(_SpatialBase):
 
     def _discretise(self) -> None:
         """(9.37) as x = [z; ż]: ẋ = A x + G h, discretised exactly with the wrench held (ZOH)."""
+        from scipy.linalg import expm  # type: ignore[import-untyped]  # here: SciPy costs ~0.4 s to import
+
         Mt_inv = self._Mt_inv
         A = np.zeros((12, 12))
         A[:6, 6:] = np.eye(6)
