@@ -96,6 +96,7 @@ _LAZY: dict[str, str] = {
     "LinearPath": ".trajectories",
     "ReferenceSignal": ".trajectories",
     "Setpoint": ".trajectories",
+    "SampledReference": ".trajectories",
     "ContactSupervisor": ".transitions",
     "critical_damping": ".transitions",
     "impact_report": ".transitions",
@@ -161,7 +162,7 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
     from .simulation import SimulationResult, simulate
     from .spatial import Transform, Twist, Wrench
     from .task import SelectionMatrices, Task
-    from .trajectories import LinearPath, ReferenceSignal, Setpoint
+    from .trajectories import LinearPath, ReferenceSignal, SampledReference, Setpoint
     from .transitions import ContactSupervisor, critical_damping, impact_report
 
 
@@ -260,4 +261,5 @@ __all__ = [
     "replay",
     "compare_traces",
     "StiffnessEstimator",
+    "SampledReference",
 ]

@@ -398,6 +398,7 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         path = scenario_source(source)
         where = str(path)
         data = _read_toml(path, where)
+        _resolve_reference_files(data, path.parent)
     cases_raw = data.pop("case", None)
     figures_raw = data.pop("figure", None)
     top = check_table(where, data, TOP_FIELDS)
@@ -436,6 +437,26 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         name=top["name"], title=top["title"], description=top["description"], source=where,
         cases=tuple(cases), figure=figures[0] if figures else None, figures=tuple(figures), raw=data,
     )
+
+
+def _resolve_reference_files(data: dict[str, Any], folder: Path) -> None:
+    """A relative ``[reference] file`` (and a case's ``reference.file``) is relative to the scenario file's folder."""
+
+    def fix(value: Any) -> Any:
+        if isinstance(value, str) and value and not Path(value).is_absolute():
+            return str(folder / value)
+        return value
+
+    ref = data.get("reference")
+    if isinstance(ref, dict) and "file" in ref:
+        ref["file"] = fix(ref["file"])
+    for case in data.get("case") or []:
+        if not isinstance(case, dict):
+            continue
+        if isinstance(case.get("reference"), dict) and "file" in case["reference"]:
+            case["reference"]["file"] = fix(case["reference"]["file"])
+        if "reference.file" in case:
+            case["reference.file"] = fix(case["reference.file"])
 
 
 def _get_dotted(cfg: dict[str, Any], key: str) -> Any:

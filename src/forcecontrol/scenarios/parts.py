@@ -7,7 +7,7 @@ from typing import Any
 
 from ..controllers import ImpedanceController, JointSpacePD, OperationalSpacePD
 from ..environments import ElasticPlane, LinearSpring
-from ..trajectories import LinearPath, Setpoint
+from ..trajectories import LinearPath, SampledReference, Setpoint
 from .schema import Field, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- environments
@@ -132,6 +132,18 @@ register_reference(
     },
     lambda p, ctx: LinearPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"], p["force"]),
     "straight segment with a trapezoidal velocity profile",
+)
+
+register_reference(
+    "sampled",
+    {
+        "file": Field("str", True, doc="CSV or Parquet: t, x, y [, z] (or ref_position_*), optional fx, fy (or ref_force_*); "
+                                       "a relative path is relative to the scenario file"),
+        "interpolation": Field("str", default="cubic", choices=("linear", "cubic"), doc="cubic spline (C²) or linear"),
+        "dim": Field("int", doc="task dimension (default: the position columns found)"),
+    },
+    lambda p, ctx: SampledReference.from_file(p["file"], dim=p["dim"], interpolation=p["interpolation"]),
+    "x_d (and f_d) from samples in a file, interpolated; held before the first and after the last sample",
 )
 
 # ----------------------------------------------------------------------------- analyses
