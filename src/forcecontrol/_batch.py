@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from ._linalg import SINGULAR_RCOND
+from .metrics import case_metrics  # the one definition of the step-response metrics
 
 __all__ = ["run_batch", "run_case", "case_metrics", "OUT_COLUMNS", "FAST_KINDS"]
 
@@ -327,63 +328,6 @@ def run_case(K, env_kind, env_p, ctrl_kind, ctrl_p, ctrl_s, refs, bias, noise, a
         if abs(w_0) > max_qd or abs(w_1) > max_qd:
             return RUNAWAY, k, peak, lost
     return OK, N, peak, lost
-
-
-@njit(cache=True)
-def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band):  # pragma: no cover
-    """Step-response metrics of the contact force y[0..last] (one case).
-
-    ``y_final`` is the mean of y over the last ``window`` samples. With ``s = y_final − y_0``:
-    settling time = first t_k after which ``|y − y_final| <= settle_band |s|`` (NaN if it never
-    stays in the band); overshoot = ``100 max(0, max_k sign(s) (y_k − y_final)) / |s|`` [%];
-    steady-state force error = ``y_final − f_ref``. Stable: no divergence, and the largest
-    ``|y − y_final|`` over the last quarter of the run is within ``stable_band |s|`` or below
-    0.9 times that over the quarter before (still decaying). Diverged cases get NaN metrics.
-
-    Returns:
-        (settling time [s], overshoot [%], steady-state error [N], stable (0/1), y_final [N]).
-    """
-    nan = math.nan
-    if status != 0:
-        return nan, nan, nan, 0.0, nan
-    n = last + 1
-    w = min(max(window, 1), n)
-    acc = 0.0
-    for k in range(n - w, n):
-        acc += y[k]
-    yf = acc / w
-    s = yf - y[0]
-    mag = abs(s)
-    err = yf - f_ref
-    if mag == 0.0 or not math.isfinite(mag):
-        return nan, nan, err, 1.0 if mag == 0.0 else 0.0, yf
-    band = settle_band * mag
-    k_out = -1
-    for k in range(n - 1, -1, -1):
-        if abs(y[k] - yf) > band:
-            k_out = k
-            break
-    settling = nan if k_out >= n - 1 else (k_out + 1) * Ts
-    sign = 1.0 if s > 0.0 else -1.0
-    over = 0.0
-    for k in range(n):
-        v = sign * (y[k] - yf)
-        if v > over:
-            over = v
-    over = 100.0 * over / mag
-    qn = max(n // 4, 1)
-    late = 0.0
-    for k in range(n - qn, n):
-        v = abs(y[k] - yf)
-        if v > late:
-            late = v
-    early = 0.0
-    for k in range(max(n - 2 * qn, 0), n - qn):
-        v = abs(y[k] - yf)
-        if v > early:
-            early = v
-    stable = 1.0 if (late <= stable_band * mag or late < 0.9 * early) else 0.0
-    return settling, over, err, stable, yf
 
 
 @njit(cache=True)

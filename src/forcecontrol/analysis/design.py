@@ -155,14 +155,15 @@ class LoopModel:
         return np.arange(n) * self.sample_time, f[:n]
 
     def settling_time(self, band: float = 0.02, horizon: float | None = None) -> float:
-        """Last time the true force of the step response is outside ±band of its final value [s].
+        """The 2 % settling time of the true force's step response [s] (:func:`forcecontrol.metrics.step_metrics`).
 
         The final value is exact (``F (I − A_cl)⁻¹ E``); ``inf`` when unstable or not settled
         within the horizon (default: 20 time constants of the slowest pole, at most 60 s).
         """
+        from ..metrics import step_metrics
+
         Acl = self.closed
-        eig = np.abs(np.linalg.eigvals(Acl))
-        rho = float(eig.max())
+        rho = float(np.max(np.abs(np.linalg.eigvals(Acl))))
         if rho >= 1.0:
             return math.inf
         if horizon is None:
@@ -170,12 +171,8 @@ class LoopModel:
             horizon = min(60.0, max(1.0, 20.0 * tau))
         final = float(self.F @ np.linalg.solve(np.eye(Acl.shape[0]) - Acl, self.E))
         t, f = self.step(horizon)
-        out = np.flatnonzero(np.abs(f - final) > band * abs(final))
-        if out.size == 0:
-            return 0.0
-        if out[-1] == f.size - 1:
-            return math.inf
-        return float(t[out[-1] + 1])
+        st = step_metrics(t, f, band=band, final=final).settling_time
+        return st if math.isfinite(st) else math.inf
 
 
 def _alpha(cutoff: float | None, sample_time: float) -> float:

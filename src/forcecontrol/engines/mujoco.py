@@ -446,17 +446,16 @@ def simulate_mujoco(
 
 
 def _transient(t: np.ndarray, f: np.ndarray) -> dict[str, float]:
-    final = float(np.mean(f[t >= t[-1] - 0.1]))
-    peak_i = int(np.argmax(np.abs(f)))
-    tol = 0.02 * abs(final) if final != 0 else 1e-9
-    outside = np.nonzero(np.abs(f - final) > tol)[0]
-    settle = float(t[outside[-1] + 1]) if outside.size and outside[-1] + 1 < len(t) else float(t[0])
+    """The contact force's transient by the library's one definition (:func:`forcecontrol.metrics.step_metrics`)."""
+    from ..metrics import step_metrics
+
+    m = step_metrics(t, f, window=0.1)
     return {
-        "steady": final,
-        "peak": float(f[peak_i]),
-        "peak_time": float(t[peak_i]),
-        "overshoot_percent": 100.0 * (abs(f[peak_i]) - abs(final)) / abs(final) if final else 0.0,
-        "settling_time_2pc": settle,
+        "steady": m.steady,
+        "peak": m.peak,
+        "peak_time": m.peak_time,
+        "overshoot_percent": m.overshoot_percent,
+        "settling_time_2pc": m.settling_time,
     }
 
 
