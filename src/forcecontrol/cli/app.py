@@ -140,8 +140,6 @@ def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario
 @app.command("schema")
 def schema_command() -> None:
     """Print the scenario file schema: every table, type and key."""
-    from rich.markup import escape  # "[sensor]", "[rad/s]": text, not markup
-
     from ..scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
     from ..scenarios.core import ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
 
