@@ -30,6 +30,8 @@ QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")
 
 
 class RobotName(str, Enum):
+    """Robot models whose forward kinematics give the end-effector's orientation (``none``: use the table's columns)."""
+
     none = "none"
     chapter_arm = "chapter-arm"
     panda = "panda"
@@ -94,6 +96,15 @@ def convert_report(
     joint_topic: str = "/joint_states", wrench_topic: str = "/force_torque_sensor_broadcaster/wrench", force: bool = False,
 ) -> dict[str, Any]:
     """Convert a recording's wrench and write it; the report as plain data (the ``--json`` output).
+
+    Args:
+        data: the recording; source, target: convention names; out: the .csv/.parquet to write.
+        fmt, robot, flange_offset, base_frame, end_effector_frame, joint_topic, wrench_topic, force:
+            as the command's options.
+
+    Returns:
+        ``data``, ``from``, ``to`` (conventions), ``samples``, ``components``, ``orientation``
+        (where it came from) and ``files`` (table and metadata).
 
     Raises:
         ParameterError: an unknown convention, an existing output without ``force``, an
