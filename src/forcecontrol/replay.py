@@ -25,11 +25,16 @@ from .conventions import BY_END_EFFECTOR
 from .errors import DimensionError, FrameError, MeasurementError, ParameterError
 from .io import RecordedRun
 from .io.recorded import wrench_axis_names
+from .robots import PlanarTwoLink
 from .robots.base import RobotModel
 from .simulation import SimulationResult
+from .spatial import Transform
 from .trajectories import ReferenceSignal
 
-__all__ = ["replay", "ReplayResult", "recorded_from_simulation", "compare_traces", "TraceComparison"]
+__all__ = [
+    "replay", "wrench_to_base", "end_effector_rotation", "ReplayResult", "recorded_from_simulation", "compare_traces",
+    "TraceComparison",
+]
 
 
 @dataclass(frozen=True)
@@ -170,6 +175,107 @@ def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: Robo
     return n, m
 
 
+def end_effector_rotation(robot: RobotModel, q: Any) -> np.ndarray:
+    """The end-effector frame's rotation R_e (3, 3) in the base frame at joint positions q.
+
+    Spatial robots (:class:`~forcecontrol.robots.pinocchio.PinocchioRobot`) give it by their
+    forward kinematics (``frame_pose``); for the planar arm (:class:`~forcecontrol.robots.PlanarTwoLink`)
+    it is the rotation about z by ``q1 + q2``.
+
+    Raises:
+        FrameError: the robot model has no end-effector orientation.
+    """
+    if hasattr(robot, "frame_pose"):
+        return np.asarray(robot.frame_pose(q)[0], dtype=np.float64)
+    if isinstance(robot, PlanarTwoLink):
+        phi = float(np.sum(np.asarray(q, dtype=np.float64)))
+        c, s = np.cos(phi), np.sin(phi)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    raise FrameError(
+        f"{type(robot).__name__} has no end-effector orientation (no frame_pose); convert the wrench into the base frame first"
+    )
+
+
+def wrench_to_base(robot: RobotModel, q: Any, wrench: Any, *, sensor_pose: Transform | None = None) -> np.ndarray:
+    """Wrenches recorded in the end-effector (or a sensor) frame, re-expressed in the base frame, per sample.
+
+    For each sample k, with R_e = R_e(q_k) (:func:`end_effector_rotation`): without a sensor pose
+    ``f = R_e f_e``, ``μ = R_e μ_e``; with a sensor at ``(R_es, p_es)`` in the end-effector frame,
+    ``R = R_e R_es``, ``f = R f_s``, and the moment moves to the end-effector origin,
+    ``μ = R μ_s − r × f`` with ``r = −R_e p_es`` (from the sensor origin to the end-effector's).
+    The sense is kept.
+
+    Args:
+        robot: the robot model; q: joint positions (N, n) [rad].
+        wrench: (N, m) [N, N m]: ``fx fy`` (m = 2, planar: the z component is taken as 0),
+            ``fx fy fz`` (3) or ``[f; μ]`` (6).
+        sensor_pose: the sensor frame's pose in the end-effector frame, or None.
+
+    Returns:
+        (N, m) the wrenches in the base frame, the moments about the end-effector origin.
+
+    Raises:
+        DimensionError: q and wrench have different numbers of rows, or m is not 2, 3 or 6.
+        FrameError: the robot has no orientation, or a sensor offset with a wrench that has no moment.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    h = np.atleast_2d(np.asarray(wrench, dtype=np.float64))
+    if h.shape[0] != q.shape[0]:
+        raise DimensionError(f"wrench must have one row per joint sample ({q.shape[0]}); got shape {h.shape}")
+    m = h.shape[1]
+    if m not in (2, 3, 6):
+        raise DimensionError(f"wrench must have 2 (fx fy), 3 (fx fy fz) or 6 (f; μ) components; got {m}")
+    R_es = np.eye(3) if sensor_pose is None else sensor_pose.rotation
+    p_es = np.zeros(3) if sensor_pose is None else sensor_pose.translation
+    if m < 6 and np.any(p_es != 0.0):
+        raise FrameError(
+            f"a sensor offset {p_es.tolist()} moves the moment, but the wrench has {m} components and no moment: "
+            "record all 6 components, or give a sensor_pose with zero translation"
+        )
+    out = np.empty_like(h)
+    for k in range(h.shape[0]):
+        R_e = end_effector_rotation(robot, q[k])
+        R = R_e @ R_es
+        f = R @ np.concatenate([h[k, :3], np.zeros(3 - min(m, 3))])
+        if m == 6:
+            r = -(R_e @ p_es)
+            out[k] = np.concatenate([f, R @ h[k, 3:] - np.cross(r, f)])
+        else:
+            out[k] = f[:m]
+    return out
+
+
+def _check_wrench_frame(
+    recorded: RecordedRun, robot: RobotModel, base_frame: str, end_effector_frame: str, sensor_pose: Transform | None
+) -> None:
+    """The log's wrench frame is the end-effector's (any name the robot has for it) or the sensor's, else FrameError."""
+    ee_names = {end_effector_frame} | ({robot.frame} if isinstance(getattr(robot, "frame", None), str) else set())
+    frame, point = recorded.wrench_frame, recorded.wrench_point
+    if sensor_pose is not None:
+        if not isinstance(sensor_pose, Transform):
+            raise ParameterError(f"sensor_pose must be a forcecontrol Transform; got {type(sensor_pose).__name__}")
+        if sensor_pose.parent not in ee_names or sensor_pose.child != frame:
+            raise FrameError(
+                f"sensor_pose must be the pose of the log's wrench frame {frame!r} in the end-effector frame "
+                f"{end_effector_frame!r}; got {sensor_pose.parent}<-{sensor_pose.child}"
+            )
+        if point != frame:
+            raise FrameError(f"a sensor-frame wrench must be about the sensor's origin {frame!r}; the log's is about {point!r}")
+        return
+    if frame not in ee_names:
+        raise FrameError(
+            f"the controller needs the wrench in the base frame {base_frame!r}; the log's is in {frame!r}, which is not the "
+            f"end-effector frame either ({', '.join(sorted(map(repr, ee_names)))}): pass sensor_pose= for a sensor frame, "
+            "base_frame=/end_effector_frame= if it is one of those under another name, or convert it first "
+            "(forcecontrol.conventions, forcecontrol convert)"
+        )
+    if recorded.m == 6 and point not in ee_names:
+        raise FrameError(
+            f"the log's 6-D wrench is in the end-effector frame but about {point!r}, not the end-effector origin: "
+            "give sensor_pose= (its translation places that point) or move the moment first"
+        )
+
+
 def replay(
     controller: Controller,
     recorded: RecordedRun,
@@ -177,6 +283,8 @@ def replay(
     robot: RobotModel | None = None,
     *,
     base_frame: str = "base",
+    end_effector_frame: str = "end-effector",
+    sensor_pose: Transform | None = None,
     max_gap: float | None = None,
     start: float | None = None,
     end: float | None = None,
@@ -194,8 +302,16 @@ def replay(
         reference: references as functions of time, from t = 0 at the first replayed sample.
         robot: the robot model (default: the controller's); its joints and task dimension must
             match the log's.
-        base_frame: the name of the frame the controller's wrench is expressed in; the log's
-            wrench must be in it (convert with :mod:`forcecontrol.conventions` first).
+        base_frame: the name of the frame the controller's wrench is expressed in.
+        end_effector_frame: the name a log uses for the end-effector frame (the robot's own
+            frame name, e.g. ``panda_hand_tcp``, is accepted too). A wrench recorded in it is
+            rotated per sample into the base frame with the forward kinematics at the recorded
+            q (:func:`wrench_to_base`).
+        sensor_pose: for a wrench recorded in a sensor frame: that frame's pose in the
+            end-effector frame (``Transform(R, p, parent=end_effector_frame, child=<the log's
+            wrench frame>)``); the wrench is rotated into the base frame and its moment moved
+            from the sensor's origin to the end-effector's (μ_e = μ_s − r × f, r from the sensor
+            origin to the end-effector origin).
         max_gap, start, end: passed to :meth:`RecordedRun.resample`.
 
     Returns:
@@ -203,7 +319,8 @@ def replay(
 
     Raises:
         DimensionError: joints or wrench components differ from the controller's; FrameError:
-            the wrench is in another frame; MeasurementError: the log cannot be resampled, or the
+            the wrench is in neither the base, the end-effector nor the given sensor frame, or a
+            6-D end-effector-frame wrench is about another point; MeasurementError: the log cannot be resampled, or the
             controller needs a wrench the log does not have.
     """
     n, m = _check_dimensions(controller, recorded, robot)
@@ -211,19 +328,23 @@ def replay(
         raise ParameterError(f"reference must be a ReferenceSignal (e.g. Setpoint); got {type(reference).__name__}")
     if reference.dim != m:
         raise DimensionError(f"reference must be {m}-dimensional like the controller's task space; got {reference.dim}")
-    if recorded.wrench is not None and recorded.wrench_frame != base_frame:
-        # (the moment's point is the user's to convert: the log cannot say where the end-effector was)
-        raise FrameError(
-            f"the controller needs the wrench in the base frame {base_frame!r}; the log's is in {recorded.wrench_frame!r}: "
-            "convert it first (forcecontrol.conventions), or pass base_frame= if that is the base frame's name"
-        )
+    model = robot if robot is not None else controller.robot
+    in_base = recorded.wrench is None or recorded.wrench_frame == base_frame
+    if not in_base:
+        # (in the base frame, the moment's point is the user's to convert: the log cannot say where it was taken)
+        _check_wrench_frame(recorded, model, base_frame, end_effector_frame, sensor_pose)
     Ts = controller.sample_time
     rec = recorded.resample(Ts, max_gap=max_gap, start=start, end=end)
     N = rec.t.size
     t = rec.t - rec.t[0]
     t = np.where(np.abs(t - Ts * np.arange(N)) < 1e-9 * Ts, Ts * np.arange(N), t)  # exact grid when it is one
     sign = 1.0 if rec.wrench_sense == BY_END_EFFECTOR else -1.0
-    h = np.zeros((N, m)) if rec.wrench is None else sign * rec.wrench
+    if rec.wrench is None:
+        h = np.zeros((N, m))
+    elif in_base:
+        h = sign * rec.wrench
+    else:
+        h = sign * wrench_to_base(model, rec.q, rec.wrench, sensor_pose=sensor_pose)
     refs = np.ascontiguousarray(reference.sample(t), dtype=np.float64)
     k_f = REFERENCE_FIELDS.index("force")
     controller.reset(Measurement(rec.q[0].copy(), rec.qd[0].copy(), h[0].copy()), reference.at(0.0))

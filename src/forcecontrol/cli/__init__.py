@@ -6,7 +6,7 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, calibrate, compare, compare_trace, design, replay, report, sweep, task, tune
+from . import analyze, calibrate, compare, compare_trace, convert, design, replay, report, sweep, task, tune
 from .app import app, main
 
 app.command("analyze")(analyze.analyze_command)
@@ -17,6 +17,7 @@ app.command("calibrate")(calibrate.calibrate_command)
 app.command("calibrate-plan")(calibrate.calibrate_plan_command)
 app.command("replay")(replay.replay_command)
 app.command("compare-trace")(compare_trace.compare_trace_command)
+app.command("convert")(convert.convert_command)
 app.command("design")(design.design_command)
 app.command("tune")(tune.tune_command)
 app.command("report")(report.report_command)

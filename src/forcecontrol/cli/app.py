@@ -141,22 +141,23 @@ def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario
 def schema_command() -> None:
     """Print the scenario file schema: every table, type and key."""
     from ..scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
-    from ..scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
+    from ..scenarios.core import ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
 
     def dump(title: str, fields) -> None:
-        t = Table(title=title, title_justify="left")
+        t = Table(title=escape(title), title_justify="left")
         t.add_column("key", style="bold")
         t.add_column("kind")
         t.add_column("required")
         t.add_column("default")
         t.add_column("meaning")
         for k, f in fields.items():
-            t.add_row(k, f.kind, "yes" if f.required else "", "" if f.default is None else repr(f.default), f.doc)
+            t.add_row(k, f.kind, "yes" if f.required else "", "" if f.default is None else escape(repr(f.default)), escape(f.doc))
         console.print(t)
 
     dump("top level", TOP_FIELDS)
     dump("[robot]", ROBOT_FIELDS)
     dump("[sensor]", SENSOR_FIELDS)
+    dump("[actuator]", ACTUATOR_FIELDS)
     for label, reg in (("environment", ENVIRONMENTS), ("controller", CONTROLLERS), ("reference", REFERENCES)):
         for name, spec in reg.items():
             dump(f"[{label}] type = \"{name}\": {spec.doc}", spec.fields)

@@ -14,10 +14,13 @@ Adapters: ROS 2 messages (``geometry_msgs`` WrenchStamped / PoseStamped / TwistS
 dictionaries or rosbags message objects; quaternions x, y, z, w) in :mod:`.ros`; libfranka's
 estimated external wrench, Universal Robots' RTDE ``actual_TCP_force`` and force-mode wrench, and
 MuJoCo's force/torque sensors in :mod:`.vendors`, each with the vendor's documented convention.
+Recorded arrays: :data:`CONVENTIONS` names them and :func:`convert_wrenches` converts (N, m)
+samples between them (``forcecontrol convert``).
 """
 
 from __future__ import annotations
 
+from .named import CONVENTIONS, WrenchConvention, convention, convert_wrenches
 from .ros import (
     pose_from_ros,
     pose_to_ros,
@@ -42,6 +45,10 @@ from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR, SENSES, SensedWrench, twis
 
 __all__ = [
     "SensedWrench",
+    "WrenchConvention",
+    "CONVENTIONS",
+    "convention",
+    "convert_wrenches",
     "BY_END_EFFECTOR",
     "ON_END_EFFECTOR",
     "SENSES",

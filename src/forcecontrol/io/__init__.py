@@ -10,13 +10,18 @@ sense), from
 
 and :meth:`RecordedRun.resample` puts it on the controller's period (linear interpolation;
 non-monotonic time, gaps and NaNs are refused with the column and the time named).
-:func:`read_recording` picks the reader from the file's suffix.
+:func:`read_recording` picks the reader from the file's suffix. :func:`convert_recording` converts
+the wrench between conventions and :func:`write_recording` writes a table with its metadata.
 """
 
 from __future__ import annotations
 
+from .convert import convert_recording, write_recording
 from .recorded import RecordedRun
 from .rosfiles import read_bag, read_mcap
 from .tables import TABLE_COLUMNS, read_recording, read_table
 
-__all__ = ["RecordedRun", "read_table", "read_bag", "read_mcap", "read_recording", "TABLE_COLUMNS"]
+__all__ = [
+    "RecordedRun", "read_table", "read_bag", "read_mcap", "read_recording", "TABLE_COLUMNS", "convert_recording",
+    "write_recording",
+]

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from .._json import json_safe
+from ..actuators import Actuator
 from ..errors import ForceControlError, ScenarioError
 from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
 from ..sensors import ForceSensor
@@ -58,6 +59,7 @@ TOP_FIELDS: dict[str, Field] = {
     "controller": Field("table", True),
     "reference": Field("table", True),
     "sensor": Field("table", default=None),
+    "actuator": Field("table", default=None),
     "figure": Field("table", default=None),  # a table or an array of tables, checked below
     "expected": Field("table", default=None),
     "case": Field("table", default=None),  # checked separately (array of tables)
@@ -89,6 +91,16 @@ SENSOR_FIELDS: dict[str, Field] = {
     "tool_mass": Field("number", doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
 }
 _RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_samples", "tool_mass")
+
+#: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.actuators.Actuator`,
+#: Python engine). Per-joint keys take a number (every joint) or a list with one entry per joint.
+ACTUATOR_FIELDS: dict[str, Field] = {
+    "coulomb": Field("gain", default=0.0, doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),
+    "viscous": Field("gain", default=0.0, doc="viscous friction per joint, added to the robot's own [N m s/rad]"),
+    "coulomb_band": Field("gain", default=1e-2, doc="velocity scale of the smooth Coulomb sign per joint [rad/s], > 0"),
+    "delay_samples": Field("int", default=0, doc="actuation delay [whole samples]: the torque commanded k samples ago"),
+    "resolution": Field("gain", default=0.0, doc="torque quantum per joint [N m] (0: none)"),
+}
 
 FIGURE_FIELDS: dict[str, Field] = {
     "name": Field("str", default="", doc="suffix of the figure's file name (several figures)"),
@@ -610,6 +622,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
         sensor.alpha(Ts)
     except ForceControlError as exc:
         raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
+    actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     for name, part in (("environment", env), ("reference", ref)):
         if part.dim != robot.task_dim:
             raise ScenarioError(
@@ -623,11 +636,39 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
             )
     substeps = cfg.get("substeps")
     return {
-        "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor,
+        "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor, "actuator": actuator,
         "q0": q0, "qd0": rt["qd0"], "duration": duration, "substeps": substeps,
         "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
         "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
     }
+
+
+def _actuator(where: str, table: Any, n: int) -> Actuator | None:
+    """The ``[actuator]`` table as an :class:`~forcecontrol.actuators.Actuator` (None without the table).
+
+    Raises:
+        ScenarioError: an unknown key, a value of the wrong type, a negative friction, delay or
+            quantum, or a per-joint list without one entry per joint (the message names the key).
+    """
+    if table is None:
+        return None
+    at = check_table(f"{where}: [actuator]", table, ACTUATOR_FIELDS)
+    if at["delay_samples"] < 0:
+        raise ScenarioError(f"{where}: [actuator]: key 'delay_samples' must be a whole number of samples >= 0; "
+                            f"got {at['delay_samples']!r}")
+    values = {}
+    for key in ("coulomb", "viscous", "coulomb_band", "resolution"):
+        v = np.asarray(at[key], dtype=float)
+        if v.ndim > 1 or (v.ndim == 1 and v.size not in (1, n)):
+            raise ScenarioError(f"{where}: [actuator]: key '{key}' must be a number or a list of {n} numbers "
+                                f"(one per joint); got {at[key]!r}")
+        values[key] = v
+    try:
+        act = Actuator(values["coulomb"], values["viscous"], values["coulomb_band"], at["delay_samples"], values["resolution"])
+        act.check(n)
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [actuator]: {exc}") from exc
+    return act
 
 
 def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
@@ -664,6 +705,9 @@ def run_scenario(
         if engine == "mujoco":
             from ..engines.mujoco import MujocoPlant
 
+            if parts["actuator"] is not None:
+                raise ScenarioError(f"{scn.source}: [actuator] needs the python engine (MuJoCo models its own actuation)")
+
             plant = MujocoPlant(parts["robot"], parts["environment"], sample_time=parts["controller"].sample_time)
             res = plant.run(
                 parts["controller"], parts["reference"], q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"],
@@ -675,6 +719,7 @@ def run_scenario(
                 parts["robot"], parts["environment"], parts["controller"], parts["reference"],
                 q0=parts["q0"], qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"],
                 substeps=parts["substeps"], engine=engine, label=case.label,  # type: ignore[arg-type]
+                **({} if parts["actuator"] is None else {"actuator": parts["actuator"]}),
                 metadata={"scenario": scn.name, "source": scn.source},
             )
         window = parts["settle_window"]
