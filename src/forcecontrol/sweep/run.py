@@ -286,6 +286,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     fast = (
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "kind", 0) in FAST_KINDS
         and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
+        and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
     )
     # cases share a sampled reference only when the samples themselves are equal (a describe()
     # of a user's reference type need not say everything that shapes it)
@@ -299,7 +300,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
         hashlib.sha256(samples.tobytes()).hexdigest(),
     )
     if not fast:
-        job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0")}
+        job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0", "actuator")}
         return job
     # the controller's reset exactly as simulate() does it (same first noise sample)
     bias, noise0 = sensor.sequences(1, robot.task_dim)
@@ -550,6 +551,7 @@ def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[st
             res = simulate(
                 p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], qd0=p["qd0"],
                 duration=j.N * j.Ts, sensor=p["sensor"], substeps=j.nsub, max_joint_speed=MAX_JOINT_SPEED,
+                **({} if p.get("actuator") is None else {"actuator": p["actuator"]}),
             )
         except SimulationDivergedError as exc:
             res = exc.partial  # type: ignore[attr-defined]

@@ -289,6 +289,7 @@ class TuneSession:
                 parts["robot"], parts["environment"], parts["controller"], parts["reference"], q0=parts["q0"],
                 qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
                 label=self.case.label, metadata={"scenario": self.scenario.name},
+                **({} if parts.get("actuator") is None else {"actuator": parts["actuator"]}),
             )
         except ForceControlError as exc:
             partial = getattr(exc, "partial", None)
