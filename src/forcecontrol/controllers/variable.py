@@ -181,7 +181,62 @@ def _schedule_matrix(name: str, value: Any, m: int, t: float) -> np.ndarray:
     return M
 
 
-class VariableImpedanceController(ImpedanceController):
+class _Scheduled:
+    """What both variable laws share: the schedules, the tank's bookkeeping and the signal log."""
+
+    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
+    _LOGGED = ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")
+
+    def _set_schedules(self, stiffness_schedule: Any, damping_schedule: Any, tank: Any, error: str) -> None:
+        for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
+            if f is not None and not callable(f):
+                raise ParameterError(f"{name} must be a callable f(t, {error}) or None; got {f!r}")
+        if tank is not None and not isinstance(tank, EnergyTank):
+            raise ParameterError(f"tank must be an EnergyTank or None; got {type(tank).__name__}")
+        self.stiffness_schedule = stiffness_schedule
+        self.damping_schedule = damping_schedule
+        self.tank = tank
+
+    def _clear_log(self) -> None:
+        self._log: dict[str, list[Any]] = {k: [] for k in self._LOGGED}
+        if self.tank is not None:
+            self.tank.reset()
+
+    def _scheduled_gains(self, t: float, e: np.ndarray, ed: np.ndarray, K: np.ndarray, D: np.ndarray, m: int,
+                         ed_prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(K applied, D applied, K scheduled) for this sample.
+
+        With a tank: fill it with the damper's dissipation over the last sample (``ed_prev``, the
+        error rate then, with the damping D then; None at the first sample), then pay for
+        ``½ eᵀ (K_s − K) e`` and move K by the fraction granted.
+        """
+        D_new = D if self.damping_schedule is None else _schedule_matrix(
+            "damping", self.damping_schedule(t, e.copy(), ed.copy()), m, t)
+        K_s = K if self.stiffness_schedule is None else _schedule_matrix(
+            "stiffness", self.stiffness_schedule(t, e.copy(), ed.copy()), m, t)
+        if self.tank is None:
+            return np.array(K_s, dtype=np.float64), np.array(D_new, dtype=np.float64), K_s
+        if ed_prev is not None:
+            self.tank.fill(self.sample_time * float(ed_prev @ D @ ed_prev))  # type: ignore[attr-defined]
+        dK = K_s - K
+        alpha = self.tank.pay(0.5 * float(e @ dK @ e)) if np.any(dK) else 1.0
+        return K + alpha * dK, np.array(D_new, dtype=np.float64), K_s
+
+    def _record(self, K: np.ndarray, K_s: np.ndarray, D: np.ndarray, storage: float) -> None:
+        tr = float(np.trace(K_s))
+        log = self._log
+        log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
+        log["stiffness_scale"].append(float(np.trace(K)) / tr if tr > 0.0 else 1.0)
+        log["storage"].append(storage)
+        log["stiffness"].append(K.ravel().copy())
+        log["damping"].append(D.ravel().copy())
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """What the controller logged at each step since the last reset (arrays, one row per step)."""
+        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
+
+
+class VariableImpedanceController(_Scheduled, ImpedanceController):
     """Impedance control with force measurement (9.30)–(9.31) whose K_P and K_D follow schedules.
 
     Law: as :class:`ImpedanceController` with force measurement,
@@ -214,8 +269,6 @@ class VariableImpedanceController(ImpedanceController):
     """
 
     kind: ClassVar[int] = 0  # not in the compiled dispatcher: the gains change every step
-    #: the scalar signals of :meth:`signals` (plottable columns of a simulation result).
-    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
 
     def __init__(
         self,
@@ -232,14 +285,7 @@ class VariableImpedanceController(ImpedanceController):
         singularity: Any = None,
     ) -> None:
         super().__init__(robot, inertia, damping, stiffness, True, sample_time, posture=posture, singularity=singularity)
-        for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
-            if f is not None and not callable(f):
-                raise ParameterError(f"{name} must be a callable f(t, x_tilde, x_tilde_dot) or None; got {f!r}")
-        if tank is not None and not isinstance(tank, EnergyTank):
-            raise ParameterError(f"tank must be an EnergyTank or None; got {type(tank).__name__}")
-        self.stiffness_schedule = stiffness_schedule
-        self.damping_schedule = damping_schedule
-        self.tank = tank
+        self._set_schedules(stiffness_schedule, damping_schedule, tank, "x_tilde, x_tilde_dot")
         self.reset()
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
@@ -247,9 +293,7 @@ class VariableImpedanceController(ImpedanceController):
         self._K = np.array(self.stiffness, dtype=np.float64)
         self._D = np.array(self.damping, dtype=np.float64)
         self._last_xtd: np.ndarray | None = None
-        self._log: dict[str, list[Any]] = {k: [] for k in ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")}
-        if self.tank is not None:
-            self.tank.reset()
+        self._clear_log()
 
     @property
     def current_stiffness(self) -> np.ndarray:
@@ -263,43 +307,16 @@ class VariableImpedanceController(ImpedanceController):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30)–(9.31) with the gains of this sample (tank-limited when there is a tank)."""
-        m = self.m
         T = self.robot.terms(measurement.q, measurement.qd)
         xt = np.asarray(reference.position, dtype=np.float64) - T.x
         xtd = np.asarray(reference.velocity, dtype=np.float64) - T.xd
-        D_prev = self._D
-        if self.damping_schedule is not None:
-            self._D = _schedule_matrix("damping", self.damping_schedule(t, xt.copy(), xtd.copy()), m, t)
-        K_s = self._K if self.stiffness_schedule is None else _schedule_matrix(
-            "stiffness", self.stiffness_schedule(t, xt.copy(), xtd.copy()), m, t
-        )
-        scale = 1.0
-        if self.tank is not None:
-            if self._last_xtd is not None:  # the damper's dissipation over the last sample (rectangle rule)
-                self.tank.fill(self.sample_time * float(self._last_xtd @ D_prev @ self._last_xtd))
-            dK = K_s - self._K
-            alpha = self.tank.pay(0.5 * float(xt @ dK @ xt)) if np.any(dK) else 1.0
-            K = self._K + alpha * dK
-        else:
-            K = np.array(K_s, dtype=np.float64)
-        tr = float(np.trace(K_s))
-        scale = float(np.trace(K)) / tr if tr > 0.0 else 1.0
-        self._K = K
-        self._last_xtd = xtd
+        K, D, K_s = self._scheduled_gains(t, xt, xtd, self._K, self._D, self.m, self._last_xtd)
+        self._K, self._D, self._last_xtd = K, D, xtd
         a = impedance_acceleration(xt, xtd, np.asarray(reference.acceleration, dtype=np.float64),
-                                   np.asarray(measurement.wrench, dtype=np.float64), self._Md_inv, self._D, K, True)
+                                   np.asarray(measurement.wrench, dtype=np.float64), self._Md_inv, D, K, True)
         u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
-        log = self._log
-        log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
-        log["stiffness_scale"].append(scale)
-        log["storage"].append(0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
-        log["stiffness"].append(K.ravel().copy())
-        log["damping"].append(self._D.ravel().copy())
+        self._record(K, K_s, D, 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
         return self._check_output(t, u, measurement)
-
-    def signals(self) -> dict[str, np.ndarray]:
-        """What the controller logged at each step since the last reset (arrays, one row per step)."""
-        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
 
     def gains(self) -> dict[str, Any]:
         g = super().gains()
@@ -315,7 +332,7 @@ class VariableImpedanceController(ImpedanceController):
 
 
 
-class VariableAdmittanceController(AdmittanceController):
+class VariableAdmittanceController(_Scheduled, AdmittanceController):
     """Admittance control (9.37) whose compliant-frame stiffness K_Pt and damping K_Dt follow schedules.
 
     The compliant frame's dynamics ``M_t z̃̈ + K_Dt z̃̇ + K_Pt z̃ = h_e^d`` are the controller's own
@@ -337,20 +354,11 @@ class VariableAdmittanceController(AdmittanceController):
         **kwargs: the other :class:`AdmittanceController` options.
     """
 
-    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
-
     def __init__(self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *,
                  stiffness_schedule: Schedule | None = None, damping_schedule: Schedule | None = None,
                  tank: EnergyTank | None = None, **kwargs: Any) -> None:
         super().__init__(robot, inertia, damping, stiffness, **kwargs)
-        for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
-            if f is not None and not callable(f):
-                raise ParameterError(f"{name} must be a callable f(t, z_tilde, z_tilde_dot) or None; got {f!r}")
-        if tank is not None and not isinstance(tank, EnergyTank):
-            raise ParameterError(f"tank must be an EnergyTank or None; got {type(tank).__name__}")
-        self.stiffness_schedule = stiffness_schedule
-        self.damping_schedule = damping_schedule
-        self.tank = tank
+        self._set_schedules(stiffness_schedule, damping_schedule, tank, "z_tilde, z_tilde_dot")
         self._K0, self._D0 = self.stiffness, self.damping
         self.reset()
 
@@ -362,40 +370,16 @@ class VariableAdmittanceController(AdmittanceController):
         if self.stiffness is not self._K0 or self.damping is not self._D0:
             self.stiffness, self.damping = self._K0, self._D0
             self._discretise()
-        self._started = False
-        self._log: dict[str, list[Any]] = {k: [] for k in ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")}
-        if self.tank is not None:
-            self.tank.reset()
+        self._last_zd: np.ndarray | None = None
+        self._clear_log()
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Update the gains of (9.37) (tank-limited), then the admittance law for this sample."""
         z, zd = self.state[:6].copy(), self.state[6:].copy()
-        D_prev, K = self.damping, self.stiffness
-        D = D_prev if self.damping_schedule is None else _schedule_matrix(
-            "damping", self.damping_schedule(t, z.copy(), zd.copy()), 6, t)
-        K_s = K if self.stiffness_schedule is None else _schedule_matrix(
-            "stiffness", self.stiffness_schedule(t, z.copy(), zd.copy()), 6, t)
-        if self.tank is not None:
-            if self._started:  # the virtual damper's dissipation over the last sample
-                self.tank.fill(self.sample_time * float(zd @ D_prev @ zd))
-            dK = K_s - K
-            alpha = self.tank.pay(0.5 * float(z @ dK @ z)) if np.any(dK) else 1.0
-            K_new = K + alpha * dK
-        else:
-            K_new = np.array(K_s, dtype=np.float64)
-        self._started = True
-        if not (np.array_equal(K_new, K) and np.array_equal(D, D_prev)):
-            self.stiffness, self.damping = K_new, np.array(D, dtype=np.float64)
+        K, D, K_s = self._scheduled_gains(t, z, zd, self.stiffness, self.damping, 6, self._last_zd)
+        self._last_zd = zd
+        if not (np.array_equal(K, self.stiffness) and np.array_equal(D, self.damping)):
+            self.stiffness, self.damping = K, D
             self._discretise()
-        tr = float(np.trace(K_s))
-        log = self._log
-        log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
-        log["stiffness_scale"].append(float(np.trace(K_new)) / tr if tr > 0.0 else 1.0)
-        log["storage"].append(0.5 * float(zd @ self.inertia @ zd) + 0.5 * float(z @ K_new @ z))
-        log["stiffness"].append(K_new.ravel().copy())
-        log["damping"].append(self.damping.ravel().copy())
+        self._record(K, K_s, D, 0.5 * float(zd @ self.inertia @ zd) + 0.5 * float(z @ K @ z))
         return super().step(t, measurement, reference)
-
-    def signals(self) -> dict[str, np.ndarray]:
-        """What the controller logged at each step since the last reset (arrays, one row per step)."""
-        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
