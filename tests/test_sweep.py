@@ -321,15 +321,21 @@ def test_ctrl_c_stops_the_cli_keeping_finished_cases_and_the_same_command_resume
     parts = tmp_path / "ctrl-c.parquet.parts"
     cmd = [sys.executable, "-c", "from forcecontrol.cli import app; app()", "sweep", str(scn), "--out", str(out),
            "--workers", "1", "--block-size", "1", "--no-figure", "--json"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # the child starts with SIGINT at its default (a test runner or a library in this process may have set it to
+    # "ignore", which a child inherits; Python then never installs its Ctrl-C handler and the signal is lost)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
+    sent = False
     while time.monotonic() < deadline and proc.poll() is None:
         if parts.exists() and len(list(parts.glob("part-*.parquet"))) >= 2:
             proc.send_signal(signal.SIGINT)
+            sent = True
             break
         time.sleep(0.001)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130 and "run the same command again to resume" in " ".join(err.split())
+    assert sent, f"the sweep ended before two parts were seen (exit {proc.returncode}); stderr: {err}"
+    assert proc.returncode == 130 and "run the same command again to resume" in " ".join(err.split()), err
     kept = len(list(parts.glob("part-*.parquet")))
     assert 2 <= kept < 80 and not list(parts.glob(".*.tmp"))
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
