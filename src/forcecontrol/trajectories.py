@@ -253,6 +253,12 @@ class LinearPath(ReferenceSignal):
             raise ParameterError(
                 f"accel_time must be at most duration/2 = {0.5 * self.duration:.6g} s; got {self.accel_time:.6g} s"
             )
+        if not math.isfinite(1.0 / max(self.accel_time * (self.duration - self.accel_time), 1e-320)):
+            # the profile's peak acceleration 1/(t_c (t_f - t_c)) (Sect. 4.2.1) overflows: 1e-300 s, say
+            raise ParameterError(
+                f"duration {self.duration:.6g} s with accel_time {self.accel_time:.6g} s is too short: "
+                "the path's acceleration 1/(t_c (t_f - t_c)) is not finite"
+            )
         self.start_time = nonnegative_scalar("start_time", start_time)
         self.force = _force(force, self.dim)
 

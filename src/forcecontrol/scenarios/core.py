@@ -434,7 +434,10 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         for k, v in flat.items():
             _set_dotted(cw, cfg, k, v)
         expected = dict(top["expected"] or {})
-        expected.update(c.get("expected", {}) or {})
+        case_expected = c.get("expected", {}) or {}
+        if not isinstance(case_expected, dict):
+            raise ScenarioError(f"{cw}: key 'expected' must be a table of metric = value; got {case_expected!r}")
+        expected.update(case_expected)
         spec = CaseSpec(label, cfg, expected, tuple(flat))
         built = build_case(spec, where=cw)  # validate now, before anything runs
         if not cases:
@@ -545,7 +548,7 @@ def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]
     if not isinstance(table, dict):
         raise ScenarioError(f"{tw}: must be a table; got {table!r}")
     kind = table.get("type")
-    if kind not in registry:
+    if not isinstance(kind, str) or kind not in registry:  # a list or table is not hashable: no TypeError
         raise ScenarioError(f"{tw}: key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
     spec = registry[kind]
     params = check_table(f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
@@ -560,6 +563,20 @@ def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]
 def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
     cfg = case.config
+    unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
+    if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
+        allowed = sorted(k for k in TOP_FIELDS if k not in ("name", "title", "description", "figure", "case"))
+        raise ScenarioError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(allowed)}")
+    for key in ("robot", "environment", "controller", "reference"):
+        if key not in cfg:
+            raise ScenarioError(f"{where}: missing table [{key}]")
+    for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
+                           ("tolerance", 0.0, "a non-negative number")):
+        if cfg.get(key) is not None:
+            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
+            if v < low or (key == "settle_window" and v == 0.0):
+                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
+    _check_expected_specs(where, case.expected)
     rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
     if rt["model"] in ("panda", "ur5", "urdf"):
         from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
@@ -582,12 +599,20 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
             q0 = np.array(rt["q0"], dtype=float)
             if q0.shape != (robot.nq,):
                 raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
+            if not np.all(np.isfinite(q0)):
+                raise ScenarioError(f"{where}: [robot]: key 'q0' must be finite [rad]; got {rt['q0']!r}")
         elif rt["start_position"] is not None:
             if not hasattr(robot, "inverse_kinematics"):
                 raise ScenarioError(f"{where}: [robot]: model '{rt['model']}' needs q0 (no closed-form inverse kinematics)")
             q0 = robot.inverse_kinematics(rt["start_position"], elbow=rt["elbow"])
         else:
             raise ScenarioError(f"{where}: [robot]: missing key 'q0' or 'start_position'")
+        if rt["qd0"] is not None:
+            qd0 = np.array(rt["qd0"], dtype=float)
+            if qd0.shape != (robot.nq,) or not np.all(np.isfinite(qd0)):
+                raise ScenarioError(
+                    f"{where}: [robot]: key 'qd0' must be {robot.nq} finite joint velocities [rad/s]; got {rt['qd0']!r}"
+                )
     except ScenarioError:
         raise
     except ForceControlError as exc:
@@ -669,6 +694,28 @@ def _actuator(where: str, table: Any, n: int) -> Actuator | None:
     except ForceControlError as exc:
         raise ScenarioError(f"{where}: [actuator]: {exc}") from exc
     return act
+
+
+def _check_expected_specs(where: str, expected: Any) -> None:
+    """Each expected value is a finite number or a table ``{value, tol}`` (finite, tol >= 0), checked before running."""
+    if not isinstance(expected, dict):
+        raise ScenarioError(f"{where}: [expected] must be a table of metric = value; got {expected!r}")
+    for key, spec in expected.items():
+        if isinstance(spec, dict):
+            extra = sorted(set(spec) - {"value", "tol"})
+            if extra or "value" not in spec:
+                raise ScenarioError(
+                    f"{where}: [expected] key '{key}' must be a number or a table {{value, tol}}; "
+                    f"got {spec!r} ({'unknown key ' + repr(extra[0]) if extra else 'no value'})"
+                )
+            items = [("value", spec["value"])] + ([("tol", spec["tol"])] if "tol" in spec else [])
+        else:
+            items = [("value", spec)]
+        for part, v in items:
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e308 and (part == "value" or v >= 0)
+            if not ok:
+                what = "a finite number" if part == "value" else "a finite non-negative number"
+                raise ScenarioError(f"{where}: [expected] key '{key}': {part} must be {what}; got {v!r}")
 
 
 def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:

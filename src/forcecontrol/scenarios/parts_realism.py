@@ -29,7 +29,7 @@ def _nested(name: str, table: Any, ctx: dict[str, Any]):
     """Build a controller from a nested table (``type`` + that type's keys)."""
     where = f"[controller.{name}]"  # the schema has checked that the table is a table
     kind = table.get("type")
-    if kind not in CONTROLLERS:
+    if not isinstance(kind, str) or kind not in CONTROLLERS:  # a list or table is not hashable: no TypeError
         raise ScenarioError(f"{where}: key 'type' must be one of {', '.join(sorted(CONTROLLERS))}; got {kind!r}")
     spec = CONTROLLERS[kind]
     params = check_table(f"{where} (type '{kind}')", table, spec.fields, extra_ok=("type",))

@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ScenarioError
+from .._validate import as_matrix, as_vector
+from ..errors import DimensionError, ScenarioError
 from ..spatial import euler_xyz_to_rotation, rotation_to_euler_xyz
 from .schema import Field, register_controller, register_environment, register_reference
 
@@ -51,10 +52,15 @@ def _start(ctx: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     return robot.frame_pose(ctx["q0"])
 
 
-def _pose(ctx: dict[str, Any], offset: Any, rotation_deg: Any) -> np.ndarray:
+def _offset(key: str, value: Any) -> np.ndarray:
+    """A 3-vector key (offset [m] or XYZ Euler angles [deg]): three finite numbers, or zeros when absent."""
+    return as_vector(key, value if value is not None else [0.0, 0.0, 0.0], 3)
+
+
+def _pose(ctx: dict[str, Any], offset: Any, rotation_deg: Any, keys: tuple[str, str] = ("offset", "rotation")) -> np.ndarray:
     R0, p0 = _start(ctx)
-    p = p0 + np.asarray(offset if offset is not None else [0.0, 0.0, 0.0], dtype=float)
-    rot = np.radians(np.asarray(rotation_deg if rotation_deg is not None else [0.0, 0.0, 0.0], dtype=float))
+    p = p0 + _offset(keys[0], offset)
+    rot = np.radians(_offset(keys[1], rotation_deg))
     return np.concatenate([p, rotation_to_euler_xyz(R0 @ euler_xyz_to_rotation(rot))])
 
 
@@ -96,8 +102,8 @@ register_reference(
 def _pose_line(p: dict[str, Any], ctx: dict[str, Any]):
     from ..trajectories import LinearPath
 
-    start = _pose(ctx, p["start_offset"], p["rotation"])
-    end = _pose(ctx, p["end_offset"], p["rotation"])
+    start = _pose(ctx, p["start_offset"], p["rotation"], ("start_offset", "rotation"))
+    end = _pose(ctx, p["end_offset"], p["rotation"], ("end_offset", "rotation"))
     return LinearPath(start, end, p["duration"], p["accel_time"], p["start_time"], p["force"])
 
 
@@ -123,7 +129,7 @@ def _table(p: dict[str, Any], ctx: dict[str, Any]):
     from ..environments.spatial import Table
 
     _R0, p0 = _start(ctx)
-    point = p0 + np.asarray(p["offset"] if p["offset"] is not None else [0.0, 0.0, 0.0], dtype=float)
+    point = p0 + _offset("offset", p["offset"])
     return Table(point, p["normal"], p["stiffness"], p["damping"])
 
 
@@ -237,7 +243,13 @@ def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
 
         sel = named_task(p["task"]).selection().force_selection
     else:
-        sel = np.array(p["force_directions"], dtype=float).reshape(-1, 6).T
+        given = p["force_directions"]
+        rows = as_matrix("force_directions", given if isinstance(given, list) and isinstance(given[0], list) else [given])
+        if rows.shape[1] != 6 or not 1 <= rows.shape[0] <= 6:
+            raise DimensionError(
+                f"key 'force_directions' must be 1 to 6 rows of 6 numbers (columns of S_f); got shape {rows.shape}"
+            )
+        sel = rows.T
     return SpatialHybridController(
         ctx["robot"], sel, p["compliance"], p["stiffness"], p["damping"], p["force_stiffness"], p["force_damping"],
         orientation=p["orientation"], posture=_posture(p, ctx), sample_time=ctx["sample_time"],

@@ -952,21 +952,68 @@ def _client(scheduler: Any):
     return Client(scheduler, set_as_default=False), True
 
 
+#: times a block lost with its worker (``KilledWorker``, a cancelled future) is submitted again.
+MAX_RESUBMITS = 3
+
+
+def _lost_errors() -> tuple[type[BaseException], ...]:
+    """The exceptions by which Dask reports a task lost with its worker (not an error of the task itself)."""
+    from concurrent.futures import CancelledError
+
+    from dask.distributed import KilledWorker
+
+    return (KilledWorker, CancelledError)
+
+
 def _run_dask(scheduler: Any, todo: list[CaseJob], block_size: int | None, band, store) -> str:
-    """Blocks as tasks on a Dask cluster; each block stored as it ends (a lost worker's task is rerun)."""
+    """Blocks as tasks on a Dask cluster; each block stored as it ends.
+
+    A worker that dies takes its running task with it: the scheduler reruns the task elsewhere
+    until ``distributed.scheduler.allowed-failures`` is spent, then reports ``KilledWorker``.
+    Such a block (or one whose future was cancelled) is submitted again, up to
+    :data:`MAX_RESUBMITS` times, with a :class:`SweepWarning` naming its cases; a block that is
+    already stored is never stored twice.
+
+    Raises:
+        SweepError: a block was lost more than :data:`MAX_RESUBMITS` times.
+    """
     from dask.distributed import as_completed
 
+    lost = _lost_errors()
     client, own = _client(scheduler)
     try:
         workers = max(1, sum(client.nthreads().values()))
-        futures = {}
+        futures: dict[Any, list[CaseJob]] = {}
         for b in _blocks(todo, workers, block_size):
             f = client.submit(run_block, b, *band, pure=False, retries=2)
             futures[f] = b
         stored: set[Any] = set()
+        attempts: dict[int, int] = {}
         try:
-            for f in as_completed(list(futures), loop=client.loop):
-                store(futures[f], f.result())
+            pending = as_completed(list(futures), loop=client.loop)
+            for f in pending:
+                b = futures[f]
+                try:
+                    rows = f.result()
+                except lost as exc:
+                    ids = [j.case_id for j in b]
+                    n = attempts[ids[0]] = attempts.get(ids[0], 0) + 1
+                    what = f"the block of cases {min(ids)}-{max(ids)}"
+                    if n > MAX_RESUBMITS:
+                        raise SweepError(
+                            f"{what} was lost with its Dask worker {n} times ({type(exc).__name__}); "
+                            "the cluster keeps losing workers: check their memory and logs, then run again to resume"
+                        ) from exc
+                    warnings.warn(
+                        f"{what} was lost with its Dask worker ({type(exc).__name__}: {str(exc)[:120]}); "
+                        f"submitted again (attempt {n + 1} of {MAX_RESUBMITS + 1})",
+                        SweepWarning, stacklevel=5,
+                    )
+                    g = client.submit(run_block, b, *band, pure=False, retries=2)
+                    futures[g] = b
+                    pending.add(g)
+                    continue
+                store(b, rows)
                 stored.add(f)
         except BaseException:
             # Ctrl-C: keep the blocks the cluster has already finished, cancel the rest
