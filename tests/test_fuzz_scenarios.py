@@ -541,15 +541,12 @@ def test_vanishing_path_duration_is_a_clear_error(tmp_path):
         load_scenario(p)
 
 
-@pytest.mark.xfail(strict=True, raises=__import__("numpy").linalg.LinAlgError,
-                   reason="open defect outside this change's files (controllers/spatial.py, simulation.py): an admittance "
-                          "stiffness of 1e300 on the Panda overflows the compliant frame and the compiled kernel raises "
-                          "LinAlgError instead of SimulationDivergedError or a ParameterError at construction")
 def test_absurd_admittance_stiffness_on_the_panda_is_a_library_error(tmp_path):
-    """Found by the fuzzer (seed 10, file 566): stiffness = [1000, 1e300, ...] loads, then the run raises LinAlgError."""
+    """Found by the fuzzer (seed 10, file 566): stiffness = [1000, 1e300, ...] loaded, then the run raised LinAlgError;
+    now the admittance controller refuses gains whose compliant frame cannot be discretised (a ScenarioError at load)."""
     p = _edited(tmp_path, "panda-admittance-contact", "stiffness = [1000.0, 1000.0, 1000.0, 20.0, 20.0, 20.0]",
                 "stiffness = [1000.0, 1e300, 1000.0, 20.0, 20.0, 20.0]")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(ForceControlError):
+        with pytest.raises(ForceControlError, match="cannot be discretised"):
             run_scenario(load_scenario(p).with_(duration=RUN_DURATION))

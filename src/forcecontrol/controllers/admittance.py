@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_gain_matrix, positive_scalar
-from ..errors import BandwidthWarning
+from ..errors import BandwidthWarning, ParameterError
 from ..robots.base import RobotModel
 from ..spatial import euler_xyz_T, euler_xyz_T_dot
 from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz  # per sample
@@ -153,7 +153,15 @@ class AdmittanceController(_SpatialBase):
         big = np.zeros((18, 18))
         big[:12, :12] = A * self.sample_time
         big[:12, 12:] = G * self.sample_time
-        E = expm(big)
+        with np.errstate(all="ignore"):
+            E = expm(big) if np.all(np.isfinite(big)) else np.full_like(big, np.nan)
+        if not np.all(np.isfinite(E)):
+            raise ParameterError(
+                "inertia, damping and stiffness give a compliant frame (9.37) that cannot be discretised at "
+                f"sample_time = {self.sample_time:g} s (its matrix exponential overflows): M_t⁻¹ K_Pt has eigenvalues up to "
+                f"{float(np.max(np.abs(np.linalg.eigvals(np.nan_to_num(Mt_inv @ self.stiffness))))):.3g} 1/s²; "
+                "use physically sized gains"
+            )
         self._Ad, self._Gd = E[:12, :12], E[:12, 12:]
         self._A, self._G = A, G
 
