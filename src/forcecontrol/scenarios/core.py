@@ -465,7 +465,8 @@ def _resolve_reference_files(data: dict[str, Any], folder: Path) -> None:
     ref = data.get("reference")
     if isinstance(ref, dict) and "file" in ref:
         ref["file"] = fix(ref["file"])
-    for case in data.get("case") or []:
+    cases = data.get("case")
+    for case in cases if isinstance(cases, list) else []:  # a malformed [[case]] is reported by the loader
         if not isinstance(case, dict):
             continue
         if isinstance(case.get("reference"), dict) and "file" in case["reference"]:
