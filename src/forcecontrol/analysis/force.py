@@ -388,7 +388,9 @@ def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLo
             :class:`~forcecontrol.controllers.force.InnerVelocityForceController` or
             :class:`~forcecontrol.controllers.force.ParallelForcePositionController` with diagonal
             M_d, K_D, K_P.
-        environment_stiffness: K, diagonal (m, m) [N/m] (scalar or (m,) allowed), in the base frame.
+        environment_stiffness: K (m, m) [N/m] (scalar or (m,) allowed), in the base frame; with the
+            controller's gains it must be diagonal in the controller's task frame (the base frame
+            unless the controller has a ``task_frame``), where the axes are then numbered.
 
     Raises:
         ParameterError: a matrix is not diagonal (the axes do not decouple) or the controller is
@@ -419,17 +421,23 @@ def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLo
         K = np.diag(K)
     if K.shape != (m, m):
         raise DimensionError(f"environment_stiffness must be a scalar, ({m},) or ({m}, {m}); got shape {K.shape}")
-    for name, M in (("inertia", controller.inertia), ("damping", controller.damping),
-                    ("stiffness", controller.stiffness), ("environment_stiffness", K)):
-        if np.any(np.abs(M - np.diag(np.diag(M))) > 1e-12 * max(1.0, float(np.max(np.abs(M))))):
+    R = getattr(controller, "task_frame", None)
+    frame = "the base frame" if R is None else "the controller's task frame"
+    R = np.eye(m) if R is None else np.asarray(R)
+    mats = {name: R.T @ np.asarray(M) @ R for name, M in (("inertia", controller.inertia), ("damping", controller.damping),
+                                                          ("stiffness", controller.stiffness), ("environment_stiffness", K))}
+    for name, M in mats.items():
+        if np.any(np.abs(M - np.diag(np.diag(M))) > 1e-9 * max(1.0, float(np.max(np.abs(M))))):
             raise ParameterError(
-                f"{name} must be diagonal for a per-axis analysis (axes parallel to the base frame, "
-                f"Sect. 9.4); got {np.asarray(M).tolist()}"
+                f"{name} must be diagonal for a per-axis analysis in {frame} (Sect. 9.4); "
+                f"got {np.round(M, 9).tolist()} there"
             )
+    controller_inertia, controller_damping, controller_stiffness = mats["inertia"], mats["damping"], mats["stiffness"]
+    K = mats["environment_stiffness"]
     return [
         ForceLoopAxis(
-            scheme, float(controller.inertia[i, i]), float(controller.damping[i, i]),
-            float(controller.stiffness[i, i]), float(controller.force_gain[i]),
+            scheme, float(controller_inertia[i, i]), float(controller_damping[i, i]),
+            float(controller_stiffness[i, i]), float(controller.force_gain[i]),
             float(controller.integral_gain[i]), float(K[i, i]), getattr(controller, "integrator_start", None),
         )
         for i in range(m)

@@ -35,6 +35,7 @@ and makes the end-effector drift (Sect. 9.4.3); :func:`check_force_reference` re
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any, ClassVar, Literal
 
@@ -56,6 +57,7 @@ __all__ = [
     "inner_position_acceleration",
     "inner_velocity_acceleration",
     "parallel_acceleration",
+    "planar_task_frame",
     "check_force_reference",
 ]
 
@@ -325,6 +327,24 @@ def check_force_reference(
 INTEGRATOR_STARTS = ("tip", "hold", "zero")
 
 
+def _task_frame(value: Any, m: int) -> np.ndarray | None:
+    """The task frame's rotation R (m, m) (columns: its axes in the base frame), or None for the base frame."""
+    if value is None:
+        return None
+    from .._validate import as_matrix
+
+    R = np.array(as_matrix("task_frame", value, (m, m)))
+    if not np.allclose(R.T @ R, np.eye(m), atol=1e-9) or np.linalg.det(R) <= 0.0:
+        raise ParameterError(f"task_frame must be a rotation matrix ({m}, {m}) (orthonormal, det = +1); got {R.tolist()}")
+    return None if np.allclose(R, np.eye(m), atol=0.0) else readonly(R)
+
+
+def planar_task_frame(angle: float) -> np.ndarray:
+    """The planar task frame rotated by ``angle`` [rad] from the base frame (its x axis at ``angle``)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
 class _DirectForceController(Controller):
     """Shared parts: motion gains (M_d, K_D, K_P), diagonal C_F, integral state and checks."""
 
@@ -347,10 +367,14 @@ class _DirectForceController(Controller):
         posture: Any = None,
         singularity: Any = None,
         sample_time: float = 1e-3,
+        task_frame: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
         self._set_redundancy(posture, singularity)
+        self.task_frame = _task_frame(task_frame, m)
+        if self.task_frame is not None:
+            self.kind = 0  # type: ignore[misc]  # the compiled kernels work in the base frame: generic path
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
@@ -416,18 +440,19 @@ class _DirectForceController(Controller):
                 (needs ``environment_stiffness``) or along axes where C_F is zero.
         """
         m = self.m
+        R = np.eye(m) if self.task_frame is None else self.task_frame  # C_F is diagonal in the task frame
         self.state[:] = 0.0
         if reference is not None:
-            f_d = np.asarray(reference.force, dtype=np.float64)
+            f_d = R.T @ np.asarray(reference.force, dtype=np.float64)
             if self.environment_stiffness is not None:
-                check_force_reference(f_d, self.environment_stiffness, self.force_axes)
+                check_force_reference(f_d, R.T @ self.environment_stiffness @ R, self.force_axes)
             elif np.any(np.where(self.force_axes, 0.0, f_d)):
                 check_force_reference(f_d, np.eye(m), self.force_axes)
         if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
             return
         f_pre = np.asarray(reference.force, dtype=np.float64) if self.integrator_start == "tip" else np.zeros(m)
-        target = self._position_offset(measurement, reference)
-        xi0 = target - self.force_gain * (f_pre - np.asarray(measurement.wrench, dtype=np.float64))
+        target = R.T @ self._position_offset(measurement, reference)
+        xi0 = target - self.force_gain * (R.T @ (f_pre - np.asarray(measurement.wrench, dtype=np.float64)))
         xi0 = np.where(self.integral_gain > 0.0, xi0, 0.0)
         self.state[:m] = xi0
         self.state[m:] = xi0
@@ -443,16 +468,21 @@ class _DirectForceController(Controller):
             out["integral_gain"] = self.integral_gain.tolist()
             out["integral_limit"] = self.integral_limit.tolist()
             out["integrator_start"] = self.integrator_start
+        if self.task_frame is not None:
+            out["task_frame"] = self.task_frame.tolist()
         return out
 
     def _pi_force_reference(self, measurement: Measurement, reference: Reference) -> np.ndarray:
         m = self.m
         f_d = np.asarray(reference.force, dtype=np.float64)
         h = np.asarray(measurement.wrench, dtype=np.float64)
+        R = self.task_frame
+        if R is not None:  # (9.41), (9.43) with C_F diagonal in the task frame: x_F = R C_F Rᵀ (f_d − f_e)
+            f_d, h = R.T @ f_d, R.T @ h
         xi = self.state[0:m]
         x_F = force_reference(f_d, h, self.force_gain, xi)
         integrate_force_error(xi, self.state[m : 2 * m], f_d, h, self.integral_gain, self.integral_limit, self.sample_time)
-        return x_F
+        return x_F if R is None else R @ x_F
 
 
 class InnerPositionForceController(_DirectForceController):
@@ -484,6 +514,10 @@ class InnerPositionForceController(_DirectForceController):
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
         posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
+        task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
+            (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
+            surface that is not aligned with the base axes; ``planar_task_frame(angle)`` in the
+            plane); None: the base frame (the chapter's case, compiled).
             Both unused with a square J.
         sample_time: Ts [s].
 
@@ -521,6 +555,10 @@ class InnerVelocityForceController(_DirectForceController):
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
         posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
+        task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
+            (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
+            surface that is not aligned with the base axes; ``planar_task_frame(angle)`` in the
+            plane); None: the base frame (the chapter's case, compiled).
             Both unused with a square J.
         sample_time: Ts [s].
     """
@@ -540,18 +578,24 @@ class InnerVelocityForceController(_DirectForceController):
         posture: Any = None,
         singularity: Any = None,
         sample_time: float = 1e-3,
+        task_frame: Any = None,
     ) -> None:
         super().__init__(
             robot, inertia, damping, stiffness, force_gain, 0.0,
             environment_stiffness=environment_stiffness, posture=posture, singularity=singularity,
-            sample_time=sample_time,
+            sample_time=sample_time, task_frame=task_frame,
         )
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.45), (9.46) for this sample."""
         T = self.robot.terms(measurement.q, measurement.qd)
         h = np.asarray(measurement.wrench, dtype=np.float64)
-        x_F = force_reference(np.asarray(reference.force, dtype=np.float64), h, self.force_gain, np.zeros(self.m))
+        R = self.task_frame
+        f_d = np.asarray(reference.force, dtype=np.float64)
+        if R is None:
+            x_F = force_reference(f_d, h, self.force_gain, np.zeros(self.m))
+        else:  # (9.46) with K_F diagonal in the task frame
+            x_F = R @ force_reference(R.T @ f_d, R.T @ np.asarray(h, dtype=np.float64), self.force_gain, np.zeros(self.m))
         a = inner_velocity_acceleration(T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
         u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, h, True)
         return self._check_output(t, u, measurement)

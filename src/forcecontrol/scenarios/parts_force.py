@@ -24,8 +24,24 @@ _MOTION = {
     "inertia": Field("gain", True, doc="M_d [kg]"),
     "damping": Field("gain", True, doc="K_D [N s/m]"),
     "stiffness": Field("gain", True, doc="K_P [N/m]"),
-    "force_gain": Field("gain", True, doc="K_F, diagonal of C_F [m/N]"),
+    "force_gain": Field("gain", True, doc="K_F, diagonal of C_F [m/N] (in the task frame)"),
+    "task_frame_angle": Field("number", doc="planar task frame: its x axis at this angle to x0 [deg]; "
+                                            "C_F is diagonal there (default: the base frame)"),
 }
+
+
+def _frame(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
+    if p["task_frame_angle"] is None:
+        return None
+    if int(ctx["robot"].task_dim) != 2:
+        from ..errors import ParameterError
+
+        raise ParameterError(f"task_frame_angle is for a planar task (m = 2); this robot's task has m = {ctx['robot'].task_dim}")
+    import math
+
+    from ..controllers.force import planar_task_frame
+
+    return planar_task_frame(math.radians(p["task_frame_angle"]))
 _PI = {
     **_MOTION,
     "integral_gain": Field("gain", default=0.0, doc="K_I, diagonal of C_F's integral action [m/(N s)]"),
@@ -43,7 +59,7 @@ def _pi_builder(cls):
         return cls(
             ctx["robot"], p["inertia"], p["damping"], p["stiffness"], p["force_gain"], p["integral_gain"],
             integral_limit=p["integral_limit"], integrator_start=p["integrator_start"],
-            environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"],
+            environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"], task_frame=_frame(p, ctx),
         )
 
     return build
@@ -63,7 +79,7 @@ register_controller(
     dict(_MOTION),
     lambda p, ctx: InnerVelocityForceController(
         ctx["robot"], p["inertia"], p["damping"], p["stiffness"], p["force_gain"],
-        environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"],
+        environment_stiffness=_env_stiffness(ctx), sample_time=ctx["sample_time"], task_frame=_frame(p, ctx),
     ),
     "force control with inner velocity loop (9.45)-(9.46)",
 )
