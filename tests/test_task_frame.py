@@ -17,9 +17,9 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.analysis import force_loop_axes
-from forcecontrol.controllers.force import planar_task_frame
 from forcecontrol.environments import ElasticPlane
 from forcecontrol.errors import ParameterError
+from forcecontrol.task import planar_rotation
 
 TIMES = (0.05, 0.2, 0.5, 1.0, 2.9)
 
@@ -31,7 +31,7 @@ def _run(scheme, tilt_deg, task_frame):
     q0 = arm.inverse_kinematics(tip, elbow="up")
     env = ElasticPlane.inclined(a + math.pi / 2, tip, 1e4)  # through the tip, facing the arm
     n_in = -env.normal
-    R = planar_task_frame(math.atan2(n_in[1], n_in[0])) if task_frame else None
+    R = planar_rotation(math.atan2(n_in[1], n_in[0])) if task_frame else None
     if scheme == "inner-velocity":
         ctl = fc.InnerVelocityForceController(arm, 100.0, 500.0, 2500.0, [0.0024, 0.0], task_frame=R)
     else:

@@ -31,6 +31,7 @@ from typing import Any, Literal, cast
 import numpy as np
 
 from . import __version__
+from ._axes import axis_names as _axis_names
 from ._validate import as_vector, positive_scalar
 from .actuators import Actuator
 from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
@@ -236,17 +237,6 @@ class SimulationResult:
             pq.write_table(table, data)
         meta.write_text(json.dumps({"label": self.label, **self.metadata}, indent=2))
         return data, meta
-
-
-def _axis_names(m: int) -> tuple[list[str], list[str], list[str]]:
-    """Column names of the pose, twist and wrench components for an m-dimensional task space."""
-    if m <= 3:
-        p = list("xyz"[:m])
-        return p, [f"v{a}" for a in p], [f"f{a}" for a in p]
-    if m == 6:
-        return (["x", "y", "z", "rx", "ry", "rz"], ["vx", "vy", "vz", "wx", "wy", "wz"],
-                ["fx", "fy", "fz", "mx", "my", "mz"])
-    return [f"x{i}" for i in range(m)], [f"v{i}" for i in range(m)], [f"f{i}" for i in range(m)]
 
 
 def _versions() -> dict[str, str]:

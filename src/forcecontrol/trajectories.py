@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ._axes import axis_names
 from ._validate import as_vector, nonnegative_scalar, positive_scalar
 from .controllers.base import REFERENCE_FIELDS, Reference
 from .errors import DimensionError, ParameterError
@@ -447,9 +448,6 @@ class SampledReference(ReferenceSignal):
         if "t" not in cols:
             raise ParameterError(f"{str(p)!r} has no column 't'; columns found: {sorted(cols)}")
 
-        def axes(m: int) -> list[str]:
-            return list("xyz"[:m]) if m <= 3 else (["x", "y", "z", "rx", "ry", "rz"] if m == 6 else [f"x{i}" for i in range(m)])
-
         def pick(names: list[str], prefixes: tuple[str, str]) -> list[np.ndarray] | None:
             out = []
             for a in names:
@@ -464,7 +462,7 @@ class SampledReference(ReferenceSignal):
 
         candidates = [dim] if dim is not None else [6, 3, 2, 1]
         for m in candidates:
-            pos = pick(axes(m), ("ref_position_", ""))  # a saved run's x, y are the tip, not the reference
+            pos = pick(axis_names(m)[0], ("ref_position_", ""))  # a saved run's x, y are the tip, not the reference
             if pos is not None:
                 break
         else:
@@ -472,9 +470,7 @@ class SampledReference(ReferenceSignal):
                 f"{str(p)!r} has no position columns for {'dim = ' + str(dim) if dim else 'any dimension'} "
                 f"(expected e.g. x, y or ref_position_x, ref_position_y); columns found: {sorted(cols)}"
             )
-        names = axes(m)
-        wrench = (["fx", "fy", "fz", "mx", "my", "mz"] if m == 6 else
-                  [f"f{a}" for a in names] if m <= 3 else [f"f{i}" for i in range(m)])
+        names, _, wrench = axis_names(m)
         force = pick(names, ("ref_force_",)) or pick(wrench, ("",))
         vel = pick(names, ("ref_velocity_",))
         acc = pick(names, ("ref_acceleration_",))

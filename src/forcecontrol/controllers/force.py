@@ -35,7 +35,6 @@ and makes the end-effector drift (Sect. 9.4.3); :func:`check_force_reference` re
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import Any, ClassVar, Literal
 
@@ -57,7 +56,6 @@ __all__ = [
     "inner_position_acceleration",
     "inner_velocity_acceleration",
     "parallel_acceleration",
-    "planar_task_frame",
     "check_force_reference",
 ]
 
@@ -339,12 +337,6 @@ def _task_frame(value: Any, m: int) -> np.ndarray | None:
     return None if np.allclose(R, np.eye(m), atol=0.0) else readonly(R)
 
 
-def planar_task_frame(angle: float) -> np.ndarray:
-    """The planar task frame rotated by ``angle`` [rad] from the base frame (its x axis at ``angle``)."""
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s], [s, c]])
-
-
 class _DirectForceController(Controller):
     """Shared parts: motion gains (M_d, K_D, K_P), diagonal C_F, integral state and checks."""
 
@@ -516,7 +508,7 @@ class InnerPositionForceController(_DirectForceController):
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
         task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
             (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
-            surface that is not aligned with the base axes; ``planar_task_frame(angle)`` in the
+            surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
             plane); None: the base frame (the chapter's case, compiled).
             Both unused with a square J.
         sample_time: Ts [s].
@@ -557,7 +549,7 @@ class InnerVelocityForceController(_DirectForceController):
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
         task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
             (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
-            surface that is not aligned with the base axes; ``planar_task_frame(angle)`` in the
+            surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
             plane); None: the base frame (the chapter's case, compiled).
             Both unused with a square J.
         sample_time: Ts [s].

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from .._axes import axis_names
 from .._validate import positive_scalar
 from ..conventions import BY_END_EFFECTOR, SENSES
 from ..errors import DimensionError, MeasurementError, ParameterError
@@ -16,7 +17,7 @@ __all__ = ["RecordedRun", "wrench_axis_names"]
 
 def wrench_axis_names(m: int) -> list[str]:
     """Column names of an m-dimensional wrench: ``fx fy`` (2), ``fx fy fz`` (3), ``fx fy fz mx my mz`` (6)."""
-    return ["fx", "fy", "fz", "mx", "my", "mz"][:m] if m in (1, 2, 3, 6) else [f"f{i}" for i in range(m)]
+    return axis_names(m)[2]
 
 
 def _array(name: str, value: Any, rows: int, source: str) -> np.ndarray:

@@ -509,7 +509,7 @@ def _check_shadowed(where: str, base: dict[str, Any], cases: list[CaseSpec]) -> 
 
 def _signal_names(n: int, m: int) -> list[str]:
     """The plottable columns of a run with n joints in an m-dimensional task space (``SimulationResult.columns``)."""
-    from ..simulation import _axis_names
+    from .._axes import axis_names as _axis_names
 
     pose, twist, wrench = _axis_names(m)
     out = ["t"] + [f"{s}{i + 1}" for i in range(n) for s in ("q", "qd", "u")] + pose + twist + wrench

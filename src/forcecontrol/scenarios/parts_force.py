@@ -39,9 +39,9 @@ def _frame(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
         raise ParameterError(f"task_frame_angle is for a planar task (m = 2); this robot's task has m = {ctx['robot'].task_dim}")
     import math
 
-    from ..controllers.force import planar_task_frame
+    from ..task import planar_rotation
 
-    return planar_task_frame(math.radians(p["task_frame_angle"]))
+    return planar_rotation(math.radians(p["task_frame_angle"]))
 _PI = {
     **_MOTION,
     "integral_gain": Field("gain", default=0.0, doc="K_I, diagonal of C_F's integral action [m/(N s)]"),
