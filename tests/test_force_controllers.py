@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.controllers import force as force_module
+from forcecontrol import laws
 from forcecontrol.controllers.base import pack_reference
-from forcecontrol.controllers.dispatch import COMPILED_KINDS, controller_step
 from forcecontrol.errors import DimensionError, DriftWarning, ParameterError
 
 ARM = fc.PlanarTwoLink()
@@ -95,10 +94,10 @@ def test_parallel_torque_is_9_30_9_48():
 
 
 @pytest.mark.parametrize("scheme", ["inner-position", "inner-velocity", "parallel"])
-def test_compiled_branch_equals_python_step(scheme):
-    """The dispatcher's branch (kinds 4, 5, 6) gives the Python step's torque and the same state update."""
+def test_compiled_law_on_the_arms_terms_equals_step(scheme):
+    """The law called on the arm's terms (as the compiled loops do) gives step()'s torque and state update."""
     py, cp = _controllers()[scheme], _controllers()[scheme]
-    assert py.kind in COMPILED_KINDS
+    assert py.compiled_law is not None and cp.law is type(cp).law
     py.reset()
     cp.reset()
     for k in range(3):
@@ -106,8 +105,9 @@ def test_compiled_branch_equals_python_step(scheme):
         ref = _random_reference()
         T = ARM.terms(q, qd)
         want = py.step(k * TS, fc.Measurement(q, qd, h), ref)
-        got = controller_step(cp.kind, k * TS, TS, q, qd, T.x, T.xd, T.J, T.Jdq, T.B, T.n, T.g, h,
-                              pack_reference(ref), cp._params, cp.state)
+        got = np.empty(2)
+        cp.law(k * TS, TS, q, qd, T.x, T.xd, T.J, T.Jdq, T.B, T.n, T.g, h, pack_reference(ref), cp._params,
+               cp.state, np.empty(laws.workspace_size(2, 2)), got)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
         np.testing.assert_allclose(cp.state, py.state, rtol=1e-12, atol=1e-15)
 
@@ -292,11 +292,10 @@ def test_check_force_reference_rejects_wrong_shapes():
 @pytest.mark.parametrize(
     "obj, equations",
     [
-        (force_module.inner_position_acceleration, ["(9.39)"]),
-        (force_module.inner_velocity_acceleration, ["(9.45)"]),
-        (force_module.parallel_acceleration, ["(9.48)"]),
-        (force_module.force_reference, ["(9.41)", "(9.43)"]),
-        (force_module.integrate_force_error, ["(9.43)"]),
+        (laws.inner_position_acceleration, ["(9.39)"]),
+        (laws.inner_velocity_acceleration, ["(9.45)"]),
+        (laws.parallel_acceleration, ["(9.48)"]),
+        (laws.force.force_reference, ["(9.41)", "(9.43)"]),
         (fc.InnerPositionForceController, ["(9.39)", "(9.41)", "(9.43)"]),
         (fc.InnerVelocityForceController, ["(9.45)", "(9.46)"]),
         (fc.ParallelForcePositionController, ["(9.48)", "(9.43)"]),

@@ -7,13 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from forcecontrol import CHAPTER_ARM, ElasticPlane, LinearPath, Measurement, Reference, Setpoint, simulate
-from forcecontrol.controllers.hybrid import (
-    HybridCompliantController,
-    HybridRigidController,
-    hybrid_compliant_packed,
-    hybrid_rigid_packed,
-)
+from forcecontrol import CHAPTER_ARM, ElasticPlane, LinearPath, Measurement, Reference, Setpoint, laws, simulate
+from forcecontrol.controllers.hybrid import HybridCompliantController, HybridRigidController
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.task import SelectionMatrices, inclined_plane, sliding_on_plane, turning_crank
 
@@ -96,24 +91,26 @@ def test_rigid_law_matches_hand_built_torque(task, state, law, kw, motion, mk):
     np.testing.assert_allclose(u, expected, rtol=1e-12, atol=1e-9)
 
 
-def test_packed_adapters_agree_with_step(task, state):
-    """The packed adapters (for the compiled dispatcher) give the same torques and state as step()."""
+def test_compiled_laws_on_the_arms_terms_agree_with_step(task, state):
+    """The laws called on the arm's terms (as the compiled loops do) give step()'s torques and state."""
     q, qd, h = state
     ref = _reference(2)
     row = np.concatenate([ref.position, ref.velocity, ref.acceleration, ref.force, ref.force_rate, ref.force_accel])
     T = CHAPTER_ARM.terms(q, qd)
     for ctrl, fn in (
-        (_compliant(task), hybrid_compliant_packed),
+        (_compliant(task), laws.hybrid_compliant),
         (HybridRigidController(CHAPTER_ARM, task, velocity_gain=60.0, velocity_integral_gain=900.0,
-                               force_integral_gain=80.0), hybrid_rigid_packed),
+                               force_integral_gain=80.0), laws.hybrid_rigid),
         (HybridRigidController(CHAPTER_ARM, task, motion="position", velocity_gain=60.0, position_gain=900.0,
-                               force_law="proportional", force_gain=0.5), hybrid_rigid_packed),
+                               force_law="proportional", force_gain=0.5), laws.hybrid_rigid),
     ):
         s = ctrl.state.copy() + 0.1
         ctrl.state[:] = s
         u = ctrl.step(0.0, Measurement(q, qd, h), ref)
         s2 = s.copy()
-        u2 = fn(0.0, 1e-3, q, qd, T.x, T.xd, T.J, T.Jdq, T.B, T.n, T.g, h, row, ctrl._params, s2)
+        u2 = np.empty(2)
+        fn(0.0, 1e-3, q, qd, T.x, T.xd, T.J, T.Jdq, T.B, T.n, T.g, h, row, ctrl._params, s2,
+           np.empty(laws.workspace_size(2, 2)), u2)
         np.testing.assert_allclose(u2, u, rtol=1e-12)
         np.testing.assert_allclose(s2, ctrl.state, rtol=1e-12)
 

@@ -8,12 +8,12 @@ Each mutant is one textual change of one law's source (the chapter's equation ma
 way a tired programmer could), applied alone; the fast, independent-reference tests (book
 numbers, hand-built torques, closed forms: ``TESTS`` below, not the golden recordings, which
 would kill anything by construction) run against it, and the file is restored afterwards (also
-on Ctrl-C). A mutant is *killed* when a test fails. Where a law still has a second copy (the
-scalar transcription of ``_batch._control2`` that the compiled loop and the sweeps run), that
-copy is mutated separately: a survivor there is a missing test on that path.
+on Ctrl-C). A mutant is *killed* when a test fails. Each law is written once
+(:mod:`forcecontrol.laws`) and every path runs it (the user's ``step``, the compiled loop, the
+sweeps' batch), so one mutant per law covers every path.
 
 Numba's cache is keyed on the package's source hash, so every mutant compiles afresh
-(about 40 s) and the original sources' cache is untouched.
+(a few seconds) and the original sources' cache is untouched.
 """
 
 from __future__ import annotations
@@ -53,23 +53,14 @@ class Mutant:
 MUTANTS = [
     Mutant("M1", "hybrid (9.82): C′ → C", "controllers/hybrid.py",
            "np.ascontiguousarray(sel.compliance(self.compliance) @ S_f)", "np.ascontiguousarray(self.compliance @ S_f)"),
-    Mutant("M2a", "parallel (9.48): sign of the force term", "controllers/force.py",
-           "mv(K_P, x_d - x_e + x_F)", "mv(K_P, x_d - x_e - x_F)"),
-    Mutant("M2b", "parallel (9.48): sign of the force term [_batch copy]", "_batch.py",
-           "d0 = ref[0] - x0 + xF0\n            d1 = ref[1] - x1 + xF1",
-           "d0 = ref[0] - x0 - xF0\n            d1 = ref[1] - x1 - xF1"),
-    Mutant("M3a", "inner loop (9.30): J̇q̇ dropped", "controllers/base.py",
-           "rhs[i] = a[i] - Jdq[i]", "rhs[i] = a[i]"),
-    Mutant("M3b", "inner loop (9.30): J̇q̇ dropped [_batch copy]", "_batch.py",
-           "_solve2(T[4], T[5], T[6], T[7], a0 - T[8], a1 - T[9])", "_solve2(T[4], T[5], T[6], T[7], a0, a1)"),
-    Mutant("M4a", "impedance (9.31): M_d → I", "controllers/impedance.py",
-           "return xdd_d + mv(Md_inv, w)", "return xdd_d + w"),
-    Mutant("M4b", "impedance (9.31): M_d → I [_batch copy]", "_batch.py",
-           "m0, m1 = _mv2(p, 0, w0, w1)", "m0, m1 = w0, w1"),
-    Mutant("M5a", "PI force loop (9.43): integrator dropped", "controllers/force.py",
-           "        xi[i] = v\n", "        xi[i] = xi[i]\n"),
-    Mutant("M5b", "PI force loop (9.43): integrator dropped [_batch copy]", "_batch.py",
-           "                s[i] = v\n", "                s[i] = s[i]\n"),
+    Mutant("M2", "parallel (9.48): sign of the force term", "laws/force.py",
+           "d[i] = ref[i] - x[i] + d[i]", "d[i] = ref[i] - x[i] - d[i]"),
+    Mutant("M3", "inner loop (9.30): J̇q̇ dropped", "laws/inner.py",
+           "y[i] = a[i] - Jdq[i]", "y[i] = a[i]"),
+    Mutant("M4", "impedance (9.31): M_d → I", "laws/impedance.py",
+           "acc += p[i * m + j] * w[j]", "acc += (1.0 if i == j else 0.0) * w[j]"),
+    Mutant("M5", "PI force loop (9.43): integrator dropped", "laws/force.py",
+           "            s[i] = v\n", "            s[i] = s[i]\n"),
     Mutant("M6", "C′ (9.72): P_v and P_f swapped", "task/selection.py",
            "return (np.eye(self.dim) - self.velocity_projector) @ C", "return (np.eye(self.dim) - self.force_projector) @ C"),
     Mutant("M7a", "orientation error (9.9)-(9.11): base frame instead of desired frame", "controllers/spatial.py",
@@ -79,6 +70,10 @@ MUTANTS = [
            "    R_de = RdT @ R_e\n    phi, T, Tinv", "    R_de = R_e @ RdT\n    phi, T, Tinv"),
     Mutant("M8", "K′ (9.70) → K", "task/projections.py",
            "return S_f @ np.linalg.solve(S_f.T @ C @ S_f, S_f.T)", "return np.linalg.inv(C)"),
+    Mutant("M9", "hybrid rigid (9.91): Ṡ_v ν dropped (moving constraint frame)", "laws/hybrid.py",
+           "    _mv_add(S_v_dot, nu, a)\n", "\n"),
+    Mutant("M10", "inner velocity loop (9.45)/(9.46): K_F dropped from x_F", "laws/force.py",
+           "acc += p[oR + i * m + j] * (p[oF + j] * e[j] + xi)", "acc += p[oR + i * m + j] * (e[j] + xi)"),
 ]
 
 

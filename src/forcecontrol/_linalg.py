@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["mv", "mtv", "solve_into", "SINGULAR_RCOND"]
+__all__ = ["mv", "mtv", "mv_into", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
 
 #: a pivot smaller than this times the matrix's largest entry counts as singular.
 SINGULAR_RCOND = 1e-10
@@ -42,21 +42,62 @@ def mtv(A: np.ndarray, x: np.ndarray) -> np.ndarray:  # pragma: no cover - compi
     return out
 
 
-@njit(cache=True, fastmath=False)
-def solve_into(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:  # pragma: no cover - compiled
-    """Solve ``A x = b`` by Gaussian elimination with partial pivoting, writing ``x`` into ``out``.
+@njit(cache=True, fastmath=False, inline="always")
+def mv_into(A: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """``out = A @ x`` without allocating (``out`` must not alias ``x``)."""
+    r, c = A.shape
+    for i in range(r):
+        s = 0.0
+        for j in range(c):
+            s += A[i, j] * x[j]
+        out[i] = s
+
+
+@njit(cache=True, fastmath=False, inline="always")
+def _solve2_in_place(a00, a01, a10, a11, x):  # pragma: no cover - compiled
+    """:func:`solve_in_place` for n = 2, written on scalars (same pivoting and arithmetic)."""
+    b0 = x[0]
+    b1 = x[1]
+    scale = max(abs(a00), abs(a01), abs(a10), abs(a11))
+    if scale == 0.0 or not np.isfinite(scale):
+        return False
+    big = abs(a00)
+    if abs(a10) > big:
+        big = abs(a10)
+        a00, a01, a10, a11 = a10, a11, a00, a01
+        b0, b1 = b1, b0
+    if big <= SINGULAR_RCOND * scale:
+        return False
+    f = a10 / a00
+    if f != 0.0:
+        a11 -= f * a01
+        b1 -= f * b0
+    if abs(a11) <= SINGULAR_RCOND * scale:
+        return False
+    x[1] = b1 / a11
+    x[0] = (b0 - a01 * x[1]) / a00
+    return True
+
+
+@njit(cache=True, fastmath=False, inline="always")
+def solve_in_place(A: np.ndarray, x: np.ndarray, M: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """Solve ``A y = x`` by Gaussian elimination with partial pivoting, overwriting ``x`` with y.
+
+    ``M`` is an (n, n) scratch matrix (A is copied into it); nothing is allocated.
 
     Returns:
         False when ``A`` is numerically singular (a pivot below ``SINGULAR_RCOND`` times the
-        largest entry); ``out`` is then left undefined.
+        largest entry); ``x`` is then left undefined.
     """
     n = A.shape[0]
-    M = A.copy()
-    x = b.copy()
+    if n == 2:  # the chapter's arm: the same elimination on scalars (no scratch, ~4x faster)
+        return _solve2_in_place(A[0, 0], A[0, 1], A[1, 0], A[1, 1], x)
     scale = 0.0
     for i in range(n):
         for j in range(n):
-            v = abs(M[i, j])
+            v = A[i, j]
+            M[i, j] = v
+            v = abs(v)
             if v > scale:
                 scale = v
     if scale == 0.0 or not np.isfinite(scale):
@@ -88,6 +129,19 @@ def solve_into(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:  # pragma
     for i in range(n - 1, -1, -1):
         s = x[i]
         for j in range(i + 1, n):
-            s -= M[i, j] * out[j]
-        out[i] = s / M[i, i]
+            s -= M[i, j] * x[j]
+        x[i] = s / M[i, i]
     return True
+
+
+@njit(cache=True, fastmath=False)
+def solve_into(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:  # pragma: no cover - compiled
+    """Solve ``A x = b`` writing ``x`` into ``out`` (:func:`solve_in_place` on a copy of b).
+
+    Returns:
+        False when ``A`` is numerically singular; ``out`` is then left undefined.
+    """
+    n = A.shape[0]
+    for i in range(n):
+        out[i] = b[i]
+    return solve_in_place(A, out, np.empty((n, n)))

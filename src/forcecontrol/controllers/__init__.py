@@ -1,7 +1,7 @@
 """Controllers of the chapter. Each states its law and equation number in its docstring."""
 
 from .admittance import AdmittanceController
-from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+from .base import Controller, Measurement, Reference
 from .compliance import JointSpacePD, OperationalSpacePD
 from .force import (
     InnerPositionForceController,
@@ -25,7 +25,6 @@ __all__ = [
     "Controller",
     "Measurement",
     "Reference",
-    "inverse_dynamics_torque",
     "OperationalSpacePD",
     "JointSpacePD",
     "ImpedanceController",

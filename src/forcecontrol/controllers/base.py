@@ -1,12 +1,10 @@
-"""What every controller shares: signals, the base class and the inverse-dynamics inner loop.
+"""What every controller shares: signals, the base class and how a step runs its law.
 
-The inner loop (9.30) is written once::
-
-    u = B(q) J⁻¹(q) (a − J̇(q, q̇) q̇) + n(q, q̇) [+ Jᵀ(q) h_e]
-
-Every inverse-dynamics scheme of the chapter differs only in the operational-space acceleration
-``a`` it asks for: impedance (9.28)/(9.31), inner position loop (9.39), inner velocity loop
-(9.45), parallel (9.48), hybrid (9.77).
+A controller object holds checked gains, packed once into ``_params`` in the layout of its law,
+and its state. Its ``step`` runs the law of :mod:`forcecontrol.laws` (each of the chapter's laws
+written once, compiled): on the chapter's arm in one fused compiled call, on any other robot on
+the robot's terms; a redundant arm or a configured singularity handling runs the law's
+acceleration part through the damped inner loop of :mod:`.redundant`.
 """
 
 from __future__ import annotations
@@ -18,9 +16,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
-from .._linalg import mtv, solve_into
+from .. import laws
 from .._validate import positive_scalar
 from ..errors import DimensionError, ForceControlError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
@@ -33,17 +30,10 @@ def _f64(a: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def _compiled_kinds() -> frozenset[int]:
-    from .dispatch import COMPILED_KINDS
-
-    return COMPILED_KINDS
-
-
 __all__ = [
     "Controller",
     "Measurement",
     "Reference",
-    "inverse_dynamics_torque",
     "pack_reference",
     "REFERENCE_FIELDS",
 ]
@@ -104,44 +94,6 @@ class Reference:
 def pack_reference(ref: Reference) -> np.ndarray:
     """Flatten a :class:`Reference` into the row layout of :data:`REFERENCE_FIELDS`."""
     return np.concatenate([np.asarray(getattr(ref, f), dtype=np.float64) for f in REFERENCE_FIELDS])
-
-
-@njit(cache=True)
-def inverse_dynamics_torque(B, n, J, Jdq, a, h, compensate_wrench):  # pragma: no cover - compiled
-    """The shared inner loop (9.30): ``u = B J⁻¹ (a − J̇q̇) + n [+ Jᵀ h]``.
-
-    Args:
-        B: inertia matrix, (n, n).
-        n: ``C q̇ + F q̇ + g``, (n,).
-        J: square Jacobian, (m, m) with m = n.
-        Jdq: ``J̇ q̇``, (m,).
-        a: requested operational-space acceleration, (m,).
-        h: measured end-effector wrench (base frame), (m,).
-        compensate_wrench: add ``Jᵀ h`` (schemes with force measurement).
-
-    Returns:
-        Joint torques u, (n,); all NaN when J is singular.
-    """
-    m = a.shape[0]
-    rhs = np.empty(m)
-    for i in range(m):
-        rhs[i] = a[i] - Jdq[i]
-    y = np.empty(m)
-    nj = B.shape[0]
-    u = np.empty(nj)
-    if not solve_into(J, rhs, y):
-        u[:] = np.nan
-        return u
-    for i in range(nj):
-        s = n[i]
-        for j in range(nj):
-            s += B[i, j] * y[j]
-        u[i] = s
-    if compensate_wrench:
-        jt = mtv(J, h)
-        for i in range(nj):
-            u[i] += jt[i]
-    return u
 
 
 def _shape(v: Any) -> tuple[int, ...]:
@@ -266,12 +218,16 @@ class Controller(ABC):
     with a :class:`Measurement` and a :class:`Reference` and apply the returned torques for one
     sample time.
 
-    Subclasses set ``kind`` (their branch in the compiled dispatcher), fill ``_params`` (a flat
-    float64 array, layout documented in the subclass) and ``state`` (integrators, may be empty).
+    Subclasses name their compiled ``law`` (and, for inverse-dynamics schemes, its
+    ``acceleration`` part) from :mod:`forcecontrol.laws`, fill ``_params`` (a flat float64 array
+    in the law's documented layout) and ``state`` (integrators, may be empty). Controllers with
+    no compiled law (``law = None``) implement ``step`` in Python.
     """
 
-    #: id of this controller's branch in :func:`forcecontrol.controllers.dispatch.controller_step`.
-    kind: ClassVar[int] = 0
+    #: the compiled control law (``staticmethod`` of a :mod:`forcecontrol.laws` function) or None.
+    law: ClassVar[Any] = None
+    #: its acceleration part (inverse-dynamics schemes), for the redundant/damped inner loop.
+    acceleration: ClassVar[Any] = None
     #: whether the controller reads the force measurement at all.
     uses_force: ClassVar[bool] = True
     #: the law acts on a position task space (x_e = o_e, J = J_P): a robot whose task includes
@@ -307,8 +263,18 @@ class Controller(ABC):
         self.sample_time = positive_scalar("sample_time", sample_time)
         self.state = np.zeros(0)
         self._params = np.zeros(0)
-        # the built-in arm gets one fused compiled call per step (same law functions)
+        #: False when this instance cannot run its law in the compiled loops (state-dependent
+        #: parameters, a singularity handling or a posture): the simulator then runs its ``step``.
+        self._compiled = type(self).law is not None
+        # the built-in arm gets one fused compiled call per step (the same law function)
         self._fused_K = getattr(robot, "_K", None) if type(robot).__name__ == "PlanarTwoLink" else None
+
+    @property
+    def compiled_law(self) -> Any:
+        """The compiled law the simulator's compiled loop and the sweeps run for this instance, or None."""
+        if not self._compiled or getattr(self, "singularity", None) is not None or getattr(self, "posture", None) is not None:
+            return None
+        return self.law
 
     @property
     def m(self) -> int:
@@ -342,20 +308,48 @@ class Controller(ABC):
         self.posture = posture
         self.singularity = singularity
 
-    def _inverse_dynamics(self, T: Any, q: Any, qd: Any, a: np.ndarray, h: Any, compensate: bool) -> np.ndarray:
-        """The inner loop (9.30) for this controller's robot.
+    def _workspace(self) -> np.ndarray:
+        ws = self.__dict__.get("_ws")
+        if ws is None:
+            m, n = int(self.robot.task_dim), int(self.robot.nq)
+            ws = np.empty(64 + 2 * n * n + laws.workspace_size(m, n))
+            self.__dict__["_ws"] = ws
+        return ws
 
-        A square J uses the shared :func:`inverse_dynamics_torque` (the exact inverse) unless the
-        controller has a ``singularity`` handling; a redundant arm (J of shape (m, n), m < n) or
-        a square J with ``singularity`` set goes through :meth:`_redundant_torque` with
-        ``r = a − J̇q̇`` (damped least squares near a singularity). Away from singularities the
-        task-space closed loop is the same.
+    def _law_step(self, t: float, measurement: Measurement, reference: Reference, T: Any = None) -> np.ndarray:
+        """Torques of this controller's compiled ``law`` for one sample (advances its state).
+
+        On the chapter's arm the law runs in one fused compiled call with the arm's terms. On
+        any other robot (or with precomputed terms ``T``) it runs on ``robot.terms``; a redundant
+        arm (J of shape (m, n), m < n) or a configured ``singularity`` handling runs the law's
+        acceleration part through :meth:`_redundant_torque` (damped least squares near a
+        singularity, the ``posture`` in the null space). Away from singularities the task-space
+        closed loop is the same.
         """
-        J = T.J
-        h = np.asarray(h, dtype=np.float64)
-        if J.shape[0] == J.shape[1] and getattr(self, "singularity", None) is None:
-            return inverse_dynamics_torque(T.B, T.n, J, T.Jdq, a, h, compensate)
-        return self._redundant_torque(J, a - T.Jdq, q, qd, T.B, T.n, J if compensate else None, h)
+        if T is None:
+            u = self._fused_step(t, measurement, reference)
+            if u is not None:
+                return u
+            T = self.robot.terms(measurement.q, measurement.qd)
+        q, qd = _f64(measurement.q), _f64(measurement.qd)
+        h = _f64(measurement.wrench)
+        ref = pack_reference(reference)
+        ws = self._workspace()
+        J = np.ascontiguousarray(T.J, dtype=np.float64)
+        square = J.shape[0] == J.shape[1]
+        if self.acceleration is not None and (not square or getattr(self, "singularity", None) is not None):
+            m = J.shape[0]
+            a = np.empty(m)
+            hc = np.empty(m)
+            comp = self.acceleration(t, self.sample_time, _f64(T.x), _f64(T.xd), h, ref, self._params, self.state, ws, a, hc)
+            u = self._redundant_torque(J, a - T.Jdq, q, qd, T.B, T.n, J if comp else None, hc)
+        else:
+            u = np.empty(q.shape[0])
+            self.law(
+                float(t), self.sample_time, q, qd, _f64(T.x), _f64(T.xd), J, _f64(T.Jdq), _f64(T.B), _f64(T.n),
+                _f64(T.g), h, ref, self._params, self.state, ws, u,
+            )
+        return self._check_output(t, u, measurement)
 
     def _redundant_torque(
         self, J_task: np.ndarray, r: np.ndarray, q: Any, qd: Any, B: np.ndarray, n: np.ndarray,
@@ -378,25 +372,27 @@ class Controller(ABC):
         return u + J_wrench.T @ np.asarray(h, dtype=np.float64) if J_wrench is not None else u
 
     def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
-        """Torques through the compiled dispatcher in one call, for the built-in arm.
+        """Torques of the law in one compiled call (:func:`forcecontrol.loop.planar_step`), on the built-in arm.
 
-        Returns None when the robot is not the built-in arm or the kind is not compiled; the
-        subclass then runs its generic path (any :class:`RobotModel`).
+        The call goes straight to the entry point of ``planar_step`` specialised for this law
+        (resolved once), which skips the dispatcher's type resolution of a function argument
+        (about 5 µs). Returns None when the robot is not the built-in arm or the instance has no
+        compiled law; :meth:`_law_step` then runs on the robot's terms.
         """
         fused = self.__dict__.get("_fused_fn", False)
-        if fused is False:  # resolved once: the compiled kernel, or None for the generic path
+        if fused is False:  # resolved once: the specialised kernel, or None for the generic path
             fused = None
-            # the compiled kernel uses the exact J⁻¹: a configured singularity handling takes the generic path
-            if self._fused_K is not None and self.kind in _compiled_kinds() and getattr(self, "singularity", None) is None:
-                from .._kernels import planar_controller_step as fused
+            if self._fused_K is not None and self.compiled_law is not None:
+                fused = _specialised_planar_step(self.law, self.m, int(self.robot.nq))
             self.__dict__["_fused_fn"] = fused
         if fused is None:
             return None
         r = reference
-        u = fused(
-            self.kind, self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
+        u = np.empty(self.robot.nq)
+        fused(
+            self.law, self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
             _f64(measurement.wrench), _f64(r.position), _f64(r.velocity), _f64(r.acceleration), _f64(r.force),
-            _f64(r.force_rate), _f64(r.force_accel), self._params, self.state,
+            _f64(r.force_rate), _f64(r.force_accel), self._params, self.state, self._workspace(), u,
         )
         return self._check_output(t, u, measurement)
 
@@ -413,3 +409,26 @@ class Controller(ABC):
             f"{type(self).__name__}: the Jacobian is singular at t = {t:.6g} s, "
             f"q = {np.asarray(measurement.q).tolist()}; the inverse-dynamics law cannot be applied"
         )
+
+
+def _specialised_planar_step(law: Any, m: int, n: int) -> Any:
+    """The entry point of :func:`forcecontrol.loop.planar_step` compiled for ``law`` (cached per law)."""
+    from numba import typeof
+
+    from ..loop import planar_step
+
+    cache = _FUSED.get(law)
+    if cache is not None:
+        return cache
+    v = np.zeros(n)
+    args = (law, np.zeros(12), 0.0, 1e-3, v, v, np.zeros(m), *(np.zeros(m),) * 6, np.zeros(1), np.zeros(1),
+            np.zeros(8), np.zeros(n))
+    sig = tuple(typeof(a) for a in args)
+    if sig not in planar_step.overloads:
+        planar_step.compile(sig)
+    entry = planar_step.overloads[sig].entry_point
+    _FUSED[law] = entry
+    return entry
+
+
+_FUSED: dict[Any, Any] = {}

@@ -16,59 +16,13 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
-from .._linalg import mtv, mv
+from .. import laws
 from .._validate import as_gain_matrix, as_vector
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference
 
-__all__ = ["OperationalSpacePD", "JointSpacePD", "os_pd_torque", "joint_pd_torque"]
-
-
-@njit(cache=True)
-def os_pd_torque(x, xd, J, g, x_d, K_P, K_D):  # pragma: no cover - compiled
-    """(8.110): ``u = g(q) + Jᵀ(q) (K_P (x_d − x_e) − K_D J(q) q̇)``.
-
-    Args:
-        x: end-effector position x_e, (m,) [m]; xd: its velocity J q̇, (m,) [m/s].
-        J: Jacobian (m, n); g: gravity torques (n,) [N m]; x_d: desired position (m,) [m].
-        K_P: stiffness (m, m) [N/m]; K_D: damping (m, m) [N s/m].
-    """
-    m = x.shape[0]
-    w = np.empty(m)
-    e = x_d - x
-    kp = mv(K_P, e)
-    kd = mv(K_D, xd)
-    for i in range(m):
-        w[i] = kp[i] - kd[i]
-    return g + mtv(J, w)
-
-
-@njit(cache=True)
-def joint_pd_torque(q, qd, g, q_d, K_P, K_D):  # pragma: no cover - compiled
-    """(8.51): ``u = g(q) + K_P (q_d − q) − K_D q̇``; in contact its equilibrium is (9.24)."""
-    return g + mv(K_P, q_d - q) - mv(K_D, qd)
-
-
-@njit(cache=True)
-def os_pd_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of :func:`os_pd_torque`; ``p = [K_P (m²), K_D (m²)]``."""
-    m = x.shape[0]
-    mm = m * m
-    K_P = p[0:mm].reshape((m, m))
-    K_D = p[mm : 2 * mm].reshape((m, m))
-    return os_pd_torque(x, xd, J, g, ref[0:m], K_P, K_D)
-
-
-@njit(cache=True)
-def joint_pd_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of :func:`joint_pd_torque`; ``p = [K_P (n²), K_D (n²), q_d (n)]``."""
-    n = q.shape[0]
-    nn = n * n
-    K_P = p[0:nn].reshape((n, n))
-    K_D = p[nn : 2 * nn].reshape((n, n))
-    return joint_pd_torque(q, qd, g, p[2 * nn : 2 * nn + n], K_P, K_D)
+__all__ = ["OperationalSpacePD", "JointSpacePD"]
 
 
 class OperationalSpacePD(Controller):
@@ -88,7 +42,7 @@ class OperationalSpacePD(Controller):
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 1
+    law = staticmethod(laws.os_pd)
     uses_force: ClassVar[bool] = False
     position_task_only: ClassVar[bool] = True
 
@@ -100,13 +54,8 @@ class OperationalSpacePD(Controller):
         self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques of (8.110) for this sample."""
-        u = self._fused_step(t, measurement, reference)
-        if u is not None:
-            return u
-        T = self.robot.terms(measurement.q, measurement.qd)
-        u = os_pd_torque(T.x, T.xd, T.J, T.g, reference.position, self.stiffness, self.damping)
-        return self._check_output(t, u, measurement)
+        """Torques of (8.110) for this sample (:func:`forcecontrol.laws.os_pd`)."""
+        return self._law_step(t, measurement, reference)
 
     def gains(self) -> dict[str, Any]:
         return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist()}
@@ -129,7 +78,7 @@ class JointSpacePD(Controller):
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 2
+    law = staticmethod(laws.joint_pd)
     uses_force: ClassVar[bool] = False
 
     def __init__(
@@ -143,16 +92,8 @@ class JointSpacePD(Controller):
         self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel(), self.joint_setpoint])
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques of (8.51) for this sample."""
-        u = self._fused_step(t, measurement, reference)
-        if u is not None:
-            return u
-        g = self.robot.gravity(measurement.q)
-        u = joint_pd_torque(
-            np.asarray(measurement.q, dtype=np.float64), np.asarray(measurement.qd, dtype=np.float64),
-            g, self.joint_setpoint, self.stiffness, self.damping,
-        )
-        return self._check_output(t, u, measurement)
+        """Torques of (8.51) for this sample (:func:`forcecontrol.laws.joint_pd`)."""
+        return self._law_step(t, measurement, reference)
 
     def gains(self) -> dict[str, Any]:
         return {

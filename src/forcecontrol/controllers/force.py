@@ -39,160 +39,19 @@ import warnings
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from numba import njit
 
-from .._linalg import mv
+from .. import laws
 from .._validate import as_gain_matrix, readonly
 from ..errors import DimensionError, DriftWarning, ParameterError
 from ..robots.base import RobotModel
-from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+from .base import Controller, Measurement, Reference
 
 __all__ = [
     "InnerPositionForceController",
     "InnerVelocityForceController",
     "ParallelForcePositionController",
-    "force_reference",
-    "integrate_force_error",
-    "inner_position_acceleration",
-    "inner_velocity_acceleration",
-    "parallel_acceleration",
     "check_force_reference",
 ]
-
-
-# --------------------------------------------------------------------------- control laws
-
-
-@njit(cache=True)
-def force_reference(f_d, f_e, K_F, xi):  # pragma: no cover - compiled
-    """(9.41)/(9.43): ``x_F = K_F (f_d − f_e) + ξ`` with ξ the integral action ``K_I ∫ (f_d − f_e)``.
-
-    Args:
-        f_d: desired contact force (m,) [N]; f_e: measured contact force (m,) [N].
-        K_F: diagonal of the proportional force gain (m,) [m/N].
-        xi: integral action ξ (m,) [m] (zeros for a purely proportional C_F).
-
-    Returns:
-        x_F, (m,) [m].
-    """
-    m = f_d.shape[0]
-    x_F = np.empty(m)
-    for i in range(m):
-        x_F[i] = K_F[i] * (f_d[i] - f_e[i]) + xi[i]
-    return x_F
-
-
-@njit(cache=True)
-def integrate_force_error(xi, xi0, f_d, f_e, K_I, limit, Ts):  # pragma: no cover - compiled
-    """(9.43), integral part, one forward-Euler sample: ``ξ ← ξ + Ts K_I (f_d − f_e)`` in place.
-
-    With anti-windup, ξ is clamped to ``[ξ₀ − limit, ξ₀ + limit]`` (ξ₀ its value after ``reset``);
-    a non-positive limit entry means no clamping on that axis.
-
-    Args:
-        xi: integral action ξ (m,) [m], updated in place; xi0: its initial value (m,) [m].
-        f_d, f_e: desired and measured contact force (m,) [N].
-        K_I: diagonal of the integral force gain (m,) [m/(N s)].
-        limit: anti-windup bound (m,) [m]; Ts: sample time [s].
-    """
-    for i in range(xi.shape[0]):
-        v = xi[i] + Ts * K_I[i] * (f_d[i] - f_e[i])
-        if limit[i] > 0.0:
-            lo = xi0[i] - limit[i]
-            hi = xi0[i] + limit[i]
-            if v < lo:
-                v = lo
-            elif v > hi:
-                v = hi
-        xi[i] = v
-
-
-@njit(cache=True)
-def inner_position_acceleration(x_e, xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
-    """(9.39): ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x_F − x_e))``, so that ``y = J⁻¹ (a − J̇ q̇)``.
-
-    Args:
-        x_e: end-effector position (m,) [m]; xd_e: its velocity (m,) [m/s].
-        x_F: position reference from the force loop (m,) [m].
-        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
-    """
-    return mv(Md_inv, mv(K_P, x_F - x_e) - mv(K_D, xd_e))
-
-
-@njit(cache=True)
-def inner_velocity_acceleration(xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
-    """(9.45), with J̇ q̇ (misprint: ``J̈ q̇``): ``a = M_d⁻¹ (−K_D ẋ_e + K_P x_F)``.
-
-    Args:
-        xd_e: end-effector velocity (m,) [m/s]; x_F: ``K_F (f_d − f_e)`` (9.46), (m,) [m].
-        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
-    """
-    return mv(Md_inv, mv(K_P, x_F) - mv(K_D, xd_e))
-
-
-@njit(cache=True)
-def parallel_acceleration(x_d, x_e, xd_e, x_F, Md_inv, K_D, K_P):  # pragma: no cover - compiled
-    """(9.48): ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x̃ + x_F))`` with ``x̃ = x_d − x_e``.
-
-    Args:
-        x_d: desired position (m,) [m]; x_e, xd_e: end-effector position [m] and velocity [m/s].
-        x_F: ``C_F (f_d − f_e)`` (m,) [m].
-        Md_inv: M_d⁻¹ (m, m) [1/kg]; K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
-    """
-    return mv(Md_inv, mv(K_P, x_d - x_e + x_F) - mv(K_D, xd_e))
-
-
-# --------------------------------------------------------------------------- packed adapters
-#
-# Parameter layout shared by the three adapters (m = task dimension):
-#   p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F diagonal (m), K_I diagonal (m), anti-windup limit (m)]
-# State layout (PI schemes): s = [ξ (m), ξ₀ (m)]; the inner velocity loop has no state.
-
-
-@njit(cache=True)
-def _unpack(p, m):  # pragma: no cover - compiled
-    mm = m * m
-    Md_inv = p[0:mm].reshape((m, m))
-    K_D = p[mm : 2 * mm].reshape((m, m))
-    K_P = p[2 * mm : 3 * mm].reshape((m, m))
-    o = 3 * mm
-    return Md_inv, K_D, K_P, p[o : o + m], p[o + m : o + 2 * m], p[o + 2 * m : o + 3 * m]
-
-
-@njit(cache=True)
-def inner_position_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of (9.39)+(9.43) (controller kind 4); layout above, ``ref`` packed rows."""
-    m = x.shape[0]
-    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
-    f_d = ref[3 * m : 4 * m]
-    xi = s[0:m]
-    x_F = force_reference(f_d, h, K_F, xi)
-    integrate_force_error(xi, s[m : 2 * m], f_d, h, K_I, limit, dt)
-    a = inner_position_acceleration(x, xd, x_F, Md_inv, K_D, K_P)
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
-
-
-@njit(cache=True)
-def inner_velocity_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of (9.45)+(9.46) (controller kind 5); layout above, no state."""
-    m = x.shape[0]
-    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
-    x_F = force_reference(ref[3 * m : 4 * m], h, K_F, np.zeros(m))
-    a = inner_velocity_acceleration(xd, x_F, Md_inv, K_D, K_P)
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
-
-
-@njit(cache=True)
-def parallel_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of (9.48)+(9.43) (controller kind 6); layout above."""
-    m = x.shape[0]
-    Md_inv, K_D, K_P, K_F, K_I, limit = _unpack(p, m)
-    f_d = ref[3 * m : 4 * m]
-    xi = s[0:m]
-    x_F = force_reference(f_d, h, K_F, xi)
-    integrate_force_error(xi, s[m : 2 * m], f_d, h, K_I, limit, dt)
-    a = parallel_acceleration(ref[0:m], x, xd, x_F, Md_inv, K_D, K_P)
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
 
 
 # --------------------------------------------------------------------------- checks
@@ -365,8 +224,6 @@ class _DirectForceController(Controller):
         m = self.m
         self._set_redundancy(posture, singularity)
         self.task_frame = _task_frame(task_frame, m)
-        if self.task_frame is not None:
-            self.kind = 0  # type: ignore[misc]  # the compiled kernels work in the base frame: generic path
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
@@ -393,6 +250,7 @@ class _DirectForceController(Controller):
         self._params = np.concatenate([
             self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
             self.force_gain, self.integral_gain, self.integral_limit,
+            (np.eye(m) if self.task_frame is None else self.task_frame).ravel(),
         ])
         self.state = np.zeros(2 * m if self._has_integral else 0)
 
@@ -464,18 +322,6 @@ class _DirectForceController(Controller):
             out["task_frame"] = self.task_frame.tolist()
         return out
 
-    def _pi_force_reference(self, measurement: Measurement, reference: Reference) -> np.ndarray:
-        m = self.m
-        f_d = np.asarray(reference.force, dtype=np.float64)
-        h = np.asarray(measurement.wrench, dtype=np.float64)
-        R = self.task_frame
-        if R is not None:  # (9.41), (9.43) with C_F diagonal in the task frame: x_F = R C_F Rᵀ (f_d − f_e)
-            f_d, h = R.T @ f_d, R.T @ h
-        xi = self.state[0:m]
-        x_F = force_reference(f_d, h, self.force_gain, xi)
-        integrate_force_error(xi, self.state[m : 2 * m], f_d, h, self.integral_gain, self.integral_limit, self.sample_time)
-        return x_F if R is None else R @ x_F
-
 
 class InnerPositionForceController(_DirectForceController):
     """Force control with inner position loop (Fig. 9.6): (9.39) with x_F = C_F (f_d − f_e) (9.41), (9.43).
@@ -509,8 +355,7 @@ class InnerPositionForceController(_DirectForceController):
         task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
             (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
             surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
-            plane); None: the base frame (the chapter's case, compiled).
-            Both unused with a square J.
+            plane); None: the base frame (the chapter's case). Both run compiled (R is packed with the gains).
         sample_time: Ts [s].
 
     Raises:
@@ -518,15 +363,12 @@ class InnerPositionForceController(_DirectForceController):
         ParameterError: negative, non-diagonal or all-zero C_F, indefinite motion gains.
     """
 
-    kind: ClassVar[int] = 4
+    law = staticmethod(laws.inner_position)
+    acceleration = staticmethod(laws.inner_position_acceleration)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.39), (9.43) for this sample; advances ξ by one sample."""
-        T = self.robot.terms(measurement.q, measurement.qd)
-        x_F = self._pi_force_reference(measurement, reference)
-        a = inner_position_acceleration(T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
-        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
-        return self._check_output(t, u, measurement)
+        return self._law_step(t, measurement, reference)
 
 
 class InnerVelocityForceController(_DirectForceController):
@@ -550,12 +392,12 @@ class InnerVelocityForceController(_DirectForceController):
         task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
             (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
             surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
-            plane); None: the base frame (the chapter's case, compiled).
-            Both unused with a square J.
+            plane); None: the base frame (the chapter's case). Both run compiled (R is packed with the gains).
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 5
+    law = staticmethod(laws.inner_velocity)
+    acceleration = staticmethod(laws.inner_velocity_acceleration)
     _has_integral: ClassVar[bool] = False
 
     def __init__(
@@ -580,17 +422,7 @@ class InnerVelocityForceController(_DirectForceController):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.45), (9.46) for this sample."""
-        T = self.robot.terms(measurement.q, measurement.qd)
-        h = np.asarray(measurement.wrench, dtype=np.float64)
-        R = self.task_frame
-        f_d = np.asarray(reference.force, dtype=np.float64)
-        if R is None:
-            x_F = force_reference(f_d, h, self.force_gain, np.zeros(self.m))
-        else:  # (9.46) with K_F diagonal in the task frame
-            x_F = R @ force_reference(R.T @ f_d, R.T @ np.asarray(h, dtype=np.float64), self.force_gain, np.zeros(self.m))
-        a = inner_velocity_acceleration(T.xd, x_F, self._Md_inv, self.damping, self.stiffness)
-        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, h, True)
-        return self._check_output(t, u, measurement)
+        return self._law_step(t, measurement, reference)
 
 
 class ParallelForcePositionController(_DirectForceController):
@@ -612,7 +444,8 @@ class ParallelForcePositionController(_DirectForceController):
     Fig. 9.11); ``"tip"`` chooses ξ₀ so that x_d + x_F equals the tip position at t = 0.
     """
 
-    kind: ClassVar[int] = 6
+    law = staticmethod(laws.parallel)
+    acceleration = staticmethod(laws.parallel_acceleration)
     _default_start: ClassVar[str] = "zero"
 
     def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
@@ -620,10 +453,4 @@ class ParallelForcePositionController(_DirectForceController):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.48), (9.43) for this sample; advances ξ by one sample."""
-        T = self.robot.terms(measurement.q, measurement.qd)
-        x_F = self._pi_force_reference(measurement, reference)
-        a = parallel_acceleration(
-            np.asarray(reference.position, dtype=np.float64), T.x, T.xd, x_F, self._Md_inv, self.damping, self.stiffness
-        )
-        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
-        return self._check_output(t, u, measurement)
+        return self._law_step(t, measurement, reference)

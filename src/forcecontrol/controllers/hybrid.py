@@ -1,7 +1,7 @@
 """Hybrid force/motion control (Sect. 9.7): compliant (9.74)–(9.84) and rigid (9.87)–(9.95) environments.
 
 Both schemes are inverse-dynamics schemes and use the shared inner loop
-``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h`` (:func:`~forcecontrol.controllers.base.inverse_dynamics_torque`):
+``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ h`` (:func:`forcecontrol.laws.inverse_dynamics`):
 
 * compliant environment, ``γ_e = B_e α + n_e + h_e`` with (9.77)
   ``α = S_v α_ν + C′ S_f f_λ``: ``a = α`` and ``h = h_e`` (the measured wrench); the closed loop
@@ -28,173 +28,18 @@ from __future__ import annotations
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from numba import njit
 
-from .._linalg import mv
+from .. import laws
 from .._validate import as_gain_matrix
 from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task
-from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+from .base import Controller, Measurement, Reference
 
 __all__ = [
     "HybridCompliantController",
     "HybridRigidController",
-    "velocity_law",
-    "position_law",
-    "compliant_force_law",
-    "rigid_force_law",
-    "compliant_acceleration",
-    "rigid_acceleration",
 ]
-
-
-# ------------------------------------------------------------------------------------- laws
-
-
-@njit(cache=True)
-def velocity_law(nu_dot_d, nu_d, nu, nu_error_integral, K_Pnu, K_Inu):  # pragma: no cover - compiled
-    """(9.80): ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫ (ν_d − ν) dς``.
-
-    Args:
-        nu_dot_d: ν̇_d (l,); nu_d: ν_d (l,); nu: ν = S_v† v_e (l,);
-        nu_error_integral: ∫(ν_d − ν) (l,); K_Pnu: K_Pν (l, l) [1/s]; K_Inu: K_Iν (l, l) [1/s²].
-    """
-    return nu_dot_d + mv(K_Pnu, nu_d - nu) + mv(K_Inu, nu_error_integral)
-
-
-@njit(cache=True)
-def position_law(r_dd_d, r_dot_d, nu, r_d, r, K_Dr, K_Pr):  # pragma: no cover - compiled
-    """(9.95): ``α_ν = r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r)``.
-
-    Args:
-        r_dd_d, r_dot_d, r_d: the desired constrained coordinates and derivatives (l,);
-        nu: ν = ṙ (l,); r: the coordinates ψ(q) (l,); K_Dr (l, l) [1/s]; K_Pr (l, l) [1/s²].
-    """
-    return r_dd_d + mv(K_Dr, r_dot_d - nu) + mv(K_Pr, r_d - r)
-
-
-@njit(cache=True)
-def compliant_force_law(lam_dd_d, lam_dot_d, lam_dot, lam_d, lam, K_Dlam, K_Plam):  # pragma: no cover
-    """(9.81): ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)``.
-
-    With a constant λ_d and λ̇ estimated through an estimated compliance this is (9.84),
-    ``f_λ = −K_Dλ λ̂̇ + K_Pλ (λ_d − λ)``.
-
-    Args:
-        lam_dd_d, lam_dot_d, lam_d: λ̈_d, λ̇_d, λ_d (k,); lam_dot: λ̇ (k,) from (9.82);
-        lam: λ = S_f† h_e (k,) (9.54); K_Dlam (k, k) [1/s]; K_Plam (k, k) [1/s²].
-    """
-    return lam_dd_d + mv(K_Dlam, lam_dot_d - lam_dot) + mv(K_Plam, lam_d - lam)
-
-
-@njit(cache=True)
-def rigid_force_law(lam_d, lam, lam_error_integral, K_Plam, K_Ilam):  # pragma: no cover - compiled
-    """(9.92)–(9.94): ``f_λ = λ_d + K_Pλ (λ_d − λ) + K_Iλ ∫ (λ_d − λ) dς``.
-
-    ``K_Pλ = K_Iλ = O`` is (9.92) (feedforward), ``K_Iλ = O`` is (9.93), ``K_Pλ = O`` is (9.94).
-
-    Args:
-        lam_d: λ_d (k,); lam: λ = S_f† h_e (k,); lam_error_integral: ∫(λ_d − λ) (k,);
-        K_Plam (k, k) [-]; K_Ilam (k, k) [1/s].
-    """
-    return lam_d + mv(K_Plam, lam_d - lam) + mv(K_Ilam, lam_error_integral)
-
-
-@njit(cache=True)
-def compliant_acceleration(S_v, alpha_nu, CpS_f, f_lam):  # pragma: no cover - compiled
-    """(9.77): ``α = S_v α_ν + C′ S_f f_λ`` (``Ĉ′ S_f f_λ`` with an estimated compliance).
-
-    Args:
-        S_v: (d, l); alpha_nu: α_ν (l,); CpS_f: C′ S_f (d, k) [m/N]; f_lam: f_λ (k,) [N/s²].
-    """
-    return mv(S_v, alpha_nu) + mv(CpS_f, f_lam)
-
-
-@njit(cache=True)
-def rigid_acceleration(S_v, alpha_nu, S_v_dot, nu):  # pragma: no cover - compiled
-    """(9.91), motion part: ``a = S_v α_ν + Ṡ_v ν`` (B_e a enters γ_e; Ṡ_v = O for a fixed task frame)."""
-    return mv(S_v, alpha_nu) + mv(S_v_dot, nu)
-
-
-# ------------------------------------------------------------------------------ packed adapters
-
-
-@njit(cache=True)
-def _block(p, start, rows, cols):  # pragma: no cover - compiled
-    return p[start : start + rows * cols].reshape((rows, cols)), start + rows * cols
-
-
-@njit(cache=True)
-def hybrid_compliant_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of the compliant scheme; updates the integral in ``s`` (l,).
-
-    ``p = [d, k, S_v (d l), S_v† (l d), S_f† (k d), C′ S_f (d k), L̂ (k d), K_Pν (l²), K_Iν (l²),
-    K_Dλ (k²), K_Pλ (k²)]`` with ``l = d − k`` and ``L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ`` (λ̇ = L̂ v_e, (9.82)).
-    """
-    d = int(p[0])
-    k = int(p[1])
-    l = d - k
-    i = 2
-    S_v, i = _block(p, i, d, l)
-    S_v_pinv, i = _block(p, i, l, d)
-    S_f_pinv, i = _block(p, i, k, d)
-    CpS_f, i = _block(p, i, d, k)
-    L_hat, i = _block(p, i, k, d)
-    K_Pnu, i = _block(p, i, l, l)
-    K_Inu, i = _block(p, i, l, l)
-    K_Dlam, i = _block(p, i, k, k)
-    K_Plam, i = _block(p, i, k, k)
-    nu = mv(S_v_pinv, xd)
-    nu_d = mv(S_v_pinv, ref[d : 2 * d])
-    alpha_nu = velocity_law(mv(S_v_pinv, ref[2 * d : 3 * d]), nu_d, nu, s[0:l], K_Pnu, K_Inu)
-    f_lam = compliant_force_law(
-        mv(S_f_pinv, ref[5 * d : 6 * d]), mv(S_f_pinv, ref[4 * d : 5 * d]), mv(L_hat, xd),
-        mv(S_f_pinv, ref[3 * d : 4 * d]), mv(S_f_pinv, h), K_Dlam, K_Plam,
-    )
-    a = compliant_acceleration(S_v, alpha_nu, CpS_f, f_lam)
-    for j in range(l):
-        s[j] += dt * (nu_d[j] - nu[j])
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, True)
-
-
-@njit(cache=True)
-def hybrid_rigid_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter of the rigid scheme; updates ``s = [∫(ν_d − ν) (l), ∫(λ_d − λ) (k)]``.
-
-    ``p = [d, k, position_mode, S_v (d l), S_v† (l d), S_f (d k), S_f† (k d), K_1 (l²), K_2 (l²),
-    K_Pλ (k²), K_Iλ (k²)]``; velocity mode: ``K_1 = K_Pν, K_2 = K_Iν`` (9.80); position mode:
-    ``K_1 = K_Dr, K_2 = K_Pr`` (9.95) with ``r = S_v† x``.
-    """
-    d = int(p[0])
-    k = int(p[1])
-    position_mode = p[2] != 0.0
-    l = d - k
-    i = 3
-    S_v, i = _block(p, i, d, l)
-    S_v_pinv, i = _block(p, i, l, d)
-    S_f, i = _block(p, i, d, k)
-    S_f_pinv, i = _block(p, i, k, d)
-    K_1, i = _block(p, i, l, l)
-    K_2, i = _block(p, i, l, l)
-    K_Plam, i = _block(p, i, k, k)
-    K_Ilam, i = _block(p, i, k, k)
-    nu = mv(S_v_pinv, xd)
-    nu_d = mv(S_v_pinv, ref[d : 2 * d])
-    nu_dot_d = mv(S_v_pinv, ref[2 * d : 3 * d])
-    if position_mode:
-        alpha_nu = position_law(nu_dot_d, nu_d, nu, mv(S_v_pinv, ref[0:d]), mv(S_v_pinv, x), K_1, K_2)
-    else:
-        alpha_nu = velocity_law(nu_dot_d, nu_d, nu, s[0:l], K_1, K_2)
-    lam_d = mv(S_f_pinv, ref[3 * d : 4 * d])
-    lam = mv(S_f_pinv, h)
-    f_lam = rigid_force_law(lam_d, lam, s[l : l + k], K_Plam, K_Ilam)
-    a = rigid_acceleration(S_v, alpha_nu, np.zeros((d, l)), nu)
-    for j in range(l):
-        s[j] += dt * (nu_d[j] - nu[j])
-    for j in range(k):
-        s[l + j] += dt * (lam_d[j] - lam[j])
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, mv(S_f, f_lam), True)
 
 
 # ------------------------------------------------------------------------------------ classes
@@ -246,7 +91,8 @@ class HybridCompliantController(Controller):
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 7
+    law = staticmethod(laws.hybrid_compliant)
+    acceleration = staticmethod(laws.hybrid_compliant_acceleration)
     position_task_only: ClassVar[bool] = True
 
     def __init__(
@@ -289,23 +135,7 @@ class HybridCompliantController(Controller):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.77), (9.80), (9.81) for this sample; advances the velocity integral."""
-        T = self.robot.terms(measurement.q, measurement.qd)
-        h = np.asarray(measurement.wrench, dtype=np.float64)
-        Pv, Pf = self._S_v_pinv, self._S_f_pinv
-        nu = Pv @ T.xd
-        nu_d = Pv @ reference.velocity
-        alpha_nu = velocity_law(
-            Pv @ reference.acceleration, nu_d, nu, self.state, self.velocity_gain, self.velocity_integral_gain
-        )
-        f_lam = compliant_force_law(
-            Pf @ reference.force_accel, Pf @ reference.force_rate, self._L_hat @ T.xd,
-            Pf @ reference.force, Pf @ h, self.force_rate_gain, self.force_gain,
-        )
-        a = compliant_acceleration(self._S_v, alpha_nu, self._CpS_f, f_lam)
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, h, True)
-        u = self._check_output(t, u, measurement)
-        self.state += self.sample_time * (nu_d - nu)
-        return u
+        return self._law_step(t, measurement, reference)
 
     def gains(self) -> dict[str, Any]:
         return {
@@ -358,7 +188,8 @@ class HybridRigidController(Controller):
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 8
+    law = staticmethod(laws.hybrid_rigid)
+    acceleration = staticmethod(laws.hybrid_rigid_acceleration)
     position_task_only: ClassVar[bool] = True
 
     def __init__(
@@ -391,7 +222,7 @@ class HybridRigidController(Controller):
                     f"got {motion!r}"
                 )
             self._constraint = selection
-            self.kind = 0  # type: ignore[misc]  # state-dependent S_f, S_v: the Python loop only
+            self._compiled = False  # state-dependent S_f, S_v: repacked each sample, the Python loop only
             selection = SelectionMatrices([[0.0], [1.0]], [[1.0], [0.0]])  # sizes and gains only
         sel = _selection(selection, self.m)
         self.selection = sel
@@ -443,10 +274,15 @@ class HybridRigidController(Controller):
         self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
         self._S_v_dot = np.zeros((d, l))
         self.state = np.zeros(l + k)
-        self._params = np.concatenate([
-            [float(d), float(k), float(motion == "position")], self._S_v.ravel(), self._S_v_pinv.ravel(),
-            self._S_f.ravel(), self._S_f_pinv.ravel(), self.velocity_gain.ravel(), self.second_gain.ravel(),
-            self.force_gain.ravel(), self.force_integral_gain.ravel(),
+        self._params = self._pack(self._S_v, self._S_v_pinv, self._S_f, self._S_f_pinv, self._S_v_dot)
+
+    def _pack(self, S_v, S_v_pinv, S_f, S_f_pinv, S_v_dot) -> np.ndarray:
+        """The parameters of :func:`forcecontrol.laws.hybrid_rigid` for this selection."""
+        sel = self.selection
+        return np.concatenate([
+            [float(sel.dim), float(sel.m), float(self.motion == "position")], np.ravel(S_v), np.ravel(S_v_pinv),
+            np.ravel(S_f), np.ravel(S_f_pinv), self.velocity_gain.ravel(), self.second_gain.ravel(),
+            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.ravel(S_v_dot),
         ])
 
     def force_coordinates(self, wrench: Any) -> np.ndarray:
@@ -455,30 +291,12 @@ class HybridRigidController(Controller):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.91) with the chosen force and motion laws; advances the integrals."""
+        if self._constraint is None:
+            return self._law_step(t, measurement, reference)
         T = self.robot.terms(measurement.q, measurement.qd)
-        h = np.asarray(measurement.wrench, dtype=np.float64)
-        S_v, S_f, S_v_dot = self._S_v, self._S_f, self._S_v_dot
-        Pv, Pf = self._S_v_pinv, self._S_f_pinv
-        if self._constraint is not None:
-            S_f, S_v, S_v_dot = self._constraint.selection(T.x, T.xd)
-            Pv, Pf = S_v.T, S_f.T  # unit columns, W = I
-        l = Pv.shape[0]
-        nu = Pv @ T.xd
-        nu_d = Pv @ reference.velocity
-        nu_dot_d = Pv @ reference.acceleration
-        if self.motion == "position":
-            alpha_nu = position_law(nu_dot_d, nu_d, nu, Pv @ reference.position, Pv @ T.x, self.velocity_gain, self.second_gain)
-        else:
-            alpha_nu = velocity_law(nu_dot_d, nu_d, nu, self.state[:l], self.velocity_gain, self.second_gain)
-        lam_d = Pf @ reference.force
-        lam = Pf @ h
-        f_lam = rigid_force_law(lam_d, lam, self.state[l:], self.force_gain, self.force_integral_gain)
-        a = rigid_acceleration(S_v, alpha_nu, S_v_dot, nu)
-        u = inverse_dynamics_torque(T.B, T.n, T.J, T.Jdq, a, S_f @ f_lam, True)
-        u = self._check_output(t, u, measurement)
-        self.state[:l] += self.sample_time * (nu_d - nu)
-        self.state[l:] += self.sample_time * (lam_d - lam)
-        return u
+        S_f, S_v, S_v_dot = self._constraint.selection(T.x, T.xd)
+        self._params = self._pack(S_v, S_v.T, S_f, S_f.T, S_v_dot)  # unit columns, W = I
+        return self._law_step(t, measurement, reference, T)
 
     def gains(self) -> dict[str, Any]:
         out: dict[str, Any] = {

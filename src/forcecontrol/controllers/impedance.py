@@ -19,45 +19,13 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
-from .._linalg import mv
+from .. import laws
 from .._validate import as_gain_matrix
 from ..robots.base import RobotModel
-from .base import Controller, Measurement, Reference, inverse_dynamics_torque
+from .base import Controller, Measurement, Reference
 
-__all__ = ["ImpedanceController", "impedance_acceleration"]
-
-
-@njit(cache=True)
-def impedance_acceleration(x_tilde, x_tilde_dot, xdd_d, h_A, Md_inv, K_D, K_P, use_force):  # pragma: no cover
-    """(9.28)/(9.31): ``a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_A)`` (``− h_A`` only with force).
-
-    Args:
-        x_tilde: x_d − x_e (m,) [m]; x_tilde_dot: ẋ_d − ẋ_e (m,) [m/s]; xdd_d: ẍ_d (m,) [m/s²].
-        h_A: measured equivalent force (m,) [N]; Md_inv: M_d⁻¹ (m, m) [1/kg].
-        K_D: damping (m, m) [N s/m]; K_P: stiffness (m, m) [N/m].
-        use_force: subtract h_A (the law with force measurement).
-    """
-    w = mv(K_D, x_tilde_dot) + mv(K_P, x_tilde)
-    if use_force:
-        w = w - h_A
-    return xdd_d + mv(Md_inv, w)
-
-
-@njit(cache=True)
-def impedance_packed(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s):  # pragma: no cover
-    """Packed adapter; ``p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), use_force]``."""
-    m = x.shape[0]
-    mm = m * m
-    Md_inv = p[0:mm].reshape((m, m))
-    K_D = p[mm : 2 * mm].reshape((m, m))
-    K_P = p[2 * mm : 3 * mm].reshape((m, m))
-    use_force = p[3 * mm] != 0.0
-    a = impedance_acceleration(
-        ref[0:m] - x, ref[m : 2 * m] - xd, ref[2 * m : 3 * m], h, Md_inv, K_D, K_P, use_force
-    )
-    return inverse_dynamics_torque(B, nv, J, Jdq, a, h, use_force)
+__all__ = ["ImpedanceController"]
 
 
 class ImpedanceController(Controller):
@@ -86,7 +54,8 @@ class ImpedanceController(Controller):
         sample_time: Ts [s].
     """
 
-    kind: ClassVar[int] = 3
+    law = staticmethod(laws.impedance)
+    acceleration = staticmethod(laws.impedance_acceleration)
     position_task_only: ClassVar[bool] = True
 
     def __init__(
@@ -119,18 +88,8 @@ class ImpedanceController(Controller):
         return self.force_measurement
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques of (9.28) or (9.30)–(9.31) for this sample."""
-        u = self._fused_step(t, measurement, reference)
-        if u is not None:
-            return u
-        T = self.robot.terms(measurement.q, measurement.qd)
-        h = measurement.wrench
-        a = impedance_acceleration(
-            reference.position - T.x, reference.velocity - T.xd, reference.acceleration, h,
-            self._Md_inv, self.damping, self.stiffness, self.force_measurement,
-        )
-        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, h, self.force_measurement)
-        return self._check_output(t, u, measurement)
+        """Torques of (9.28) or (9.30)–(9.31) for this sample (:func:`forcecontrol.laws.impedance`)."""
+        return self._law_step(t, measurement, reference)
 
     def gains(self) -> dict[str, Any]:
         return {

@@ -1,6 +1,6 @@
 """The inverse-dynamics inner loop for redundant arms and near singularities.
 
-The shared loop (9.30) (:func:`forcecontrol.controllers.base.inverse_dynamics_torque`) solves
+The shared loop (9.30) (:func:`forcecontrol.laws.inverse_dynamics`) solves
 ``J y = a − J̇q̇`` with a square J. Here J is (m, n) with m <= n and may lose rank::
 
     y = y₀ + Jᵀ (J Jᵀ + λ² I)⁻¹ (r − J y₀),      u = B y + n [+ Jᵀ h_e]

@@ -38,7 +38,7 @@ from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
 from .admittance import AdmittanceController
 from .base import Measurement, Reference
-from .impedance import ImpedanceController, impedance_acceleration
+from .impedance import ImpedanceController
 
 __all__ = [
     "EnergyTank",
@@ -268,8 +268,6 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
             non-finite gain (at the step, naming t).
     """
 
-    kind: ClassVar[int] = 0  # not in the compiled dispatcher: the gains change every step
-
     def __init__(
         self,
         robot: RobotModel,
@@ -285,6 +283,7 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
         singularity: Any = None,
     ) -> None:
         super().__init__(robot, inertia, damping, stiffness, True, sample_time, posture=posture, singularity=singularity)
+        self._compiled = False  # the gains change every step: the law runs with the gains repacked each sample
         self._set_schedules(stiffness_schedule, damping_schedule, tank, "x_tilde, x_tilde_dot")
         self.reset()
 
@@ -312,11 +311,12 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
         xtd = np.asarray(reference.velocity, dtype=np.float64) - T.xd
         K, D, K_s = self._scheduled_gains(t, xt, xtd, self._K, self._D, self.m, self._last_xtd)
         self._K, self._D, self._last_xtd = K, D, xtd
-        a = impedance_acceleration(xt, xtd, np.asarray(reference.acceleration, dtype=np.float64),
-                                   np.asarray(measurement.wrench, dtype=np.float64), self._Md_inv, D, K, True)
-        u = self._inverse_dynamics(T, measurement.q, measurement.qd, a, measurement.wrench, True)
+        mm = self.m * self.m
+        self._params[mm : 2 * mm] = np.ravel(D)  # the layout of forcecontrol.laws.impedance
+        self._params[2 * mm : 3 * mm] = np.ravel(K)
+        u = self._law_step(t, measurement, reference, T)
         self._record(K, K_s, D, 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
-        return self._check_output(t, u, measurement)
+        return u
 
     def gains(self) -> dict[str, Any]:
         g = super().gains()

@@ -232,7 +232,7 @@ class CaseJob:
     K: np.ndarray | None = None
     env_kind: int = 0
     env_p: np.ndarray | None = None
-    ctrl_kind: int = 0
+    law: Any = None
     ctrl_p: np.ndarray | None = None
     ctrl_s: np.ndarray | None = None
     q0: np.ndarray | None = None
@@ -262,7 +262,6 @@ def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, f
 
 
 def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any]) -> CaseJob:
-    from .._batch import FAST_KINDS
     from ..controllers.base import Measurement
     from ..errors import ParameterError
     from ..limits import check_run_size, check_substeps
@@ -284,7 +283,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     d, f_ref = _force_direction(env, ref, N * Ts)
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
     fast = (
-        isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "kind", 0) in FAST_KINDS
+        isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None
         and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
         and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
     )
@@ -311,7 +310,7 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     job.K = np.array(robot._K, dtype=np.float64)
     job.env_kind = int(env.kind)
     job.env_p = np.array(env.packed(), dtype=np.float64)
-    job.ctrl_kind = int(ctl.kind)
+    job.law = ctl.compiled_law
     job.ctrl_p = np.array(ctl._params, dtype=np.float64)
     job.ctrl_s = np.array(ctl.state, dtype=np.float64)
     job.q0, job.qd0 = q0.copy(), qd0.copy()
@@ -480,8 +479,11 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
     from .._batch import OUT_COLUMNS, run_batch
 
     rows: dict[int, dict[str, Any]] = {}
-    fast = [j for j in jobs if j.fast]
-    if fast:
+    groups: dict[Any, list[CaseJob]] = {}
+    for j in jobs:
+        if j.fast:
+            groups.setdefault(j.law, []).append(j)
+    for law, fast in groups.items():  # the batch kernel is specialised per law
         C = len(fast)
         nmax = max(j.N for j in fast)
         ref_index: dict[tuple[str, int, float], int] = {}
@@ -512,7 +514,7 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
             else:
                 noise_id[i] = 0
 
-        def stack(name: str) -> np.ndarray:
+        def stack(name: str, fast: list[CaseJob] = fast, C: int = C) -> np.ndarray:
             arrs = [np.atleast_1d(getattr(j, name)) for j in fast]
             width = max(a.shape[0] for a in arrs)
             out = np.zeros((C, width))
@@ -522,8 +524,8 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
 
         out = np.empty((C, len(OUT_COLUMNS)))
         run_batch(
-            stack("K"), np.array([j.env_kind for j in fast], np.int64), stack("env_p"),
-            np.array([j.ctrl_kind for j in fast], np.int64), stack("ctrl_p"), stack("ctrl_s"),
+            law, stack("K"), np.array([j.env_kind for j in fast], np.int64), stack("env_p"),
+            stack("ctrl_p"), stack("ctrl_s"),
             np.stack(refs), ref_id, bias, np.stack(noises), noise_id,
             np.array([j.alpha for j in fast]), stack("q0"), stack("qd0"), np.array([j.Ts for j in fast]),
             np.array([j.nsub for j in fast], np.int64), np.array([j.N for j in fast], np.int64),

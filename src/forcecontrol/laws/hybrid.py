@@ -1,0 +1,168 @@
+"""Hybrid force/motion control (Sect. 9.7): compliant (9.77)–(9.82) and rigid (9.91)–(9.95) environments.
+
+Packed parameters (row-major blocks; d = task dimension, k = force-controlled, l = d − k):
+
+* compliant: ``p = [d, k, S_v (d l), S_v† (l d), S_f† (k d), C′ S_f (d k), L̂ (k d), K_Pν (l²),
+  K_Iν (l²), K_Dλ (k²), K_Pλ (k²)]`` with ``L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ`` (λ̇ = L̂ v_e, (9.82));
+  state ``s = ∫(ν_d − ν)`` (l).
+* rigid: ``p = [d, k, position_mode, S_v (d l), S_v† (l d), S_f (d k), S_f† (k d), K_1 (l²),
+  K_2 (l²), K_Pλ (k²), K_Iλ (k²), Ṡ_v (d l)]``; velocity motion: ``K_1 = K_Pν, K_2 = K_Iν``
+  (9.80); position motion: ``K_1 = K_Dr, K_2 = K_Pr`` (9.95) with ``r = S_v† x``; state
+  ``s = [∫(ν_d − ν) (l), ∫(λ_d − λ) (k)]``.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .._linalg import mv_into
+from .inner import inverse_dynamics
+
+
+@njit(cache=True, inline="always")
+def _block(p, o, rows, cols):  # pragma: no cover - compiled
+    return p[o : o + rows * cols].reshape((rows, cols)), o + rows * cols
+
+
+@njit(cache=True, inline="always")
+def _mv_add(A, x, out):  # pragma: no cover - compiled
+    """``out += A x``."""
+    r, c = A.shape
+    for i in range(r):
+        acc = 0.0
+        for j in range(c):
+            acc += A[i, j] * x[j]
+        out[i] += acc
+
+
+@njit(cache=True, inline="always")
+def _mv_diff_add(A, x, y, out, tmp):  # pragma: no cover - compiled
+    """``out += A (x − y)`` (tmp: scratch of len(x))."""
+    for j in range(x.shape[0]):
+        tmp[j] = x[j] - y[j]
+    _mv_add(A, tmp, out)
+
+
+@njit(cache=True, inline="always")
+def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no cover - compiled
+    """(9.77) ``α = S_v α_ν + Ĉ′ S_f f_λ`` with (9.80) and (9.81); advances ``∫(ν_d − ν)``.
+
+    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` (9.80), ``ν = S_v† ẋ_e`` (9.60);
+    ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)`` (9.81), ``λ = S_f† h_e`` (9.54),
+    ``λ̇ = L̂ ẋ_e`` (9.82); ``Ĉ′ = (I − P_v) Ĉ`` (9.72) (C′, not C: with C the force and
+    velocity loops would not decouple). Closed loop ``ν̇ = α_ν`` (9.78), ``λ̈ = f_λ`` (9.79).
+    """
+    d = int(p[0])
+    k = int(p[1])
+    l = d - k
+    o = 2
+    S_v, o = _block(p, o, d, l)
+    S_v_pinv, o = _block(p, o, l, d)
+    S_f_pinv, o = _block(p, o, k, d)
+    CpS_f, o = _block(p, o, d, k)
+    L_hat, o = _block(p, o, k, d)
+    K_Pnu, o = _block(p, o, l, l)
+    K_Inu, o = _block(p, o, l, l)
+    K_Dlam, o = _block(p, o, k, k)
+    K_Plam, o = _block(p, o, k, k)
+    nu = ws[0:l]
+    nu_d = ws[d : d + l]
+    alpha = ws[2 * d : 2 * d + l]
+    tmp = ws[3 * d : 4 * d]
+    f_lam = ws[4 * d : 4 * d + k]
+    lam_a = ws[5 * d : 5 * d + k]
+    lam_b = ws[6 * d : 6 * d + k]
+    mv_into(S_v_pinv, xd, nu)
+    mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
+    mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d
+    _mv_diff_add(K_Pnu, nu_d, nu, alpha, tmp)
+    _mv_add(K_Inu, s[0:l], alpha)
+    mv_into(S_f_pinv, ref[5 * d : 6 * d], f_lam)  # λ̈_d
+    mv_into(S_f_pinv, ref[4 * d : 5 * d], lam_a)  # λ̇_d
+    mv_into(L_hat, xd, lam_b)  # λ̇
+    _mv_diff_add(K_Dlam, lam_a, lam_b, f_lam, tmp)
+    mv_into(S_f_pinv, ref[3 * d : 4 * d], lam_a)  # λ_d
+    mv_into(S_f_pinv, h, lam_b)  # λ
+    _mv_diff_add(K_Plam, lam_a, lam_b, f_lam, tmp)
+    mv_into(S_v, alpha, a)
+    _mv_add(CpS_f, f_lam, a)
+    for j in range(l):
+        s[j] += dt * (nu_d[j] - nu[j])
+    for j in range(d):
+        hc[j] = h[j]
+    return True
+
+
+@njit(cache=True, inline="always")
+def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no cover - compiled
+    """(9.91): ``a = S_v α_ν + Ṡ_v ν`` and ``h_c = S_f f_λ``; advances the integrals.
+
+    Motion: (9.80) ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` or (9.95)
+    ``α_ν = r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r)``, ``r = S_v† x_e``. Force: (9.92)–(9.94)
+    ``f_λ = λ_d + K_Pλ (λ_d − λ) + K_Iλ ∫(λ_d − λ)``, ``λ = S_f† h_e`` (9.54). With the inner
+    loop (9.30), ``u = B J⁻¹ (a − J̇ q̇) + n + Jᵀ S_f f_λ``: the closed loop ``ν̇ = α_ν``,
+    ``λ = f_λ``.
+    """
+    d = int(p[0])
+    k = int(p[1])
+    position_mode = p[2] != 0.0
+    l = d - k
+    o = 3
+    S_v, o = _block(p, o, d, l)
+    S_v_pinv, o = _block(p, o, l, d)
+    S_f, o = _block(p, o, d, k)
+    S_f_pinv, o = _block(p, o, k, d)
+    K_1, o = _block(p, o, l, l)
+    K_2, o = _block(p, o, l, l)
+    K_Plam, o = _block(p, o, k, k)
+    K_Ilam, o = _block(p, o, k, k)
+    S_v_dot, o = _block(p, o, d, l)
+    nu = ws[0:l]
+    nu_d = ws[d : d + l]
+    alpha = ws[2 * d : 2 * d + l]
+    tmp = ws[3 * d : 4 * d]
+    f_lam = ws[4 * d : 4 * d + k]
+    lam_d = ws[5 * d : 5 * d + k]
+    lam = ws[6 * d : 6 * d + k]
+    r_d = ws[7 * d : 7 * d + l]
+    r = ws[8 * d : 8 * d + l]
+    mv_into(S_v_pinv, xd, nu)
+    mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
+    mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d (r̈_d)
+    _mv_diff_add(K_1, nu_d, nu, alpha, tmp)
+    if position_mode:
+        mv_into(S_v_pinv, ref[0:d], r_d)
+        mv_into(S_v_pinv, x, r)
+        _mv_diff_add(K_2, r_d, r, alpha, tmp)
+    else:
+        _mv_add(K_2, s[0:l], alpha)
+    mv_into(S_f_pinv, ref[3 * d : 4 * d], lam_d)
+    mv_into(S_f_pinv, h, lam)
+    for j in range(k):
+        f_lam[j] = lam_d[j]
+    _mv_diff_add(K_Plam, lam_d, lam, f_lam, tmp)
+    _mv_add(K_Ilam, s[l : l + k], f_lam)
+    mv_into(S_v, alpha, a)
+    _mv_add(S_v_dot, nu, a)
+    mv_into(S_f, f_lam, hc)
+    for j in range(l):
+        s[j] += dt * (nu_d[j] - nu[j])
+    for j in range(k):
+        s[l + j] += dt * (lam_d[j] - lam[j])
+    return True
+
+
+@njit(cache=True, inline="always")
+def hybrid_compliant(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
+    """Hybrid control on a compliant environment: (9.77) through the inner loop (9.30) (+ Jᵀ h_e)."""
+    m = x.shape[0]
+    hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
+    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
+
+
+@njit(cache=True, inline="always")
+def hybrid_rigid(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
+    """Hybrid control on a rigid environment: (9.91) through the inner loop (9.30) (+ Jᵀ S_f f_λ)."""
+    m = x.shape[0]
+    hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
+    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)

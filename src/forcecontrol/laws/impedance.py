@@ -1,0 +1,49 @@
+"""Impedance control, (9.28) without and (9.30)–(9.31) with force measurement."""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .inner import inverse_dynamics
+
+
+@njit(cache=True, inline="always")
+def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no cover - compiled
+    """(9.28)/(9.31): ``a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h_A])``, ``x̃ = x_d − x_e``.
+
+    (9.31) in its corrected form: the first term is ``M_d ẍ_d`` as in (9.28), not the printed
+    ``M_d x̃̈``. With force measurement the closed loop is (9.32)
+    ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A``; without, (9.29) (coupled through B_A⁻¹).
+    ``p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), use_force]``; writes ``a`` and ``hc = h_e``;
+    returns whether the inner loop compensates ``Jᵀ h_e`` (with force measurement).
+    """
+    m = x.shape[0]
+    mm = m * m
+    use_force = p[3 * mm] != 0.0
+    w = ws[0:m]
+    for i in range(m):
+        kd = 0.0
+        kp = 0.0
+        for j in range(m):
+            kd += p[mm + i * m + j] * (ref[m + j] - xd[j])
+            kp += p[2 * mm + i * m + j] * (ref[j] - x[j])
+        w[i] = kd + kp
+        if use_force:
+            w[i] = w[i] - h[i]
+    for i in range(m):
+        acc = 0.0
+        for j in range(m):
+            acc += p[i * m + j] * w[j]
+        a[i] = ref[2 * m + i] + acc
+        hc[i] = h[i]
+    return use_force
+
+
+@njit(cache=True, inline="always")
+def impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
+    """Impedance control: :func:`impedance_acceleration` through the inner loop (9.30)."""
+    m = x.shape[0]
+    a = ws[0:m]
+    hc = ws[m : 2 * m]
+    comp = impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], a, hc)
+    return inverse_dynamics(B, nv, J, Jdq, a, hc, comp, ws[2 * m :], u)

@@ -1,0 +1,135 @@
+"""The compiled closed loop for the chapter's arm, and one controller step on it.
+
+Per control sample k: the true wrench h_e(x(t_k)), the sensor model (bias, noise, first-order
+low-pass), the control law, logging, then the plant integrated over Ts with the torque held
+(zero-order hold) by :func:`forcecontrol._plant.rk4_sample`. The control law is the controller's
+own compiled law (:mod:`forcecontrol.laws`), passed as a function argument: the loop is
+specialised (and cached) per law, and runs exactly the function ``Controller.step`` runs.
+The Python loop of :mod:`forcecontrol.simulation` is the reference (tests: agreement to
+round-off).
+
+Status codes returned: 0 ok, 1 non-finite state, 2 runaway joint speed, 3 singular Jacobian in
+the control law, 4 non-finite torque.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
+from .robots.planar_2r import _terms_into
+
+__all__ = ["run_planar_loop", "planar_step", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
+
+
+@njit(cache=True)
+def run_planar_loop(
+    law, K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
+    q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
+):  # pragma: no cover - compiled
+    """Run the sampled loop with control ``law``; fill the logs row by row. Returns (status, last_row).
+
+    The arm's terms, the environment, the sensor and the RK4 plant run on scalars and allocate
+    nothing; the law reads them from arrays filled once per sample.
+    """
+    n = q0.shape[0]
+    m = 2
+    N = Q.shape[0] - 1
+    x = np.empty(m)
+    xd = np.empty(m)
+    J = np.empty((m, n))
+    Jdq = np.empty(m)
+    B = np.empty((n, n))
+    nv = np.empty(n)
+    g = np.empty(n)
+    q = np.empty(n)
+    qd = np.empty(n)
+    hm = np.zeros(m)
+    u = np.empty(n)
+    ws = np.empty(2 * m * m + 12 * m + 2 * n + 8)
+    T = np.empty(17)
+    W = np.empty(17)
+    q_0, q_1, w_0, w_1 = q0[0], q0[1], qd0[0], qd0[1]
+    hm0 = 0.0
+    hm1 = 0.0
+    for k in range(N + 1):
+        t = k * Ts
+        terms2(K, q_0, q_1, w_0, w_1, T)
+        h0, h1 = wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
+        raw0 = h0 + bias[0] + noise[k, 0]
+        raw1 = h1 + bias[1] + noise[k, 1]
+        if k == 0:
+            hm0 = raw0
+            hm1 = raw1
+        else:
+            hm0 = hm0 + alpha * (raw0 - hm0)
+            hm1 = hm1 + alpha * (raw1 - hm1)
+        fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g)
+        hm[0], hm[1] = hm0, hm1
+        law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
+        u0 = u[0]
+        u1 = u[1]
+        Q[k, 0], Q[k, 1], QD[k, 0], QD[k, 1] = q_0, q_1, w_0, w_1
+        U[k, 0], U[k, 1] = u0, u1
+        X[k, 0], X[k, 1], XD[k, 0], XD[k, 1] = T[0], T[1], T[2], T[3]
+        H[k, 0], H[k, 1], HM[k, 0], HM[k, 1] = h0, h1, hm0, hm1
+        if not (math.isfinite(u0) and math.isfinite(u1)):
+            det = T[4] * T[7] - T[5] * T[6]
+            if abs(det) < 1e-9:
+                return SINGULAR, k
+            return NONFINITE_TORQUE, k
+        if k == N:
+            break
+        ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W)
+        if not ok:
+            return NONFINITE_STATE, k
+        if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
+            return NONFINITE_STATE, k
+        if abs(w_0) > max_qd or abs(w_1) > max_qd:
+            return RUNAWAY, k
+    return OK, N
+
+
+@njit(cache=True)
+def planar_step(law, K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover
+    """One step of ``law`` on the chapter's arm in a single compiled call (``Controller.step``).
+
+    Computes the arm's terms (into ``ws``) and calls the law; ``u`` (n,) is written. A
+    non-finite reference, used by the law or not, gives NaN torques before any state moves.
+    """
+    n = q.shape[0]
+    m = 2
+    o = 0
+    x = ws[o : o + m]
+    o += m
+    xd = ws[o : o + m]
+    o += m
+    J = ws[o : o + m * n].reshape((m, n))
+    o += m * n
+    Jdq = ws[o : o + m]
+    o += m
+    B = ws[o : o + n * n].reshape((n, n))
+    o += n * n
+    nv = ws[o : o + n]
+    o += n
+    g = ws[o : o + n]
+    o += n
+    ref = ws[o : o + 6 * m]
+    o += 6 * m
+    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
+    for i in range(m):
+        ref[i] = x_d[i]
+        ref[m + i] = v_d[i]
+        ref[2 * m + i] = a_d[i]
+        ref[3 * m + i] = f_d[i]
+        ref[4 * m + i] = fd_d[i]
+        ref[5 * m + i] = fdd_d[i]
+    for i in range(6 * m):
+        if not math.isfinite(ref[i]):
+            for j in range(n):
+                u[j] = math.nan
+            return False
+    return law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws[o:], u)
