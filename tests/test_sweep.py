@@ -31,6 +31,7 @@ from forcecontrol.sweep import (
     read_sweep,
     run_sweep,
 )
+from forcecontrol.task import inclined_plane, planar_rotation
 
 ARM = fc.PlanarTwoLink()
 Q0 = ARM.inverse_kinematics([1.0, 0.0])
@@ -82,12 +83,22 @@ def _reference_metrics(y, Ts, window, f_ref, band=0.02):
         (lambda: fc.ParallelForcePositionController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0],
                                                     integral_limit=0.002), "plane"),
         (lambda: fc.InnerVelocityForceController(ARM, 100, 500, 2500, [0.0024, 0.001]), "spring"),
+        (lambda: fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0],
+                                                 task_frame=planar_rotation(0.3)), "plane"),
+        (lambda: fc.OperationalSpacePD(ARM, [[2000.0, 100.0], [100.0, 1500.0]], 300.0), "plane"),
+        (lambda: fc.JointSpacePD(ARM, 4000.0, 300.0, ARM.inverse_kinematics([1.03, 0.05])), "spring"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, 2500), "plane"),
+        (lambda: fc.ImpedanceController(ARM, 100, 500, 2500, force_measurement=False), "spring"),
+        (lambda: fc.HybridCompliantController(ARM, inclined_plane(0.4), [[2e-4, 0.0], [0.0, 1e-3]],
+                                              20.0, 100.0, 400.0, 40.0), "spring"),
+        (lambda: fc.HybridRigidController(ARM, inclined_plane(0.4), velocity_gain=20.0,
+                                          velocity_integral_gain=100.0, force_integral_gain=5.0), "plane"),
     ],
 )
 def test_batched_kernel_reproduces_the_python_loop(make, env):
-    """The allocation-free kernel gives the contact force of simulate(engine='python') to round-off (noisy, filtered sensor)."""
-    # kinds 1-3 (PD, impedance) share these scalar laws with simulate()'s compiled loop, which
-    # tests/test_simulation.py checks against the Python loop
+    """Each compiled law, run by the sweeps' batch kernel, gives the contact force of simulate(engine='python')
+    (the user's path: ``Controller.step`` every sample) to round-off (noisy, filtered sensor); with
+    tests/test_simulation.py (compiled loop vs Python loop) every law is checked on its three paths."""
     environment = (fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4, damping=20.0) if env == "plane"
                    else fc.LinearSpring([[1e4, 0.0], [0.0, 2e3]], [1.0, 0.0], [[10.0, 0.0], [0.0, 5.0]]))
     sensor = fc.ForceSensor(noise_std=0.5, bias=[0.2, -0.1], cutoff=100.0, seed=3)
@@ -99,8 +110,9 @@ def test_batched_kernel_reproduces_the_python_loop(make, env):
     ctl.reset(Measurement(Q0, np.zeros(2), environment.wrench(ARM.forward_kinematics(Q0), np.zeros(2)) + bias + noise[0]),
               ref.at(0.0))
     y = np.empty(N + 1)
+    assert ctl.compiled_law is not None
     status, last, peak, lost = run_case(
-        np.array(ARM._K), environment.kind, environment.packed(), ctl.kind, np.array(ctl._params), ctl.state.copy(),
+        ctl.compiled_law, np.array(ARM._K), environment.kind, environment.packed(), np.array(ctl._params), ctl.state.copy(),
         ref.sample(np.arange(N + 1) * Ts), bias, noise, sensor.alpha(Ts), Q0, np.zeros(2), Ts,
         py.metadata["substeps"], N, 50.0, np.array([0.6, 0.8]), y,
     )

@@ -20,9 +20,8 @@ import numpy as np
 from numba import njit
 
 from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
-from .robots.planar_2r import _terms_into
 
-__all__ = ["run_planar_loop", "planar_step", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
+__all__ = ["run_planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
 
 @njit(cache=True)
@@ -91,45 +90,3 @@ def run_planar_loop(
         if abs(w_0) > max_qd or abs(w_1) > max_qd:
             return RUNAWAY, k
     return OK, N
-
-
-@njit(cache=True)
-def planar_step(law, K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover
-    """One step of ``law`` on the chapter's arm in a single compiled call (``Controller.step``).
-
-    Computes the arm's terms (into ``ws``) and calls the law; ``u`` (n,) is written. A
-    non-finite reference, used by the law or not, gives NaN torques before any state moves.
-    """
-    n = q.shape[0]
-    m = 2
-    o = 0
-    x = ws[o : o + m]
-    o += m
-    xd = ws[o : o + m]
-    o += m
-    J = ws[o : o + m * n].reshape((m, n))
-    o += m * n
-    Jdq = ws[o : o + m]
-    o += m
-    B = ws[o : o + n * n].reshape((n, n))
-    o += n * n
-    nv = ws[o : o + n]
-    o += n
-    g = ws[o : o + n]
-    o += n
-    ref = ws[o : o + 6 * m]
-    o += 6 * m
-    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
-    for i in range(m):
-        ref[i] = x_d[i]
-        ref[m + i] = v_d[i]
-        ref[2 * m + i] = a_d[i]
-        ref[3 * m + i] = f_d[i]
-        ref[4 * m + i] = fd_d[i]
-        ref[5 * m + i] = fdd_d[i]
-    for i in range(6 * m):
-        if not math.isfinite(ref[i]):
-            for j in range(n):
-                u[j] = math.nan
-            return False
-    return law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws[o:], u)

@@ -179,9 +179,51 @@ def _check_step_arguments(t: Any, measurement: Any, reference: Any) -> None:
         )
 
 
+_F64 = np.dtype(np.float64)
+
+
+def _vectors(*arrays: Any) -> bool:
+    """Every argument is a float64 NumPy vector (what the compiled step reads; lengths it checks itself)."""
+    for a in arrays:
+        if type(a) is not np.ndarray or a.dtype is not _F64 or a.ndim != 1:
+            return False
+    return True
+
+
+def _fast_step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
+    """The law in one compiled call with its checks inside (``<law>_on_arm`` of :mod:`forcecontrol.laws`).
+
+    Taken on the built-in arm when the signals are float64 vectors; the kernel checks their
+    lengths and finiteness and restores the state when the law fails. Returns None otherwise, or
+    when the kernel reports a problem: the checked path then runs and raises the library's error
+    naming it.
+    """
+    on_arm = self.__dict__.get("_on_arm", False)
+    if on_arm is False:
+        on_arm = self.on_arm if self._fused_K is not None and self.compiled_law is not None else None
+        self.__dict__["_on_arm"] = on_arm
+    if on_arm is None:
+        return None
+    m, r = measurement, reference
+    if not _vectors(m.q, m.qd, m.wrench, r.position, r.velocity, r.acceleration, r.force, r.force_rate, r.force_accel):
+        return None
+    u = np.empty(m.q.shape[0])
+    ok = on_arm(
+        self._fused_K, t, self.sample_time, m.q, m.qd, m.wrench, r.position, r.velocity, r.acceleration, r.force,
+        r.force_rate, r.force_accel, self._params, self.state, self._workspace(), u,
+    )
+    return u if ok else None
+
+
 def _validated_step(fn: Any) -> Any:
+    runs_law = getattr(fn, "_runs_law", False)
+
     @functools.wraps(fn)
     def step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        if runs_law and type(t) is float and type(measurement) is Measurement and type(reference) is Reference:
+            u = _fast_step(self, t, measurement, reference)
+            if u is not None:
+                return u
         if type(measurement) is not Measurement or type(reference) is not Reference or type(t) is not float:
             _check_step_arguments(t, measurement, reference)
         elif t != t or t in (math.inf, -math.inf):
@@ -199,6 +241,12 @@ def _validated_step(fn: Any) -> Any:
 
     step._validates_inputs = True  # type: ignore[attr-defined]
     return step
+
+
+def runs_law(fn: Any) -> Any:
+    """Mark a ``step`` whose whole work is :meth:`Controller._law_step` (enables the one-call fast path)."""
+    fn._runs_law = True
+    return fn
 
 
 def _validated_reset(fn: Any) -> Any:
@@ -228,6 +276,8 @@ class Controller(ABC):
     law: ClassVar[Any] = None
     #: its acceleration part (inverse-dynamics schemes), for the redundant/damped inner loop.
     acceleration: ClassVar[Any] = None
+    #: the law on the chapter's arm in one compiled call (``<law>_on_arm``), for ``step``.
+    on_arm: ClassVar[Any] = None
     #: whether the controller reads the force measurement at all.
     uses_force: ClassVar[bool] = True
     #: the law acts on a position task space (x_e = o_e, J = J_P): a robot whose task includes
@@ -372,28 +422,17 @@ class Controller(ABC):
         return u + J_wrench.T @ np.asarray(h, dtype=np.float64) if J_wrench is not None else u
 
     def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
-        """Torques of the law in one compiled call (:func:`forcecontrol.loop.planar_step`), on the built-in arm.
-
-        The call goes straight to the entry point of ``planar_step`` specialised for this law
-        (resolved once), which skips the dispatcher's type resolution of a function argument
-        (about 5 µs). Returns None when the robot is not the built-in arm or the instance has no
-        compiled law; :meth:`_law_step` then runs on the robot's terms.
-        """
-        fused = self.__dict__.get("_fused_fn", False)
-        if fused is False:  # resolved once: the specialised kernel, or None for the generic path
-            fused = None
-            if self._fused_K is not None and self.compiled_law is not None:
-                fused = _specialised_planar_step(self.law, self.m, int(self.robot.nq))
-            self.__dict__["_fused_fn"] = fused
-        if fused is None:
+        """Torques of the law in one compiled call on the built-in arm (``on_arm``), or None (another robot, no compiled law)."""
+        if self._fused_K is None or self.compiled_law is None:
             return None
         r = reference
         u = np.empty(self.robot.nq)
-        fused(
-            self.law, self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
+        if not self.on_arm(
+            self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
             _f64(measurement.wrench), _f64(r.position), _f64(r.velocity), _f64(r.acceleration), _f64(r.force),
             _f64(r.force_rate), _f64(r.force_accel), self._params, self.state, self._workspace(), u,
-        )
+        ):
+            u[:] = np.nan  # the cause (a non-finite reference, a singular Jacobian) is named by the caller
         return self._check_output(t, u, measurement)
 
     def _check_output(self, t: float, u: np.ndarray, measurement: Measurement) -> np.ndarray:
@@ -409,26 +448,3 @@ class Controller(ABC):
             f"{type(self).__name__}: the Jacobian is singular at t = {t:.6g} s, "
             f"q = {np.asarray(measurement.q).tolist()}; the inverse-dynamics law cannot be applied"
         )
-
-
-def _specialised_planar_step(law: Any, m: int, n: int) -> Any:
-    """The entry point of :func:`forcecontrol.loop.planar_step` compiled for ``law`` (cached per law)."""
-    from numba import typeof
-
-    from ..loop import planar_step
-
-    cache = _FUSED.get(law)
-    if cache is not None:
-        return cache
-    v = np.zeros(n)
-    args = (law, np.zeros(12), 0.0, 1e-3, v, v, np.zeros(m), *(np.zeros(m),) * 6, np.zeros(1), np.zeros(1),
-            np.zeros(8), np.zeros(n))
-    sig = tuple(typeof(a) for a in args)
-    if sig not in planar_step.overloads:
-        planar_step.compile(sig)
-    entry = planar_step.overloads[sig].entry_point
-    _FUSED[law] = entry
-    return entry
-
-
-_FUSED: dict[Any, Any] = {}

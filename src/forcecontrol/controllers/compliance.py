@@ -20,7 +20,7 @@ import numpy as np
 from .. import laws
 from .._validate import as_gain_matrix, as_vector
 from ..robots.base import RobotModel
-from .base import Controller, Measurement, Reference
+from .base import Controller, Measurement, Reference, runs_law
 
 __all__ = ["OperationalSpacePD", "JointSpacePD"]
 
@@ -43,6 +43,7 @@ class OperationalSpacePD(Controller):
     """
 
     law = staticmethod(laws.os_pd)
+    on_arm = staticmethod(laws.os_pd_on_arm)
     uses_force: ClassVar[bool] = False
     position_task_only: ClassVar[bool] = True
 
@@ -53,6 +54,7 @@ class OperationalSpacePD(Controller):
         self.damping = as_gain_matrix("damping", damping, m)
         self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (8.110) for this sample (:func:`forcecontrol.laws.os_pd`)."""
         return self._law_step(t, measurement, reference)
@@ -79,6 +81,7 @@ class JointSpacePD(Controller):
     """
 
     law = staticmethod(laws.joint_pd)
+    on_arm = staticmethod(laws.joint_pd_on_arm)
     uses_force: ClassVar[bool] = False
 
     def __init__(
@@ -91,6 +94,7 @@ class JointSpacePD(Controller):
         self.joint_setpoint = as_vector("joint_setpoint", joint_setpoint, n)
         self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel(), self.joint_setpoint])
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (8.51) for this sample (:func:`forcecontrol.laws.joint_pd`)."""
         return self._law_step(t, measurement, reference)

@@ -44,7 +44,7 @@ from .. import laws
 from .._validate import as_gain_matrix, readonly
 from ..errors import DimensionError, DriftWarning, ParameterError
 from ..robots.base import RobotModel
-from .base import Controller, Measurement, Reference
+from .base import Controller, Measurement, Reference, runs_law
 
 __all__ = [
     "InnerPositionForceController",
@@ -364,8 +364,10 @@ class InnerPositionForceController(_DirectForceController):
     """
 
     law = staticmethod(laws.inner_position)
+    on_arm = staticmethod(laws.inner_position_on_arm)
     acceleration = staticmethod(laws.inner_position_acceleration)
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.39), (9.43) for this sample; advances ξ by one sample."""
         return self._law_step(t, measurement, reference)
@@ -397,6 +399,7 @@ class InnerVelocityForceController(_DirectForceController):
     """
 
     law = staticmethod(laws.inner_velocity)
+    on_arm = staticmethod(laws.inner_velocity_on_arm)
     acceleration = staticmethod(laws.inner_velocity_acceleration)
     _has_integral: ClassVar[bool] = False
 
@@ -420,6 +423,7 @@ class InnerVelocityForceController(_DirectForceController):
             sample_time=sample_time, task_frame=task_frame,
         )
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.45), (9.46) for this sample."""
         return self._law_step(t, measurement, reference)
@@ -445,12 +449,14 @@ class ParallelForcePositionController(_DirectForceController):
     """
 
     law = staticmethod(laws.parallel)
+    on_arm = staticmethod(laws.parallel_on_arm)
     acceleration = staticmethod(laws.parallel_acceleration)
     _default_start: ClassVar[str] = "zero"
 
     def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
         return self.robot.forward_kinematics(measurement.q) - np.asarray(reference.position, dtype=np.float64)
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.48), (9.43) for this sample; advances ξ by one sample."""
         return self._law_step(t, measurement, reference)

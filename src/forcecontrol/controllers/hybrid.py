@@ -34,7 +34,7 @@ from .._validate import as_gain_matrix
 from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task
-from .base import Controller, Measurement, Reference
+from .base import Controller, Measurement, Reference, runs_law
 
 __all__ = [
     "HybridCompliantController",
@@ -92,6 +92,7 @@ class HybridCompliantController(Controller):
     """
 
     law = staticmethod(laws.hybrid_compliant)
+    on_arm = staticmethod(laws.hybrid_compliant_on_arm)
     acceleration = staticmethod(laws.hybrid_compliant_acceleration)
     position_task_only: ClassVar[bool] = True
 
@@ -133,6 +134,7 @@ class HybridCompliantController(Controller):
         """λ = S_f† h_e (9.54)."""
         return self.selection.force_coordinates(wrench)
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.77), (9.80), (9.81) for this sample; advances the velocity integral."""
         return self._law_step(t, measurement, reference)
@@ -189,6 +191,7 @@ class HybridRigidController(Controller):
     """
 
     law = staticmethod(laws.hybrid_rigid)
+    on_arm = staticmethod(laws.hybrid_rigid_on_arm)
     acceleration = staticmethod(laws.hybrid_rigid_acceleration)
     position_task_only: ClassVar[bool] = True
 
@@ -289,6 +292,7 @@ class HybridRigidController(Controller):
         """λ = S_f† h_e (9.54)."""
         return self.selection.force_coordinates(wrench)
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.91) with the chosen force and motion laws; advances the integrals."""
         if self._constraint is None:

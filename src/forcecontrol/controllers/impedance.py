@@ -23,7 +23,7 @@ import numpy as np
 from .. import laws
 from .._validate import as_gain_matrix
 from ..robots.base import RobotModel
-from .base import Controller, Measurement, Reference
+from .base import Controller, Measurement, Reference, runs_law
 
 __all__ = ["ImpedanceController"]
 
@@ -55,6 +55,7 @@ class ImpedanceController(Controller):
     """
 
     law = staticmethod(laws.impedance)
+    on_arm = staticmethod(laws.impedance_on_arm)
     acceleration = staticmethod(laws.impedance_acceleration)
     position_task_only: ClassVar[bool] = True
 
@@ -87,6 +88,7 @@ class ImpedanceController(Controller):
     def uses_force(self) -> bool:  # type: ignore[override]
         return self.force_measurement
 
+    @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.28) or (9.30)–(9.31) for this sample (:func:`forcecontrol.laws.impedance`)."""
         return self._law_step(t, measurement, reference)

@@ -15,6 +15,9 @@ Every law is one Numba function with the same signature::
 * ``ws``: scratch of at least :func:`workspace_size` (m, n) floats; ``u`` (n,): the torques,
   written in place. Nothing is allocated.
 
+Each law also has ``<law>_on_arm``: the law on the chapter's arm in one compiled call, for
+``Controller.step`` (the checks and terms of :mod:`forcecontrol.laws.arm`, then the law).
+
 It returns False when the law cannot be applied (a singular Jacobian in the inner loop (9.30));
 ``u`` is then NaN.
 
@@ -29,17 +32,27 @@ damped inner loop of :mod:`forcecontrol.controllers.redundant`.
 
 from __future__ import annotations
 
-from .compliance import joint_pd, os_pd
+from .compliance import joint_pd, joint_pd_on_arm, os_pd, os_pd_on_arm
 from .force import (
     inner_position,
     inner_position_acceleration,
+    inner_position_on_arm,
     inner_velocity,
     inner_velocity_acceleration,
+    inner_velocity_on_arm,
     parallel,
     parallel_acceleration,
+    parallel_on_arm,
 )
-from .hybrid import hybrid_compliant, hybrid_compliant_acceleration, hybrid_rigid, hybrid_rigid_acceleration
-from .impedance import impedance, impedance_acceleration
+from .hybrid import (
+    hybrid_compliant,
+    hybrid_compliant_acceleration,
+    hybrid_compliant_on_arm,
+    hybrid_rigid,
+    hybrid_rigid_acceleration,
+    hybrid_rigid_on_arm,
+)
+from .impedance import impedance, impedance_acceleration, impedance_on_arm
 from .inner import inverse_dynamics
 
 __all__ = [
@@ -59,6 +72,14 @@ __all__ = [
     "hybrid_compliant_acceleration",
     "hybrid_rigid",
     "hybrid_rigid_acceleration",
+    "os_pd_on_arm",
+    "joint_pd_on_arm",
+    "impedance_on_arm",
+    "inner_position_on_arm",
+    "inner_velocity_on_arm",
+    "parallel_on_arm",
+    "hybrid_compliant_on_arm",
+    "hybrid_rigid_on_arm",
 ]
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from numba import njit
 
+from .arm import arm_finish, arm_inputs
 from .inner import inverse_dynamics
 
 
@@ -47,3 +48,10 @@ def impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pr
     hc = ws[m : 2 * m]
     comp = impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], a, hc)
     return inverse_dynamics(B, nv, J, Jdq, a, hc, comp, ws[2 * m :], u)
+
+
+@njit(cache=True)
+def impedance_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
+    """:func:`impedance` on the chapter's arm in one compiled call (:mod:`.arm`)."""
+    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
+    return ok and arm_finish(impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)

@@ -1,0 +1,89 @@
+"""One step of a control law on the chapter's two-link arm, in one compiled call.
+
+``Controller.step`` on the built-in arm calls ``<law>_on_arm`` (defined next to each law):
+:func:`arm_inputs` (checks, the arm's terms in closed form, two-link-arm.md), the law, then
+:func:`arm_finish`, with no Python in between. Python calls it through Numba's typed dispatcher
+(about 1 µs for the whole step); passing the law as a function argument from Python would cost
+5 µs of type resolution, and a wrapper that passes a global law on is not cacheable.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..robots.planar_2r import _terms_into
+
+__all__ = ["arm_inputs", "arm_finish"]
+
+
+@njit(cache=True)
+def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragma: no cover - compiled
+    """Check a step's inputs on the chapter's arm and lay out what a law reads, in ``ws``.
+
+    Returns ``(ok, x, ẋ, J, J̇q̇, B, n, g, ref, rest)`` (views of ``ws``; ``rest`` is the law's
+    scratch). ``ok`` is False when an input has the wrong length or (t, q, q̇, h_e or a
+    reference, used by the law or not) is not finite; the terms are then not computed. The state
+    ``s`` is saved for :func:`arm_finish`.
+    """
+    n = 2
+    m = 2
+    ok = q.shape[0] == n and qd.shape[0] == n and h.shape[0] == m
+    for v in (x_d, v_d, a_d, f_d, fd_d, fdd_d):
+        ok = ok and v.shape[0] == m
+    o = 0
+    x = ws[o : o + m]
+    o += m
+    xd = ws[o : o + m]
+    o += m
+    J = ws[o : o + m * n].reshape((m, n))
+    o += m * n
+    Jdq = ws[o : o + m]
+    o += m
+    B = ws[o : o + n * n].reshape((n, n))
+    o += n * n
+    nv = ws[o : o + n]
+    o += n
+    g = ws[o : o + n]
+    o += n
+    ref = ws[o : o + 6 * m]
+    o += 6 * m
+    saved = ws[o : o + s.shape[0]]
+    o += s.shape[0]
+    if not ok:
+        return False, x, xd, J, Jdq, B, nv, g, ref, ws[o:]
+    ok = math.isfinite(t)
+    for i in range(n):
+        ok = ok and math.isfinite(q[i]) and math.isfinite(qd[i])
+    for i in range(m):
+        ok = ok and math.isfinite(h[i])
+        ref[i] = x_d[i]
+        ref[m + i] = v_d[i]
+        ref[2 * m + i] = a_d[i]
+        ref[3 * m + i] = f_d[i]
+        ref[4 * m + i] = fd_d[i]
+        ref[5 * m + i] = fdd_d[i]
+    for i in range(6 * m):
+        ok = ok and math.isfinite(ref[i])
+    if ok:
+        _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
+        for i in range(s.shape[0]):
+            saved[i] = s[i]
+    return ok, x, xd, J, Jdq, B, nv, g, ref, ws[o:]
+
+
+@njit(cache=True)
+def arm_finish(ok, s, ws, u):  # pragma: no cover - compiled
+    """After the law ran (its result ``ok``): True when it applied and u is finite; else u = NaN and the state restored."""
+    n = u.shape[0]
+    for j in range(n):
+        ok = ok and math.isfinite(u[j])
+    if ok:
+        return True
+    for j in range(n):
+        u[j] = math.nan
+    o = 30  # arm_inputs' layout: x, ẋ, J, J̇q̇, B, n, g, ref (2+2+4+2+4+2+2+12), then the saved state
+    for i in range(s.shape[0]):  # a failed sample leaves the state as it was
+        s[i] = ws[o + i]
+    return False
