@@ -619,11 +619,8 @@ def test_euler_singular_branch_is_a_valid_decomposition():
 
 def test_compiled_rotation_of_the_spatial_kernel_matches_scipy():
     """The @njit R(φ) used inside the compiled 6-D law equals scipy's intrinsic XYZ rotation on random angles."""
-    from forcecontrol.controllers import spatial as cs
+    from forcecontrol.laws.spatial import _R_xyz as R_xyz
 
-    R_xyz = getattr(cs, "_R_xyz", None)
-    if R_xyz is None:  # pragma: no cover - moved by the laws refactor
-        pytest.skip("the compiled XYZ rotation moved")
     rng = np.random.default_rng(11)
     phis = rng.uniform(-math.pi, math.pi, size=(500, 3))
     phis[:, 1] /= 2

@@ -52,8 +52,9 @@ from .hybrid import (
     hybrid_rigid_acceleration,
     hybrid_rigid_on_arm,
 )
-from .impedance import impedance, impedance_acceleration, impedance_on_arm
+from .impedance import impedance, impedance_acceleration, impedance_core, impedance_on_arm
 from .inner import inverse_dynamics
+from .spatial import spatial_impedance_torque
 
 __all__ = [
     "workspace_size",
@@ -62,6 +63,8 @@ __all__ = [
     "joint_pd",
     "impedance",
     "impedance_acceleration",
+    "impedance_core",
+    "spatial_impedance_torque",
     "inner_position",
     "inner_position_acceleration",
     "inner_velocity",

@@ -9,8 +9,36 @@ from .inner import inverse_dynamics
 
 
 @njit(cache=True, inline="always")
+def impedance_core(Md_inv, K_D, K_P, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma: no cover - compiled
+    """(9.28), (9.31), (9.35): ``a = a_ff + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h])``, written into ``a``.
+
+    The one impedance equation of the chapter, for any dimension m: in the base frame with
+    ``x̃ = x_d − x_e`` and ``a_ff = ẍ_d`` ((9.28) without, (9.31) corrected with force
+    measurement); on the desired frame (9.35) with the 6-D error (9.9), ``a_ff`` the part of x̃̈
+    that does not depend on q̈ and h the wrench on the desired frame. With R_d = I and position
+    only, the desired-frame error is x_d − x_e: the planar law is the m = 2 case of the 6-D one.
+    ``w`` (m,) is scratch.
+    """
+    m = a.shape[0]
+    for i in range(m):
+        kd = 0.0
+        kp = 0.0
+        for j in range(m):
+            kd += K_D[i, j] * x_tilde_dot[j]
+            kp += K_P[i, j] * x_tilde[j]
+        w[i] = kd + kp
+        if use_force:
+            w[i] = w[i] - h[i]
+    for i in range(m):
+        acc = 0.0
+        for j in range(m):
+            acc += Md_inv[i, j] * w[j]
+        a[i] = a_ff[i] + acc
+
+
+@njit(cache=True, inline="always")
 def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no cover - compiled
-    """(9.28)/(9.31): ``a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h_A])``, ``x̃ = x_d − x_e``.
+    """(9.28)/(9.31): ``a = ẍ_d + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h_A])``, ``x̃ = x_d − x_e`` (:func:`impedance_core`).
 
     (9.31) in its corrected form: the first term is ``M_d ẍ_d`` as in (9.28), not the printed
     ``M_d x̃̈``. With force measurement the closed loop is (9.32)
@@ -21,22 +49,16 @@ def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no
     m = x.shape[0]
     mm = m * m
     use_force = p[3 * mm] != 0.0
-    w = ws[0:m]
+    xt = ws[0:m]
+    xtd = ws[m : 2 * m]
     for i in range(m):
-        kd = 0.0
-        kp = 0.0
-        for j in range(m):
-            kd += p[mm + i * m + j] * (ref[m + j] - xd[j])
-            kp += p[2 * mm + i * m + j] * (ref[j] - x[j])
-        w[i] = kd + kp
-        if use_force:
-            w[i] = w[i] - h[i]
-    for i in range(m):
-        acc = 0.0
-        for j in range(m):
-            acc += p[i * m + j] * w[j]
-        a[i] = ref[2 * m + i] + acc
+        xt[i] = ref[i] - x[i]
+        xtd[i] = ref[m + i] - xd[i]
         hc[i] = h[i]
+    impedance_core(
+        p[0:mm].reshape((m, m)), p[mm : 2 * mm].reshape((m, m)), p[2 * mm : 3 * mm].reshape((m, m)),
+        xt, xtd, ref[2 * m : 3 * m], h, use_force, ws[2 * m : 3 * m], a,
+    )
     return use_force
 
 
