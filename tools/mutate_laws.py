@@ -58,7 +58,7 @@ MUTANTS = [
     Mutant("M3", "inner loop (9.30): J̇q̇ dropped", "laws/inner.py",
            "y[i] = a[i] - Jdq[i]", "y[i] = a[i]"),
     Mutant("M4", "impedance (9.31): M_d → I", "laws/impedance.py",
-           "acc += Md_inv[i, j] * w[j]", "acc += (1.0 if i == j else 0.0) * w[j]"),
+           "acc += G[i * m + j] * w[j]", "acc += (1.0 if i == j else 0.0) * w[j]"),
     Mutant("M5", "PI force loop (9.43): integrator dropped", "laws/force.py",
            "            s[i] = v\n", "            s[i] = s[i]\n"),
     Mutant("M6", "C′ (9.72): P_v and P_f swapped", "task/selection.py",

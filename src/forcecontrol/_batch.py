@@ -1,12 +1,12 @@
-"""Many closed loops of the chapter's arm at once: an allocation-free compiled kernel.
+"""Many closed loops of the chapter's arm at once, in one compiled call per block of cases.
 
-The per-case loop is the sampled loop of :mod:`forcecontrol.loop` (sensor, control law,
-zero-order hold, the RK4 plant :func:`forcecontrol._plant.rk4_sample`) and calls the same
-compiled law (:mod:`forcecontrol.laws`), passed as a function argument: :func:`run_batch` is
-specialised per law, so a block of cases shares one controller type (the sweep groups cases by
-law). The results agree with ``simulate`` (compiled and Python loops) to round-off (tested).
+Each case runs the compiled loop of ``simulate``, :func:`forcecontrol.loop.run_planar_loop`
+(sensor, control law, zero-order hold, the RK4 plant), with the same compiled law
+(:mod:`forcecontrol.laws`) passed as a function argument: :func:`run_batch` is specialised per
+law, so a block of cases shares one controller type (the sweep groups cases by law). The
+results are those of ``simulate`` (tested against its Python loop to round-off).
 
-Instead of full logs a case keeps one signal, the true contact force along a direction ``d``
+A case keeps one signal, the true contact force along a direction ``d``
 (``y_k = d · h_e(t_k)``), and the metrics are computed from it at the end of the case
 (:func:`case_metrics`). :func:`run_batch` runs a block of cases one after the other and releases
 the GIL (``nogil``): the sweep runs one block per core from a thread pool locally, or one per
@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
+from .loop import run_planar_loop
 from .metrics import case_metrics  # the one definition of the step-response metrics
 
 __all__ = ["run_batch", "run_case", "case_metrics", "OUT_COLUMNS"]
@@ -42,54 +42,31 @@ def run_case(law, K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
              q0, qd0, Ts, nsub, N, max_qd, d, y):  # pragma: no cover - compiled
     """Run one closed loop of N samples with control ``law``; fill ``y[k] = d · h_e(t_k)``.
 
-    Same loop as ``simulate`` (sensor ``raw = h_e + bias + noise_k`` low-passed with ``alpha``,
-    the law, torque held over Ts, ``nsub`` RK4 steps). ``ctrl_s`` is advanced in place.
+    The loop is :func:`forcecontrol.loop.run_planar_loop` (sensor ``raw = h_e + bias + noise_k``
+    low-passed with ``alpha``, the law, torque held over Ts, ``nsub`` RK4 steps), the same
+    function ``simulate`` runs; ``ctrl_s`` is advanced in place.
 
     Returns:
         (status, last sample index, peak contact force norm [N], contact lost): contact is lost
         when a sample has ``h_e = 0`` after a sample with ``h_e ≠ 0``.
     """
-    n = 2
-    m = 2
-    x = np.empty(m)
-    xd = np.empty(m)
-    J = np.empty((m, n))
-    Jdq = np.empty(m)
-    B = np.empty((n, n))
-    nv = np.empty(n)
-    g = np.empty(n)
-    q = np.empty(n)
-    qd = np.empty(n)
-    hm = np.zeros(m)
-    u = np.empty(n)
-    ws = np.empty(2 * m * m + 12 * m + 2 * n + 8)
-    T = np.empty(17)
-    W = np.empty(17)
-    q_0 = q0[0]
-    q_1 = q0[1]
-    w_0 = qd0[0]
-    w_1 = qd0[1]
-    hm0 = 0.0
-    hm1 = 0.0
+    rows = N + 1
+    Q = np.empty((rows, 2))
+    QD = np.empty((rows, 2))
+    X = np.empty((rows, 2))
+    XD = np.empty((rows, 2))
+    H = np.empty((rows, 2))
+    HM = np.empty((rows, 2))
+    U = np.empty((rows, 2))
+    status, last = run_planar_loop(
+        law, K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
+    )
     peak = 0.0
     touched = False
     lost = False
-    for k in range(N + 1):
-        terms2(K, q_0, q_1, w_0, w_1, T)
-        h0, h1 = wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
-        raw0 = h0 + bias[0] + noise[k, 0]
-        raw1 = h1 + bias[1] + noise[k, 1]
-        if k == 0:
-            hm0 = raw0
-            hm1 = raw1
-        else:
-            hm0 = hm0 + alpha * (raw0 - hm0)
-            hm1 = hm1 + alpha * (raw1 - hm1)
-        fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g)
-        hm[0], hm[1] = hm0, hm1
-        law(k * Ts, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
-        u0 = u[0]
-        u1 = u[1]
+    for k in range(last + 1):
+        h0 = H[k, 0]
+        h1 = H[k, 1]
         y[k] = d[0] * h0 + d[1] * h1
         hn = math.sqrt(h0 * h0 + h1 * h1)
         if hn > peak:
@@ -98,21 +75,7 @@ def run_case(law, K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
             touched = True
         elif touched:
             lost = True
-        if not (math.isfinite(u0) and math.isfinite(u1)):
-            det = T[4] * T[7] - T[5] * T[6]
-            if abs(det) < 1e-9:
-                return SINGULAR, k, peak, lost
-            return NONFINITE_TORQUE, k, peak, lost
-        if k == N:
-            break
-        ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W)
-        if not ok:
-            return NONFINITE_STATE, k, peak, lost
-        if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
-            return NONFINITE_STATE, k, peak, lost
-        if abs(w_0) > max_qd or abs(w_1) > max_qd:
-            return RUNAWAY, k, peak, lost
-    return OK, N, peak, lost
+    return status, last, peak, lost
 
 
 @njit(cache=True)

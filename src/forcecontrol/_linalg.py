@@ -80,10 +80,10 @@ def _solve2_in_place(a00, a01, a10, a11, x):  # pragma: no cover - compiled
 
 
 @njit(cache=True, fastmath=False, inline="always")
-def solve_in_place(A: np.ndarray, x: np.ndarray, M: np.ndarray) -> bool:  # pragma: no cover - compiled
+def solve_in_place(A: np.ndarray, x: np.ndarray, scratch: np.ndarray) -> bool:  # pragma: no cover - compiled
     """Solve ``A y = x`` by Gaussian elimination with partial pivoting, overwriting ``x`` with y.
 
-    ``M`` is an (n, n) scratch matrix (A is copied into it); nothing is allocated.
+    ``scratch`` holds at least n² floats (A is copied into it); nothing is allocated.
 
     Returns:
         False when ``A`` is numerically singular (a pivot below ``SINGULAR_RCOND`` times the
@@ -92,6 +92,7 @@ def solve_in_place(A: np.ndarray, x: np.ndarray, M: np.ndarray) -> bool:  # prag
     n = A.shape[0]
     if n == 2:  # the chapter's arm: the same elimination on scalars (no scratch, ~4x faster)
         return _solve2_in_place(A[0, 0], A[0, 1], A[1, 0], A[1, 1], x)
+    M = scratch[: n * n].reshape((n, n))
     scale = 0.0
     for i in range(n):
         for j in range(n):
@@ -144,4 +145,4 @@ def solve_into(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:  # pragma
     n = A.shape[0]
     for i in range(n):
         out[i] = b[i]
-    return solve_in_place(A, out, np.empty((n, n)))
+    return solve_in_place(A, out, np.empty(n * n))

@@ -126,7 +126,7 @@ def _accel2(K, env_kind, env_p, q0, q1, w0, w1, u0, u1, T):  # pragma: no cover 
     return _accel_terms2(T, h0, h1, u0, u1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W):  # pragma: no cover
     """Integrate (9.1), ``B q̈ = u − n − Jᵀ h_e``, over one sample Ts with u held, by ``nsub`` RK4 steps.
 
@@ -160,7 +160,7 @@ def rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, ns
     return True, q_0, q_1, w_0, w_1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g):  # pragma: no cover - compiled
     """Copy the scalar terms T of :func:`terms2` into the arrays a control law reads."""
     q[0], q[1], qd[0], qd[1] = q_0, q_1, w_0, w_1

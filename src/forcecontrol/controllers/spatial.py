@@ -164,7 +164,8 @@ def error_acceleration_bias(RdT, Tinv, Tdot, phid, e, e_dot, w_d, wd_dot, od_ddo
 def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md_inv, K_D, K_P) -> np.ndarray:
     """The ``J_Ad q̈`` that (9.35) asks for: ``c + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d)`` (:func:`forcecontrol.laws.impedance_core`)."""
     r = np.empty(6)
-    impedance_core(Md_inv, K_D, K_P, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), True, np.empty(6), r)
+    G = np.concatenate([np.ravel(Md_inv), np.ravel(K_D), np.ravel(K_P)])
+    impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), True, np.empty(6), r)
     return r
 
 

@@ -29,9 +29,8 @@ def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragm
     """
     n = 2
     m = 2
-    ok = q.shape[0] == n and qd.shape[0] == n and h.shape[0] == m
-    for v in (x_d, v_d, a_d, f_d, fd_d, fdd_d):
-        ok = ok and v.shape[0] == m
+    ok = q.shape[0] == n and qd.shape[0] == n and h.shape[0] == m and x_d.shape[0] == m and v_d.shape[0] == m
+    ok = ok and a_d.shape[0] == m and f_d.shape[0] == m and fd_d.shape[0] == m and fdd_d.shape[0] == m
     o = 0
     x = ws[o : o + m]
     o += m

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from numba import njit
 
-from .arm import arm_finish, arm_inputs
-
 
 @njit(cache=True, inline="always")
 def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
@@ -49,17 +47,3 @@ def joint_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pra
             kd += p[nn + i * n + j] * qd[j]
         u[i] = g[i] + kp - kd
     return True
-
-
-@njit(cache=True)
-def os_pd_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`os_pd` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
-
-
-@njit(cache=True)
-def joint_pd_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`joint_pd` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(joint_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)

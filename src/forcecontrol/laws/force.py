@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from numba import njit
 
-from .arm import arm_finish, arm_inputs
 from .inner import inverse_dynamics
 
 
@@ -146,24 +145,3 @@ def parallel(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pra
     m = x.shape[0]
     parallel_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
     return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
-
-
-@njit(cache=True)
-def inner_position_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`inner_position` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(inner_position(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
-
-
-@njit(cache=True)
-def inner_velocity_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`inner_velocity` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(inner_velocity(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
-
-
-@njit(cache=True)
-def parallel_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`parallel` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(parallel(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)

@@ -16,7 +16,6 @@ from __future__ import annotations
 from numba import njit
 
 from .._linalg import mv_into
-from .arm import arm_finish, arm_inputs
 from .inner import inverse_dynamics
 
 
@@ -167,17 +166,3 @@ def hybrid_rigid(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  #
     m = x.shape[0]
     hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
     return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
-
-
-@njit(cache=True)
-def hybrid_compliant_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`hybrid_compliant` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(hybrid_compliant(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
-
-
-@njit(cache=True)
-def hybrid_rigid_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`hybrid_rigid` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(hybrid_rigid(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 from numba import njit
 
-from .arm import arm_finish, arm_inputs
 from .inner import inverse_dynamics
 
 
 @njit(cache=True, inline="always")
-def impedance_core(Md_inv, K_D, K_P, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma: no cover - compiled
+def impedance_core(G, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma: no cover - compiled
     """(9.28), (9.31), (9.35): ``a = a_ff + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h])``, written into ``a``.
 
+    ``G = [M_d⁻¹ (m²), K_D (m²), K_P (m²)]``, row-major (the first blocks of the planar law's
+    parameters).
     The one impedance equation of the chapter, for any dimension m: in the base frame with
     ``x̃ = x_d − x_e`` and ``a_ff = ẍ_d`` ((9.28) without, (9.31) corrected with force
     measurement); on the desired frame (9.35) with the 6-D error (9.9), ``a_ff`` the part of x̃̈
@@ -20,19 +21,20 @@ def impedance_core(Md_inv, K_D, K_P, x_tilde, x_tilde_dot, a_ff, h, use_force, w
     ``w`` (m,) is scratch.
     """
     m = a.shape[0]
+    mm = m * m
     for i in range(m):
         kd = 0.0
         kp = 0.0
         for j in range(m):
-            kd += K_D[i, j] * x_tilde_dot[j]
-            kp += K_P[i, j] * x_tilde[j]
+            kd += G[mm + i * m + j] * x_tilde_dot[j]
+            kp += G[2 * mm + i * m + j] * x_tilde[j]
         w[i] = kd + kp
         if use_force:
             w[i] = w[i] - h[i]
     for i in range(m):
         acc = 0.0
         for j in range(m):
-            acc += Md_inv[i, j] * w[j]
+            acc += G[i * m + j] * w[j]
         a[i] = a_ff[i] + acc
 
 
@@ -55,10 +57,7 @@ def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no
         xt[i] = ref[i] - x[i]
         xtd[i] = ref[m + i] - xd[i]
         hc[i] = h[i]
-    impedance_core(
-        p[0:mm].reshape((m, m)), p[mm : 2 * mm].reshape((m, m)), p[2 * mm : 3 * mm].reshape((m, m)),
-        xt, xtd, ref[2 * m : 3 * m], h, use_force, ws[2 * m : 3 * m], a,
-    )
+    impedance_core(p, xt, xtd, ref[2 * m : 3 * m], h, use_force, ws[2 * m : 3 * m], a)
     return use_force
 
 
@@ -70,10 +69,3 @@ def impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pr
     hc = ws[m : 2 * m]
     comp = impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], a, hc)
     return inverse_dynamics(B, nv, J, Jdq, a, hc, comp, ws[2 * m :], u)
-
-
-@njit(cache=True)
-def impedance_on_arm(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
-    """:func:`impedance` on the chapter's arm in one compiled call (:mod:`.arm`)."""
-    ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-    return ok and arm_finish(impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)

@@ -28,11 +28,10 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
     """
     m = a.shape[0]
     n = B.shape[0]
-    M = ws[0 : m * m].reshape((m, m))
-    y = ws[m * m : m * m + m]
+    y = ws[0:m]
     for i in range(m):
         y[i] = a[i] - Jdq[i]
-    if not solve_in_place(J, y, M):
+    if not solve_in_place(J, y, ws[m : m + m * m]):
         for i in range(n):
             u[i] = math.nan
         return False
