@@ -22,7 +22,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold"]
+__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities"]
 
 CACHE_DIR: str | None = None
 _notified = False
@@ -125,3 +125,25 @@ def install_notice() -> None:
             pass
 
     event.register("numba:compile", _CompileNotice())
+
+
+def stable_identities() -> None:
+    """Give every compiled function of the package a name-derived identity (once, before any pickling).
+
+    A loop compiled for a law (:func:`forcecontrol.loop.planar_loop`, the sweeps' kernels) is a
+    closure over the law, and Numba keys its disk cache on the closure's pickled contents: the
+    law and, through it, every compiled function it calls, each pickled with its dispatcher's
+    identity, a random UUID per process by default. The cached loop was then never found again
+    and recompiled in every process (seconds, and one more cache file each time). With
+    identities derived from module and name the key is the same in every process. The cache
+    folder is keyed on the package's sources (:func:`configure`), so a changed law never meets a
+    loop compiled with its old version.
+    """
+    from numba.core.registry import CPUDispatcher
+
+    for name in sorted(m for m in sys.modules if m == "forcecontrol" or m.startswith("forcecontrol.")):
+        module = sys.modules.get(name)
+        for attr, obj in sorted(vars(module).items()) if module is not None else ():
+            if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
+                if getattr(obj, "_MemoMixin__uuid", None) is None:
+                    obj._set_uuid(f"forcecontrol:{name}.{attr}")

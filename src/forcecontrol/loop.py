@@ -15,78 +15,100 @@ the control law, 4 non-finite torque.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
 
+from ._numba_cache import stable_identities
 from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
 
-__all__ = ["run_planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
+__all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
 
-@njit(cache=True)
-def run_planar_loop(
-    law, K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
-    q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
-):  # pragma: no cover - compiled
-    """Run the sampled loop with control ``law``; fill the logs row by row. Returns (status, last_row).
+def planar_loop(law: Any) -> Any:
+    """The compiled sampled loop for control ``law``, built once per law and cached on disk by Numba.
 
-    The arm's terms, the environment, the sensor and the RK4 plant run on scalars and allocate
-    nothing; the law reads them from arrays filled once per sample.
+    ``planar_loop(law)(K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha, q0, q̇0, Ts,
+    nsub, max_q̇, Q, Q̇, X, Ẋ, H, H_m, U) -> (status, last_row)``. The law is a constant of the
+    loop (a closure), so Numba compiles the loop with the law inlined, specialised for it.
     """
-    n = q0.shape[0]
-    m = 2
-    N = Q.shape[0] - 1
-    x = np.empty(m)
-    xd = np.empty(m)
-    J = np.empty((m, n))
-    Jdq = np.empty(m)
-    B = np.empty((n, n))
-    nv = np.empty(n)
-    g = np.empty(n)
-    q = np.empty(n)
-    qd = np.empty(n)
-    hm = np.zeros(m)
-    u = np.empty(n)
-    ws = np.empty(2 * m * m + 12 * m + 2 * n + 8)
-    T = np.empty(17)
-    W = np.empty(17)
-    q_0, q_1, w_0, w_1 = q0[0], q0[1], qd0[0], qd0[1]
-    hm0 = 0.0
-    hm1 = 0.0
-    for k in range(N + 1):
-        t = k * Ts
-        terms2(K, q_0, q_1, w_0, w_1, T)
-        h0, h1 = wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
-        raw0 = h0 + bias[0] + noise[k, 0]
-        raw1 = h1 + bias[1] + noise[k, 1]
-        if k == 0:
-            hm0 = raw0
-            hm1 = raw1
-        else:
-            hm0 = hm0 + alpha * (raw0 - hm0)
-            hm1 = hm1 + alpha * (raw1 - hm1)
-        fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g)
-        hm[0], hm[1] = hm0, hm1
-        law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
-        u0 = u[0]
-        u1 = u[1]
-        Q[k, 0], Q[k, 1], QD[k, 0], QD[k, 1] = q_0, q_1, w_0, w_1
-        U[k, 0], U[k, 1] = u0, u1
-        X[k, 0], X[k, 1], XD[k, 0], XD[k, 1] = T[0], T[1], T[2], T[3]
-        H[k, 0], H[k, 1], HM[k, 0], HM[k, 1] = h0, h1, hm0, hm1
-        if not (math.isfinite(u0) and math.isfinite(u1)):
-            det = T[4] * T[7] - T[5] * T[6]
-            if abs(det) < 1e-9:
-                return SINGULAR, k
-            return NONFINITE_TORQUE, k
-        if k == N:
-            break
-        ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W)
-        if not ok:
-            return NONFINITE_STATE, k
-        if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
-            return NONFINITE_STATE, k
-        if abs(w_0) > max_qd or abs(w_1) > max_qd:
-            return RUNAWAY, k
-    return OK, N
+    loop = _LOOPS.get(law)
+    if loop is None:
+        stable_identities()
+        loop = _LOOPS[law] = njit(cache=True)(_make_loop(law))
+        loop._set_uuid(f"forcecontrol:loop:{law._uuid}")  # cacheable on disk (see stable_identities)
+    return loop
+
+
+_LOOPS: dict[Any, Any] = {}
+
+
+def _make_loop(law: Any) -> Any:  # pragma: no cover - compiled
+    def run(
+        K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
+        q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
+    ):  # pragma: no cover - compiled
+        """The sampled loop with the factory's ``law``; fills the logs row by row. Returns (status, last_row).
+
+        The arm's terms, the environment, the sensor and the RK4 plant run on scalars and allocate
+        nothing; the law reads them from arrays filled once per sample.
+        """
+        n = q0.shape[0]
+        m = 2
+        N = Q.shape[0] - 1
+        x = np.empty(m)
+        xd = np.empty(m)
+        J = np.empty((m, n))
+        Jdq = np.empty(m)
+        B = np.empty((n, n))
+        nv = np.empty(n)
+        g = np.empty(n)
+        q = np.empty(n)
+        qd = np.empty(n)
+        hm = np.zeros(m)
+        u = np.empty(n)
+        ws = np.empty(2 * m * m + 12 * m + 2 * n + 8)
+        T = np.empty(17)
+        W = np.empty(17)
+        q_0, q_1, w_0, w_1 = q0[0], q0[1], qd0[0], qd0[1]
+        hm0 = 0.0
+        hm1 = 0.0
+        for k in range(N + 1):
+            t = k * Ts
+            terms2(K, q_0, q_1, w_0, w_1, T)
+            h0, h1 = wrench2(env_kind, env_p, T[0], T[1], T[2], T[3])
+            raw0 = h0 + bias[0] + noise[k, 0]
+            raw1 = h1 + bias[1] + noise[k, 1]
+            if k == 0:
+                hm0 = raw0
+                hm1 = raw1
+            else:
+                hm0 = hm0 + alpha * (raw0 - hm0)
+                hm1 = hm1 + alpha * (raw1 - hm1)
+            fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g)
+            hm[0], hm[1] = hm0, hm1
+            law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
+            u0 = u[0]
+            u1 = u[1]
+            Q[k, 0], Q[k, 1], QD[k, 0], QD[k, 1] = q_0, q_1, w_0, w_1
+            U[k, 0], U[k, 1] = u0, u1
+            X[k, 0], X[k, 1], XD[k, 0], XD[k, 1] = T[0], T[1], T[2], T[3]
+            H[k, 0], H[k, 1], HM[k, 0], HM[k, 1] = h0, h1, hm0, hm1
+            if not (math.isfinite(u0) and math.isfinite(u1)):
+                det = T[4] * T[7] - T[5] * T[6]
+                if abs(det) < 1e-9:
+                    return SINGULAR, k
+                return NONFINITE_TORQUE, k
+            if k == N:
+                break
+            ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W)
+            if not ok:
+                return NONFINITE_STATE, k
+            if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
+                return NONFINITE_STATE, k
+            if abs(w_0) > max_qd or abs(w_1) > max_qd:
+                return RUNAWAY, k
+        return OK, N
+
+    return run

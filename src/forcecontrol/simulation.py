@@ -240,10 +240,10 @@ def simulate(
         **(metadata or {}),
     }
     if use_compiled:
-        from .loop import run_planar_loop
+        from .loop import planar_loop
 
-        status, k = run_planar_loop(
-            controller.compiled_law, cast(PlanarTwoLink, robot)._K, environment.kind, environment.packed(), controller._params,
+        status, k = planar_loop(controller.compiled_law)(
+            cast(PlanarTwoLink, robot)._K, environment.kind, environment.packed(), controller._params,
             controller.state, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd,
             logs["q"], logs["qd"], logs["x"], logs["xd"], logs["wrench"], logs["wrench_measured"], logs["torque"],
         )

@@ -91,27 +91,6 @@ __all__ = [
 ]
 
 
-def _stable_identities() -> None:
-    """Give each law's dispatcher a name-derived identity, so loops specialised on it hit Numba's disk cache.
-
-    A compiled loop that takes a law as an argument is cached under a key holding the law's
-    type, which Numba pickles with the dispatcher's identity (a random UUID per process by
-    default): the cached loop was then never found again and recompiled in every process
-    (about 1.5 s, and one more cache file each time). With an identity derived from the law's
-    module and name, the key is the same in every process. The cache folder is keyed on the
-    package's sources (:mod:`forcecontrol._numba_cache`), so a changed law never meets a loop
-    compiled with its old version.
-    """
-    for law in (
-        os_pd, joint_pd, impedance, inner_position, inner_velocity, parallel, hybrid_compliant, hybrid_rigid,
-    ):
-        if getattr(law, "_MemoMixin__uuid", None) is None:  # set once, before anything pickles it
-            law._set_uuid(f"forcecontrol.laws:{law.py_func.__module__}.{law.py_func.__qualname__}")
-
-
-_stable_identities()
-
-
 def workspace_size(m: int, n: int) -> int:
     """Scratch floats every law needs for task dimension m and n joints."""
     return 2 * m * m + 12 * m + 2 * n + 8
