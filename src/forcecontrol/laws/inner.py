@@ -19,9 +19,11 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
     environment, the commanded ``S_f f_λ`` of (9.91).
 
     Args:
-        B (n, n), nv = C q̇ + F q̇ + g (n,), J (m, m) square, Jdq = J̇ q̇ (m,), a (m,), hc (m,).
+        B: inertia matrix (n, n); nv: ``C q̇ + F q̇ + g`` (n,); J: the Jacobian, square (m, m);
+            Jdq: ``J̇ q̇`` (m,); a: the requested acceleration (m,); hc: the wrench to compensate (m,).
         compensate: add ``Jᵀ h_c``.
-        ws: scratch of at least m² + m floats; u (n,): written.
+        ws: scratch of at least m² + m floats.
+        u: the torques (n,), written.
 
     Returns:
         False (and u = NaN) when J is numerically singular.
