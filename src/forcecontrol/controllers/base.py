@@ -191,7 +191,7 @@ def _vectors(*arrays: Any) -> bool:
 
 
 def _fast_step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
-    """The law in one compiled call with its checks inside (``<law>_on_arm`` of :mod:`forcecontrol.laws`).
+    """The law in one compiled call with its checks inside (:func:`forcecontrol.laws.on_arm`).
 
     Taken on the built-in arm when the signals are float64 vectors; the kernel checks their
     lengths and finiteness and restores the state when the law fails. Returns None otherwise, or
@@ -200,7 +200,7 @@ def _fast_step(self: Controller, t: float, measurement: Measurement, reference: 
     """
     on_arm = self.__dict__.get("_on_arm", False)
     if on_arm is False:
-        on_arm = self.on_arm if self._fused_K is not None and self.compiled_law is not None else None
+        on_arm = laws.on_arm(self.compiled_law) if self._fused_K is not None and self.compiled_law is not None else None
         self.__dict__["_on_arm"] = on_arm
     if on_arm is None:
         return None
@@ -276,8 +276,6 @@ class Controller(ABC):
     law: ClassVar[Any] = None
     #: its acceleration part (inverse-dynamics schemes), for the redundant/damped inner loop.
     acceleration: ClassVar[Any] = None
-    #: the law on the chapter's arm in one compiled call (``<law>_on_arm``), for ``step``.
-    on_arm: ClassVar[Any] = None
     #: whether the controller reads the force measurement at all.
     uses_force: ClassVar[bool] = True
     #: the law acts on a position task space (x_e = o_e, J = J_P): a robot whose task includes
@@ -422,12 +420,15 @@ class Controller(ABC):
         return u + J_wrench.T @ np.asarray(h, dtype=np.float64) if J_wrench is not None else u
 
     def _fused_step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray | None:
-        """Torques of the law in one compiled call on the built-in arm (``on_arm``), or None (another robot, no compiled law)."""
+        """Torques of the law in one compiled call on the built-in arm (:func:`forcecontrol.laws.on_arm`).
+
+        None on another robot or without a compiled law.
+        """
         if self._fused_K is None or self.compiled_law is None:
             return None
         r = reference
         u = np.empty(self.robot.nq)
-        if not self.on_arm(
+        if not laws.on_arm(self.compiled_law)(
             self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
             _f64(measurement.wrench), _f64(r.position), _f64(r.velocity), _f64(r.acceleration), _f64(r.force),
             _f64(r.force_rate), _f64(r.force_accel), self._params, self.state, self._workspace(), u,

@@ -43,7 +43,6 @@ class OperationalSpacePD(Controller):
     """
 
     law = staticmethod(laws.os_pd)
-    on_arm = staticmethod(laws.os_pd_on_arm)
     uses_force: ClassVar[bool] = False
     position_task_only: ClassVar[bool] = True
 
@@ -81,7 +80,6 @@ class JointSpacePD(Controller):
     """
 
     law = staticmethod(laws.joint_pd)
-    on_arm = staticmethod(laws.joint_pd_on_arm)
     uses_force: ClassVar[bool] = False
 
     def __init__(

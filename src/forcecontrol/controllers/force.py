@@ -364,7 +364,6 @@ class InnerPositionForceController(_DirectForceController):
     """
 
     law = staticmethod(laws.inner_position)
-    on_arm = staticmethod(laws.inner_position_on_arm)
     acceleration = staticmethod(laws.inner_position_acceleration)
 
     @runs_law
@@ -399,7 +398,6 @@ class InnerVelocityForceController(_DirectForceController):
     """
 
     law = staticmethod(laws.inner_velocity)
-    on_arm = staticmethod(laws.inner_velocity_on_arm)
     acceleration = staticmethod(laws.inner_velocity_acceleration)
     _has_integral: ClassVar[bool] = False
 
@@ -449,7 +447,6 @@ class ParallelForcePositionController(_DirectForceController):
     """
 
     law = staticmethod(laws.parallel)
-    on_arm = staticmethod(laws.parallel_on_arm)
     acceleration = staticmethod(laws.parallel_acceleration)
     _default_start: ClassVar[str] = "zero"
 

@@ -92,7 +92,6 @@ class HybridCompliantController(Controller):
     """
 
     law = staticmethod(laws.hybrid_compliant)
-    on_arm = staticmethod(laws.hybrid_compliant_on_arm)
     acceleration = staticmethod(laws.hybrid_compliant_acceleration)
     position_task_only: ClassVar[bool] = True
 
@@ -191,7 +190,6 @@ class HybridRigidController(Controller):
     """
 
     law = staticmethod(laws.hybrid_rigid)
-    on_arm = staticmethod(laws.hybrid_rigid_on_arm)
     acceleration = staticmethod(laws.hybrid_rigid_acceleration)
     position_task_only: ClassVar[bool] = True
 

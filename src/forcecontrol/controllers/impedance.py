@@ -55,7 +55,6 @@ class ImpedanceController(Controller):
     """
 
     law = staticmethod(laws.impedance)
-    on_arm = staticmethod(laws.impedance_on_arm)
     acceleration = staticmethod(laws.impedance_acceleration)
     position_task_only: ClassVar[bool] = True
 

@@ -15,8 +15,10 @@ Every law is one Numba function with the same signature::
 * ``ws``: scratch of at least :func:`workspace_size` (m, n) floats; ``u`` (n,): the torques,
   written in place. Nothing is allocated.
 
-Each law also has ``<law>_on_arm``: the law on the chapter's arm in one compiled call, for
-``Controller.step`` (the checks and terms of :mod:`forcecontrol.laws.arm`, then the law).
+``on_arm(law)`` is the law on the chapter's arm in one compiled call, for ``Controller.step``
+(the checks and terms of :mod:`forcecontrol.laws.arm`, then the law). The inverse-dynamics
+schemes are written as their acceleration (``*_acceleration``, the chapter's equation) and
+composed with the inner loop (9.30) once, by :func:`inverse_dynamics_law`.
 
 It returns False when the law cannot be applied (a singular Jacobian in the inner loop (9.30));
 ``u`` is then NaN.
@@ -32,6 +34,7 @@ damped inner loop of :mod:`forcecontrol.controllers.redundant`.
 
 from __future__ import annotations
 
+from .arm import on_arm
 from .compliance import joint_pd, os_pd
 from .force import (
     inner_position,
@@ -48,22 +51,14 @@ from .hybrid import (
     hybrid_rigid_acceleration,
 )
 from .impedance import impedance, impedance_acceleration, impedance_core
-from .inner import inverse_dynamics
-from .on_arm import (
-    hybrid_compliant_on_arm,
-    hybrid_rigid_on_arm,
-    impedance_on_arm,
-    inner_position_on_arm,
-    inner_velocity_on_arm,
-    joint_pd_on_arm,
-    os_pd_on_arm,
-    parallel_on_arm,
-)
+from .inner import inverse_dynamics, inverse_dynamics_law
 from .spatial import spatial_impedance_torque
 
 __all__ = [
     "workspace_size",
     "inverse_dynamics",
+    "inverse_dynamics_law",
+    "on_arm",
     "os_pd",
     "joint_pd",
     "impedance",
@@ -80,14 +75,6 @@ __all__ = [
     "hybrid_compliant_acceleration",
     "hybrid_rigid",
     "hybrid_rigid_acceleration",
-    "os_pd_on_arm",
-    "joint_pd_on_arm",
-    "impedance_on_arm",
-    "inner_position_on_arm",
-    "inner_velocity_on_arm",
-    "parallel_on_arm",
-    "hybrid_compliant_on_arm",
-    "hybrid_rigid_on_arm",
 ]
 
 

@@ -1,21 +1,21 @@
 """One step of a control law on the chapter's two-link arm, in one compiled call.
 
-``Controller.step`` on the built-in arm calls ``<law>_on_arm`` (defined next to each law):
-:func:`arm_inputs` (checks, the arm's terms in closed form, two-link-arm.md), the law, then
-:func:`arm_finish`, with no Python in between. Python calls it through Numba's typed dispatcher
-(about 1 µs for the whole step); passing the law as a function argument from Python would cost
-5 µs of type resolution, and a wrapper that passes a global law on is not cacheable.
+``Controller.step`` on the built-in arm calls :func:`on_arm` of its law: :func:`arm_inputs`
+(checks, the arm's terms in closed form, two-link-arm.md), the law, then :func:`arm_finish`,
+with no Python in between.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from numba import njit
 
+from .._numba_cache import stable_identities
 from ..robots.planar_2r import _terms_into
 
-__all__ = ["arm_inputs", "arm_finish"]
+__all__ = ["on_arm", "arm_inputs", "arm_finish"]
 
 
 @njit(cache=True)
@@ -86,3 +86,28 @@ def arm_finish(ok, s, ws, u):  # pragma: no cover - compiled
     for i in range(s.shape[0]):  # a failed sample leaves the state as it was
         s[i] = ws[o + i]
     return False
+
+
+def on_arm(law: Any) -> Any:
+    """``law`` on the chapter's arm in one compiled call: what ``Controller.step`` runs there.
+
+    ``on_arm(law)(K, t, dt, q, q̇, h, x_d, ẋ_d, ẍ_d, f_d, ḟ_d, f̈_d, p, s, ws, u) -> ok``: the
+    input checks and the arm's terms (:func:`arm_inputs`), the law, and the state restored when
+    it failed (:func:`arm_finish`). Built once per law (the law inlined) and cached on disk;
+    Python calls it through Numba's typed dispatcher (about 1 µs), whereas passing the law as an
+    argument from Python would cost 5 µs of type resolution per call.
+    """
+    step = _ON_ARM.get(law)
+    if step is None:
+        stable_identities()
+
+        def run(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
+            ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
+            return ok and arm_finish(law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
+
+        step = _ON_ARM[law] = njit(cache=True)(run)
+        step._set_uuid(f"forcecontrol:laws.arm.on_arm:{law._uuid}")
+    return step
+
+
+_ON_ARM: dict[Any, Any] = {}

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from .inner import inverse_dynamics
+from .inner import inverse_dynamics_law
 
 
 @njit(cache=True, inline="always")
@@ -123,25 +123,9 @@ def parallel_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no 
     return True
 
 
-@njit(cache=True, inline="always")
-def inner_position(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Force control with inner position loop: (9.39)+(9.43) through the inner loop (9.30)."""
-    m = x.shape[0]
-    inner_position_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
-    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
-
-
-@njit(cache=True, inline="always")
-def inner_velocity(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Force control with inner velocity loop: (9.45)+(9.46) through the inner loop (9.30)."""
-    m = x.shape[0]
-    inner_velocity_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
-    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
-
-
-@njit(cache=True, inline="always")
-def parallel(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Parallel force/position control: (9.48)+(9.43) through the inner loop (9.30)."""
-    m = x.shape[0]
-    parallel_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
-    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
+#: Force control with inner position loop: (9.39)+(9.43) through the inner loop (9.30).
+inner_position = inverse_dynamics_law(inner_position_acceleration, "inner_position")
+#: Force control with inner velocity loop: (9.45)+(9.46) through the inner loop (9.30).
+inner_velocity = inverse_dynamics_law(inner_velocity_acceleration, "inner_velocity")
+#: Parallel force/position control: (9.48)+(9.43) through the inner loop (9.30).
+parallel = inverse_dynamics_law(parallel_acceleration, "parallel")

@@ -16,7 +16,7 @@ from __future__ import annotations
 from numba import njit
 
 from .._linalg import mv_into
-from .inner import inverse_dynamics
+from .inner import inverse_dynamics_law
 
 
 @njit(cache=True, inline="always")
@@ -152,17 +152,7 @@ def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma:
     return True
 
 
-@njit(cache=True, inline="always")
-def hybrid_compliant(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Hybrid control on a compliant environment: (9.77) through the inner loop (9.30) (+ Jᵀ h_e)."""
-    m = x.shape[0]
-    hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
-    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
-
-
-@njit(cache=True, inline="always")
-def hybrid_rigid(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Hybrid control on a rigid environment: (9.91) through the inner loop (9.30) (+ Jᵀ S_f f_λ)."""
-    m = x.shape[0]
-    hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
-    return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], True, ws[2 * m :], u)
+#: Hybrid control on a compliant environment: (9.77) through the inner loop (9.30) (+ Jᵀ h_e).
+hybrid_compliant = inverse_dynamics_law(hybrid_compliant_acceleration, "hybrid_compliant")
+#: Hybrid control on a rigid environment: (9.91) through the inner loop (9.30) (+ Jᵀ S_f f_λ).
+hybrid_rigid = inverse_dynamics_law(hybrid_rigid_acceleration, "hybrid_rigid")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from .inner import inverse_dynamics
+from .inner import inverse_dynamics_law
 
 
 @njit(cache=True, inline="always")
@@ -61,11 +61,5 @@ def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no
     return use_force
 
 
-@njit(cache=True, inline="always")
-def impedance(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
-    """Impedance control: :func:`impedance_acceleration` through the inner loop (9.30)."""
-    m = x.shape[0]
-    a = ws[0:m]
-    hc = ws[m : 2 * m]
-    comp = impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], a, hc)
-    return inverse_dynamics(B, nv, J, Jdq, a, hc, comp, ws[2 * m :], u)
+#: Impedance control, (9.28) or (9.30)–(9.31): :func:`impedance_acceleration` through the inner loop (9.30).
+impedance = inverse_dynamics_law(impedance_acceleration, "impedance")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from numba import njit
 
@@ -49,3 +50,25 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
                 acc += J[j, i] * hc[j]
             u[i] += acc
     return True
+
+
+def inverse_dynamics_law(acceleration: Any, name: str) -> Any:
+    """The torque law of an inverse-dynamics scheme: its ``acceleration`` through the inner loop (9.30).
+
+    ``acceleration(t, dt, x, ẋ, h, ref, p, s, ws, a, h_c) -> compensate`` is the scheme's own
+    equation (it writes the requested ``a`` and the wrench ``h_c`` the loop compensates); the
+    returned law has the common signature of :mod:`forcecontrol.laws`. Compiled once per scheme,
+    with the acceleration inlined, and cached on disk under a name-derived identity.
+    """
+
+    def law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
+        m = x.shape[0]
+        comp = acceleration(t, dt, x, xd, h, ref, p, s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
+        return inverse_dynamics(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], comp, ws[2 * m :], u)
+
+    law.__name__ = law.__qualname__ = name
+    law.__module__ = acceleration.py_func.__module__
+    law.__doc__ = f"{name}: :func:`{acceleration.py_func.__name__}` through the inner loop (9.30) (:func:`inverse_dynamics`)."
+    fn = njit(cache=True, inline="always")(law)
+    fn._set_uuid(f"forcecontrol:{law.__module__}.{name}")
+    return fn
