@@ -11,7 +11,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .scenarios.core import ScenarioRun
     from .simulation import SimulationResult
 
-__all__ = ["plot_results", "plot_run", "plot_run_figures", "case_style", "panel_grid", "SIGNAL_LABELS", "CASE_STYLES"]
+__all__ = [
+    "plot_results", "plot_run", "plot_run_figures", "finish_figure", "case_style", "panel_grid", "SIGNAL_LABELS",
+    "CASE_STYLES",
+]
 
 #: axis labels of the plottable columns.
 SIGNAL_LABELS: dict[str, str] = {
@@ -52,6 +55,19 @@ CASE_STYLES: tuple[tuple[str, str], ...] = (
 #: panel size [in] and the most panels in a row.
 PANEL_SIZE = (4.4, 3.0)
 MAX_COLUMNS = 3
+
+
+def finish_figure(fig: Any, path: str | Path | None, dpi: int = 110) -> Any:
+    """Save ``fig`` as a PNG at ``path`` (folders created), close it and return the path; or return ``fig`` (no path)."""
+    if path is None:
+        return fig
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
 
 
 def case_style(i: int) -> dict[str, Any]:
@@ -197,13 +213,7 @@ def plot_results(
                     transform=bottom.transSubfigure)
     if title:
         top.suptitle(title, fontsize=10)
-    if path is not None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
-        return path
-    return fig
+    return finish_figure(fig, path, dpi=120)
 
 
 def _draw_references(ax: Any, results: list[SimulationResult], sig: str) -> list[np.ndarray]:

@@ -25,6 +25,7 @@ from .conventions import BY_END_EFFECTOR
 from .errors import DimensionError, FrameError, MeasurementError, ParameterError
 from .io import RecordedRun
 from .io.recorded import wrench_axis_names
+from .plotting import finish_figure
 from .robots import PlanarTwoLink
 from .robots.base import RobotModel
 from .spatial import Transform
@@ -126,13 +127,7 @@ class ReplayResult:
         kind = self.metadata.get("controller", {}).get("type", "controller")
         fig.suptitle(f"{kind} replayed over {self.metadata.get('source', '')}", fontsize=9)
         fig.tight_layout()
-        if path is not None:
-            path = Path(path)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-            return path
-        return fig
+        return finish_figure(fig, path)
 
 
 def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: RobotModel | None) -> tuple[int, int]:

@@ -15,6 +15,7 @@ import numpy as np
 from .errors import DimensionError, MeasurementError, ParameterError
 from .io import RecordedRun
 from .io.recorded import wrench_axis_names
+from .plotting import finish_figure
 from .result import SimulationResult
 
 __all__ = ["compare_traces", "TraceComparison", "recorded_from_simulation"]
@@ -84,13 +85,7 @@ class TraceComparison:
             title += f", RMS force error {m['force_error_rms']:.3g} N"
         fig.suptitle(title, fontsize=9)
         fig.tight_layout()
-        if path is not None:
-            path = Path(path)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-            return path
-        return fig
+        return finish_figure(fig, path)
 
 
 def compare_traces(

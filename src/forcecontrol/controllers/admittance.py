@@ -103,6 +103,8 @@ class AdmittanceController(_SpatialBase):
             (``orientation`` applies to the motion loop; (9.37) uses XYZ angles).
     """
 
+    GAINS = ("inertia", "damping", "stiffness", "motion_stiffness", "motion_damping", "bandwidths")
+
     def __init__(
         self,
         robot: RobotModel,
@@ -213,12 +215,3 @@ class AdmittanceController(_SpatialBase):
         self.state[:] = self._Ad @ self.state + self._Gd @ h_d
         return self._check_output(t, u, measurement)
 
-    def gains(self) -> dict[str, Any]:
-        return {
-            "inertia": self.inertia.tolist(),
-            "damping": self.damping.tolist(),
-            "stiffness": self.stiffness.tolist(),
-            "motion_stiffness": self.motion_stiffness.tolist(),
-            "motion_damping": self.motion_damping.tolist(),
-            "bandwidths": self.bandwidths,
-        }

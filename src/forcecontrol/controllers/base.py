@@ -272,6 +272,8 @@ class Controller(ABC):
     no compiled law (``law = None``) implement ``step`` in Python.
     """
 
+    #: the attributes :meth:`gains` reports.
+    GAINS: ClassVar[tuple[str, ...]] = ()
     #: the compiled control law (``staticmethod`` of a :mod:`forcecontrol.laws` function) or None.
     law: ClassVar[Any] = None
     #: its acceleration part (inverse-dynamics schemes), for the redundant/damped inner loop.
@@ -338,8 +340,12 @@ class Controller(ABC):
         """Torques u, (n,) [N m], to hold for one sample time."""
 
     def gains(self) -> dict[str, Any]:
-        """The controller's parameters as plain lists (for metadata and reports)."""
-        return {}
+        """The controller's parameters as plain values (for metadata and reports): those named in ``GAINS``."""
+        out: dict[str, Any] = {}
+        for name in self.GAINS:
+            v = getattr(self, name)
+            out[name] = v.tolist() if isinstance(v, np.ndarray) else v
+        return out
 
     # -- shared helpers
     def _set_redundancy(self, posture: Any, singularity: Any) -> None:

@@ -43,6 +43,7 @@ class OperationalSpacePD(Controller):
     """
 
     law = staticmethod(laws.os_pd)
+    GAINS = ("stiffness", "damping")
     uses_force: ClassVar[bool] = False
     position_task_only: ClassVar[bool] = True
 
@@ -57,9 +58,6 @@ class OperationalSpacePD(Controller):
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (8.110) for this sample (:func:`forcecontrol.laws.os_pd`)."""
         return self._law_step(t, measurement, reference)
-
-    def gains(self) -> dict[str, Any]:
-        return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist()}
 
 
 class JointSpacePD(Controller):
@@ -80,6 +78,7 @@ class JointSpacePD(Controller):
     """
 
     law = staticmethod(laws.joint_pd)
+    GAINS = ("stiffness", "damping", "joint_setpoint")
     uses_force: ClassVar[bool] = False
 
     def __init__(
@@ -97,9 +96,3 @@ class JointSpacePD(Controller):
         """Torques of (8.51) for this sample (:func:`forcecontrol.laws.joint_pd`)."""
         return self._law_step(t, measurement, reference)
 
-    def gains(self) -> dict[str, Any]:
-        return {
-            "stiffness": self.stiffness.tolist(),
-            "damping": self.damping.tolist(),
-            "joint_setpoint": self.joint_setpoint.tolist(),
-        }

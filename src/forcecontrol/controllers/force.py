@@ -200,6 +200,7 @@ class _DirectForceController(Controller):
     """Shared parts: motion gains (M_d, K_D, K_P), diagonal C_F, integral state and checks."""
 
     _has_integral: ClassVar[bool] = True
+    GAINS = ("inertia", "damping", "stiffness", "force_gain")
     _default_start: ClassVar[str] = "tip"
     position_task_only: ClassVar[bool] = True
 
@@ -308,12 +309,7 @@ class _DirectForceController(Controller):
         self.state[m:] = xi0
 
     def gains(self) -> dict[str, Any]:
-        out = {
-            "inertia": self.inertia.tolist(),
-            "damping": self.damping.tolist(),
-            "stiffness": self.stiffness.tolist(),
-            "force_gain": self.force_gain.tolist(),
-        }
+        out = super().gains()
         if self._has_integral:
             out["integral_gain"] = self.integral_gain.tolist()
             out["integral_limit"] = self.integral_limit.tolist()

@@ -55,6 +55,7 @@ class ImpedanceController(Controller):
     """
 
     law = staticmethod(laws.impedance)
+    GAINS = ("inertia", "damping", "stiffness", "force_measurement")
     acceleration = staticmethod(laws.impedance_acceleration)
     position_task_only: ClassVar[bool] = True
 
@@ -92,10 +93,3 @@ class ImpedanceController(Controller):
         """Torques of (9.28) or (9.30)–(9.31) for this sample (:func:`forcecontrol.laws.impedance`)."""
         return self._law_step(t, measurement, reference)
 
-    def gains(self) -> dict[str, Any]:
-        return {
-            "inertia": self.inertia.tolist(),
-            "damping": self.damping.tolist(),
-            "stiffness": self.stiffness.tolist(),
-            "force_measurement": self.force_measurement,
-        }

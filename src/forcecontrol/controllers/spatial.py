@@ -257,6 +257,8 @@ class SpatialImpedanceController(_SpatialBase):
             measurement must carry.
     """
 
+    GAINS = ("inertia", "damping", "stiffness", "orientation")
+
     def __init__(
         self,
         robot: RobotModel,
@@ -293,13 +295,6 @@ class SpatialImpedanceController(_SpatialBase):
         u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         return self._check_output(t, u, measurement)
 
-    def gains(self) -> dict[str, Any]:
-        return {
-            "inertia": self.inertia.tolist(),
-            "damping": self.damping.tolist(),
-            "stiffness": self.stiffness.tolist(),
-            "orientation": self.orientation,
-        }
 
 
 class SpatialComplianceController(_SpatialBase):
@@ -321,6 +316,7 @@ class SpatialComplianceController(_SpatialBase):
     """
 
     uses_force: ClassVar[bool] = False
+    GAINS = ("stiffness", "damping", "orientation")
 
     def __init__(
         self,
@@ -351,9 +347,6 @@ class SpatialComplianceController(_SpatialBase):
             tau0 = B @ self.posture.acceleration(q, qd)
             u = u + tau0 - JAd.T @ np.linalg.lstsq(JAd.T, tau0, rcond=None)[0]
         return self._check_output(t, u, measurement)
-
-    def gains(self) -> dict[str, Any]:
-        return {"stiffness": self.stiffness.tolist(), "damping": self.damping.tolist(), "orientation": self.orientation}
 
 
 class SpatialHybridController(_SpatialBase):

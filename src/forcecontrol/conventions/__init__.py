@@ -20,27 +20,10 @@ samples between them (``forcecontrol convert``).
 
 from __future__ import annotations
 
+from . import ros, vendors
 from .named import CONVENTIONS, WrenchConvention, convention, convert_wrenches
-from .ros import (
-    pose_from_ros,
-    pose_to_ros,
-    ros_dict,
-    ros_message,
-    twist_from_ros,
-    twist_to_ros,
-    wrench_from_ros,
-    wrench_to_ros,
-)
-from .vendors import (
-    from_franka,
-    from_mujoco,
-    from_ur_force_mode,
-    from_ur_tcp_force,
-    to_franka,
-    to_mujoco,
-    to_ur_force_mode,
-    to_ur_tcp_force,
-)
+from .ros import *  # noqa: F403  (the ROS 2 adapters; ros.__all__)
+from .vendors import *  # noqa: F403  (the vendors' adapters; vendors.__all__)
 from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR, SENSES, SensedWrench, twist_about, twist_rotated
 
 __all__ = [
@@ -54,20 +37,6 @@ __all__ = [
     "SENSES",
     "twist_about",
     "twist_rotated",
-    "wrench_from_ros",
-    "wrench_to_ros",
-    "pose_from_ros",
-    "pose_to_ros",
-    "twist_from_ros",
-    "twist_to_ros",
-    "ros_message",
-    "ros_dict",
-    "from_franka",
-    "to_franka",
-    "from_ur_tcp_force",
-    "to_ur_tcp_force",
-    "from_ur_force_mode",
-    "to_ur_force_mode",
-    "from_mujoco",
-    "to_mujoco",
+    *ros.__all__,
+    *vendors.__all__,
 ]

@@ -25,39 +25,10 @@ Wrench, Twist).
 
 from __future__ import annotations
 
-from .error import analytical_jacobian_desired, b_vector, error_rate, pose_error
-from .frames import Transform, Twist, Wrench
-from .rotations import (
-    EULER_SINGULARITY_TOL,
-    check_rotation,
-    euler_xyz_T,
-    euler_xyz_T_dot,
-    euler_xyz_T_inv,
-    euler_xyz_to_rotation,
-    rotation_to_euler_xyz,
-    rotation_vector,
-    rotvec_T,
-    rotvec_to_rotation,
-    skew,
-)
+from . import error, frames, rotations
+from .error import *  # noqa: F403
+from .frames import *  # noqa: F403
+from .rotations import *  # noqa: F403
 
-__all__ = [
-    "skew",
-    "euler_xyz_to_rotation",
-    "rotation_to_euler_xyz",
-    "euler_xyz_T",
-    "euler_xyz_T_inv",
-    "euler_xyz_T_dot",
-    "rotation_vector",
-    "rotvec_to_rotation",
-    "rotvec_T",
-    "check_rotation",
-    "pose_error",
-    "error_rate",
-    "analytical_jacobian_desired",
-    "b_vector",
-    "Transform",
-    "Wrench",
-    "Twist",
-    "EULER_SINGULARITY_TOL",
-]
+#: the public names of the submodules (each keeps its own list).
+__all__ = [*rotations.__all__, *error.__all__, *frames.__all__]
