@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["mv", "mtv", "mv_into", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
+__all__ = ["mv", "mtv", "mv_into", "solve2", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
 
 #: a pivot smaller than this times the matrix's largest entry counts as singular.
 SINGULAR_RCOND = 1e-10
@@ -54,29 +54,29 @@ def mv_into(A: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: n
 
 
 @njit(cache=True, fastmath=False, inline="always")
-def _solve2_in_place(a00, a01, a10, a11, x):  # pragma: no cover - compiled
-    """:func:`solve_in_place` for n = 2, written on scalars (same pivoting and arithmetic)."""
-    b0 = x[0]
-    b1 = x[1]
+def solve2(a00, a01, a10, a11, b0, b1):  # pragma: no cover - compiled
+    """``A x = b`` for a 2×2 A on scalars: :func:`solve_in_place`'s pivoting and arithmetic for n = 2.
+
+    Returns (ok, x0, x1); ok is False when A is numerically singular.
+    """
     scale = max(abs(a00), abs(a01), abs(a10), abs(a11))
     if scale == 0.0 or not np.isfinite(scale):
-        return False
+        return False, 0.0, 0.0
     big = abs(a00)
     if abs(a10) > big:
         big = abs(a10)
         a00, a01, a10, a11 = a10, a11, a00, a01
         b0, b1 = b1, b0
     if big <= SINGULAR_RCOND * scale:
-        return False
+        return False, 0.0, 0.0
     f = a10 / a00
     if f != 0.0:
         a11 -= f * a01
         b1 -= f * b0
     if abs(a11) <= SINGULAR_RCOND * scale:
-        return False
-    x[1] = b1 / a11
-    x[0] = (b0 - a01 * x[1]) / a00
-    return True
+        return False, 0.0, 0.0
+    x1 = b1 / a11
+    return True, (b0 - a01 * x1) / a00, x1
 
 
 @njit(cache=True, fastmath=False, inline="always")
@@ -91,7 +91,8 @@ def solve_in_place(A: np.ndarray, x: np.ndarray, scratch: np.ndarray) -> bool:  
     """
     n = A.shape[0]
     if n == 2:  # the chapter's arm: the same elimination on scalars (no scratch, ~4x faster)
-        return _solve2_in_place(A[0, 0], A[0, 1], A[1, 0], A[1, 1], x)
+        ok, x[0], x[1] = solve2(A[0, 0], A[0, 1], A[1, 0], A[1, 1], x[0], x[1])
+        return ok
     M = scratch[: n * n].reshape((n, n))
     scale = 0.0
     for i in range(n):

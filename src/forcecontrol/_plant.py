@@ -12,45 +12,12 @@ import math
 
 from numba import njit
 
-from ._linalg import SINGULAR_RCOND
+from ._linalg import solve2
 
 __all__ = ["rk4_sample", "terms2", "wrench2", "fill_terms", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
 #: status codes of the compiled loops.
 OK, NONFINITE_STATE, RUNAWAY, SINGULAR, NONFINITE_TORQUE = 0, 1, 2, 3, 4
-
-
-@njit(cache=True)
-def _solve2(a00, a01, a10, a11, b0, b1):  # pragma: no cover - compiled
-    """``A x = b`` for 2x2 A, the same arithmetic as :func:`forcecontrol._linalg.solve_into`.
-
-    Returns (ok, x0, x1); ok is False when A is numerically singular.
-    """
-    scale = abs(a00)
-    if abs(a01) > scale:
-        scale = abs(a01)
-    if abs(a10) > scale:
-        scale = abs(a10)
-    if abs(a11) > scale:
-        scale = abs(a11)
-    if scale == 0.0 or not math.isfinite(scale):
-        return False, 0.0, 0.0
-    big = abs(a00)
-    if abs(a10) > big:
-        big = abs(a10)
-        a00, a01, a10, a11 = a10, a11, a00, a01
-        b0, b1 = b1, b0
-    if big <= SINGULAR_RCOND * scale:
-        return False, 0.0, 0.0
-    f = a10 / a00
-    if f != 0.0:
-        a11 -= f * a01
-        b1 -= f * b0
-    if abs(a11) <= SINGULAR_RCOND * scale:
-        return False, 0.0, 0.0
-    x1 = b1 / a11
-    x0 = (b0 - a01 * x1) / a00
-    return True, x0, x1
 
 
 @njit(cache=True)
@@ -115,7 +82,7 @@ def _accel_terms2(T, h0, h1, u0, u1):  # pragma: no cover - compiled
     """q̈ = B⁻¹ (u − n − Jᵀ h_e) from filled terms T and the wrench; returns (ok, a0, a1)."""
     r0 = u0 - T[13] - T[4] * h0 - T[6] * h1
     r1 = u1 - T[14] - T[5] * h0 - T[7] * h1
-    return _solve2(T[10], T[11], T[11], T[12], r0, r1)
+    return solve2(T[10], T[11], T[11], T[12], r0, r1)
 
 
 @njit(cache=True)

@@ -10,7 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from .app import _fail, _slug, compile_notice, console, prepare_output
-from .replay import RecordFormat, pick_case, read_log
+from .replay import JointTopic, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
 
 __all__ = ["compare_trace_command"]
 
@@ -43,13 +43,9 @@ def compare_trace_command(
     case: Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")] = None,
     max_shift: Annotated[float, typer.Option(help="largest time shift searched to align the traces [s]")] = 0.1,
     out: Annotated[Path, typer.Option(help="folder for the figure")] = Path("forcecontrol-out"),
-    joint_topic: Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")] = "/joint_states",
-    wrench_topic: Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")] = (
-        "/force_torque_sensor_broadcaster/wrench"
-    ),
-    wrench_sense: Annotated[str, typer.Option(help="what the log's wrench is: by-end-effector (h_e) or on-end-effector")] = (
-        "by-end-effector"
-    ),
+    joint_topic: JointTopic = "/joint_states",
+    wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
+    wrench_sense: WrenchSense = "by-end-effector",
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
     force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
 ) -> None:

@@ -14,6 +14,11 @@ from .app import _fail, _slug, compile_notice, console, prepare_output
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 
+#: options shared by the commands that read a recorded log (replay, compare-trace).
+JointTopic = Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")]
+WrenchTopic = Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")]
+WrenchSense = Annotated[str, typer.Option(help="what the log's wrench is: by-end-effector (h_e) or on-end-effector")]
+
 
 class RecordFormat(str, Enum):
     auto = "auto"
@@ -57,13 +62,9 @@ def replay_command(
     format: Annotated[RecordFormat, typer.Option("--format", help="format of DATA (default: from the path)")] = RecordFormat.auto,
     case: Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")] = None,
     out: Annotated[Path, typer.Option(help="folder for the replay table (CSV) and figure")] = Path("forcecontrol-out"),
-    joint_topic: Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")] = "/joint_states",
-    wrench_topic: Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")] = (
-        "/force_torque_sensor_broadcaster/wrench"
-    ),
-    wrench_sense: Annotated[str, typer.Option(help="what the log's wrench is: by-end-effector (h_e) or on-end-effector")] = (
-        "by-end-effector"
-    ),
+    joint_topic: JointTopic = "/joint_states",
+    wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
+    wrench_sense: WrenchSense = "by-end-effector",
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
     force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
 ) -> None:

@@ -106,22 +106,10 @@ class AdmittanceController(_SpatialBase):
     GAINS = ("inertia", "damping", "stiffness", "motion_stiffness", "motion_damping", "bandwidths")
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        *,
-        motion_stiffness: Any = 2500.0,
-        motion_damping: Any = 100.0,
-        environment_stiffness: Any = None,
-        bandwidth_ratio: float = 3.0,
-        orientation: str = "euler",
-        posture: Any = None,
-        singularity: Any = None,
-        sample_time: float = 1e-3,
-        base_frame: str = "world",
-        ee_frame: str | None = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *, motion_stiffness: Any = 2500.0,
+        motion_damping: Any = 100.0, environment_stiffness: Any = None, bandwidth_ratio: float = 3.0,
+        orientation: str = "euler", posture: Any = None, singularity: Any = None, sample_time: float = 1e-3,
+        base_frame: str = "world", ee_frame: str | None = None,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, base_frame, ee_frame)
         self.inertia = as_gain_matrix("inertia", inertia, 6)

@@ -82,7 +82,7 @@ class JointSpacePD(Controller):
     uses_force: ClassVar[bool] = False
 
     def __init__(
-        self, robot: RobotModel, stiffness: Any, damping: Any, joint_setpoint: Any, sample_time: float = 1e-3
+        self, robot: RobotModel, stiffness: Any, damping: Any, joint_setpoint: Any, sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, sample_time)
         n = int(robot.nq)

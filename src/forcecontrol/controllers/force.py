@@ -205,21 +205,10 @@ class _DirectForceController(Controller):
     position_task_only: ClassVar[bool] = True
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        force_gain: Any,
-        integral_gain: Any = 0.0,
-        *,
-        integral_limit: Any = None,
-        integrator_start: Literal["tip", "hold", "zero"] | None = None,
-        environment_stiffness: Any = None,
-        posture: Any = None,
-        singularity: Any = None,
-        sample_time: float = 1e-3,
-        task_frame: Any = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, force_gain: Any,
+        integral_gain: Any = 0.0, *, integral_limit: Any = None,
+        integrator_start: Literal["tip", "hold", "zero"] | None = None, environment_stiffness: Any = None,
+        posture: Any = None, singularity: Any = None, sample_time: float = 1e-3, task_frame: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
@@ -380,17 +369,9 @@ class InnerVelocityForceController(_DirectForceController):
     ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m]. No state.
 
     Args:
-        robot: the manipulator model (square Jacobian).
-        inertia: M_d (m, m) [kg]; damping: K_D (m, m) [N s/m]; stiffness: K_P (m, m) [N/m].
         force_gain: K_F = C_F, scalar, (m,) or diagonal (m, m) [m/N], >= 0, not all zero.
-        environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
-        posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
-            the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
-        task_frame: rotation R (m, m) whose columns are the task frame's axes in the base frame: C_F
-            (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
-            surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
-            plane); None: the base frame (the chapter's case). Both run compiled (R is packed with the gains).
-        sample_time: Ts [s].
+        robot, inertia, damping, stiffness, environment_stiffness, posture, singularity, task_frame,
+            sample_time: as for :class:`InnerPositionForceController`.
     """
 
     law = staticmethod(laws.inner_velocity)
@@ -398,18 +379,9 @@ class InnerVelocityForceController(_DirectForceController):
     _has_integral: ClassVar[bool] = False
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        force_gain: Any,
-        *,
-        environment_stiffness: Any = None,
-        posture: Any = None,
-        singularity: Any = None,
-        sample_time: float = 1e-3,
-        task_frame: Any = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, force_gain: Any, *,
+        environment_stiffness: Any = None, posture: Any = None, singularity: Any = None,
+        sample_time: float = 1e-3, task_frame: Any = None,
     ) -> None:
         super().__init__(
             robot, inertia, damping, stiffness, force_gain, 0.0,

@@ -96,15 +96,8 @@ class HybridCompliantController(Controller):
     position_task_only: ClassVar[bool] = True
 
     def __init__(
-        self,
-        robot: RobotModel,
-        selection: SelectionMatrices | Task,
-        compliance: Any,
-        velocity_gain: Any,
-        velocity_integral_gain: Any,
-        force_gain: Any,
-        force_rate_gain: Any,
-        sample_time: float = 1e-3,
+        self, robot: RobotModel, selection: SelectionMatrices | Task, compliance: Any, velocity_gain: Any,
+        velocity_integral_gain: Any, force_gain: Any, force_rate_gain: Any, sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, sample_time)
         sel = _selection(selection, self.m)
@@ -194,18 +187,10 @@ class HybridRigidController(Controller):
     position_task_only: ClassVar[bool] = True
 
     def __init__(
-        self,
-        robot: RobotModel,
-        selection: SelectionMatrices | Task,
-        *,
-        motion: Literal["velocity", "position"] = "velocity",
-        velocity_gain: Any,
-        velocity_integral_gain: Any = None,
-        position_gain: Any = None,
-        force_law: ForceLaw = "integral",
-        force_gain: Any = None,
-        force_integral_gain: Any = None,
-        sample_time: float = 1e-3,
+        self, robot: RobotModel, selection: SelectionMatrices | Task, *,
+        motion: Literal["velocity", "position"] = "velocity", velocity_gain: Any,
+        velocity_integral_gain: Any = None, position_gain: Any = None, force_law: ForceLaw = "integral",
+        force_gain: Any = None, force_integral_gain: Any = None, sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, sample_time)
         from ..environments.rigid import OperationalConstraint

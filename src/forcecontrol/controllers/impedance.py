@@ -60,16 +60,8 @@ class ImpedanceController(Controller):
     position_task_only: ClassVar[bool] = True
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        force_measurement: bool = True,
-        sample_time: float = 1e-3,
-        *,
-        posture: Any = None,
-        singularity: Any = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, force_measurement: bool = True,
+        sample_time: float = 1e-3, *, posture: Any = None, singularity: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m

@@ -260,18 +260,9 @@ class SpatialImpedanceController(_SpatialBase):
     GAINS = ("inertia", "damping", "stiffness", "orientation")
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        *,
-        orientation: Orientation = "euler",
-        posture: Any = None,
-        singularity: SingularityHandling | None = None,
-        sample_time: float = 1e-3,
-        base_frame: str = "world",
-        ee_frame: str | None = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *,
+        orientation: Orientation = "euler", posture: Any = None, singularity: SingularityHandling | None = None,
+        sample_time: float = 1e-3, base_frame: str = "world", ee_frame: str | None = None,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, base_frame, ee_frame)
         self.inertia = as_gain_matrix("inertia", inertia, 6)
@@ -319,15 +310,8 @@ class SpatialComplianceController(_SpatialBase):
     GAINS = ("stiffness", "damping", "orientation")
 
     def __init__(
-        self,
-        robot: RobotModel,
-        stiffness: Any,
-        damping: Any,
-        *,
-        orientation: Orientation = "euler",
-        posture: Any = None,
-        singularity: SingularityHandling | None = None,
-        sample_time: float = 1e-3,
+        self, robot: RobotModel, stiffness: Any, damping: Any, *, orientation: Orientation = "euler",
+        posture: Any = None, singularity: SingularityHandling | None = None, sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
@@ -383,19 +367,9 @@ class SpatialHybridController(_SpatialBase):
     """
 
     def __init__(
-        self,
-        robot: RobotModel,
-        force_directions: Any,
-        compliance: Any,
-        stiffness: Any,
-        damping: Any,
-        force_stiffness: Any,
-        force_damping: Any,
-        *,
-        orientation: Orientation = "euler",
-        posture: Any = None,
-        singularity: SingularityHandling | None = None,
-        sample_time: float = 1e-3,
+        self, robot: RobotModel, force_directions: Any, compliance: Any, stiffness: Any, damping: Any,
+        force_stiffness: Any, force_damping: Any, *, orientation: Orientation = "euler", posture: Any = None,
+        singularity: SingularityHandling | None = None, sample_time: float = 1e-3,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
         if hasattr(force_directions, "selection"):  # a forcecontrol.task.Task (Tables 9.1-9.3)

@@ -269,18 +269,9 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
     """
 
     def __init__(
-        self,
-        robot: RobotModel,
-        inertia: Any,
-        damping: Any,
-        stiffness: Any,
-        *,
-        stiffness_schedule: Schedule | None = None,
-        damping_schedule: Schedule | None = None,
-        tank: EnergyTank | None = None,
-        sample_time: float = 1e-3,
-        posture: Any = None,
-        singularity: Any = None,
+        self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *,
+        stiffness_schedule: Schedule | None = None, damping_schedule: Schedule | None = None,
+        tank: EnergyTank | None = None, sample_time: float = 1e-3, posture: Any = None, singularity: Any = None,
     ) -> None:
         super().__init__(robot, inertia, damping, stiffness, True, sample_time, posture=posture, singularity=singularity)
         self._compiled = False  # the gains change every step: the law runs with the gains repacked each sample
