@@ -426,17 +426,8 @@ class MujocoPlant:
 
 
 def simulate_mujoco(
-    robot: Any,
-    environment: Environment,
-    controller: Controller,
-    reference: ReferenceSignal,
-    *,
-    q0: Any,
-    duration: float,
-    qd0: Any = None,
-    substeps: int = 4,
-    contact_radius: float = 0.01,
-    label: str = "",
+    robot: Any, environment: Environment, controller: Controller, reference: ReferenceSignal, *, q0: Any,
+    duration: float, qd0: Any = None, substeps: int = 4, contact_radius: float = 0.01, label: str = "",
 ) -> SimulationResult:
     """Like :func:`forcecontrol.simulation.simulate`, with MuJoCo as the plant."""
     plant = MujocoPlant(

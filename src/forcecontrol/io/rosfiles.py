@@ -114,15 +114,9 @@ def _assemble(
 
 
 def read_bag(
-    path: str | Path,
-    *,
-    joint_topic: str = DEFAULT_JOINT_TOPIC,
-    wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
-    joint_names: Sequence[str] | None = None,
-    wrench_components: int = 6,
-    wrench_sense: str = BY_END_EFFECTOR,
-    wrench_point: str | None = None,
-    stamps: str = "header",
+    path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
+    joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
+    wrench_point: str | None = None, stamps: str = "header",
 ) -> RecordedRun:
     """Read a ROS 2 bag (a rosbag2 folder; SQLite or MCAP storage) with the rosbags library.
 
@@ -177,15 +171,9 @@ def read_bag(
 
 
 def read_mcap(
-    path: str | Path,
-    *,
-    joint_topic: str = DEFAULT_JOINT_TOPIC,
-    wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
-    joint_names: Sequence[str] | None = None,
-    wrench_components: int = 6,
-    wrench_sense: str = BY_END_EFFECTOR,
-    wrench_point: str | None = None,
-    stamps: str = "header",
+    path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
+    joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
+    wrench_point: str | None = None, stamps: str = "header",
 ) -> RecordedRun:
     """Read an MCAP file of CDR-encoded ROS 2 messages (mcap library; decoded with rosbags' serde).
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from .pd import pd_action
+
 
 @njit(cache=True, inline="always")
 def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
@@ -14,15 +16,11 @@ def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma
     """
     m = x.shape[0]
     n = q.shape[0]
-    mm = m * m
-    w = ws[0:m]
-    for i in range(m):
-        kp = 0.0
-        kd = 0.0
-        for j in range(m):
-            kp += p[i * m + j] * (ref[j] - x[j])
-            kd += p[mm + i * m + j] * xd[j]
-        w[i] = kp - kd
+    e = ws[0:m]
+    for j in range(m):
+        e[j] = ref[j] - x[j]
+    w = ws[m : 2 * m]
+    pd_action(p, 0, e, m * m, xd, -1.0, w)
     for i in range(n):
         acc = 0.0
         for j in range(m):
@@ -39,11 +37,10 @@ def joint_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pra
     """
     n = q.shape[0]
     nn = n * n
+    e = ws[0:n]
+    for j in range(n):
+        e[j] = p[2 * nn + j] - q[j]
+    pd_action(p, 0, e, nn, qd, -1.0, u)
     for i in range(n):
-        kp = 0.0
-        kd = 0.0
-        for j in range(n):
-            kp += p[i * n + j] * (p[2 * nn + j] - q[j])
-            kd += p[nn + i * n + j] * qd[j]
-        u[i] = g[i] + kp - kd
+        u[i] = g[i] + u[i]
     return True

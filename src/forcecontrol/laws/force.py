@@ -15,6 +15,7 @@ from __future__ import annotations
 from numba import njit
 
 from .inner import inverse_dynamics_law
+from .pd import pd_action
 
 
 @njit(cache=True, inline="always")
@@ -60,13 +61,7 @@ def _motion_acceleration(p, d, xd, a, w):  # pragma: no cover - compiled
     """``a = M_d⁻¹ (K_P d − K_D ẋ_e)``, the common form of (9.39), (9.45) and (9.48)."""
     m = d.shape[0]
     mm = m * m
-    for i in range(m):
-        kp = 0.0
-        kd = 0.0
-        for j in range(m):
-            kp += p[2 * mm + i * m + j] * d[j]
-            kd += p[mm + i * m + j] * xd[j]
-        w[i] = kp - kd
+    pd_action(p, 2 * mm, d, mm, xd, -1.0, w)
     for i in range(m):
         acc = 0.0
         for j in range(m):

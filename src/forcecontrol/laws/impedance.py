@@ -5,6 +5,7 @@ from __future__ import annotations
 from numba import njit
 
 from .inner import inverse_dynamics_law
+from .pd import pd_action
 
 
 @njit(cache=True, inline="always")
@@ -22,14 +23,9 @@ def impedance_core(G, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma
     """
     m = a.shape[0]
     mm = m * m
-    for i in range(m):
-        kd = 0.0
-        kp = 0.0
-        for j in range(m):
-            kd += G[mm + i * m + j] * x_tilde_dot[j]
-            kp += G[2 * mm + i * m + j] * x_tilde[j]
-        w[i] = kd + kp
-        if use_force:
+    pd_action(G, 2 * mm, x_tilde, mm, x_tilde_dot, 1.0, w)
+    if use_force:
+        for i in range(m):
             w[i] = w[i] - h[i]
     for i in range(m):
         acc = 0.0

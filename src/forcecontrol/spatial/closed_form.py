@@ -54,10 +54,7 @@ def rotation_to_euler_xyz(R: np.ndarray, *, strict: bool = False) -> np.ndarray:
     c2 = math.hypot(R[0, 0], R[0, 1])
     if c2 < EULER_SINGULARITY_TOL:
         if strict:
-            raise SingularityError(
-                f"XYZ Euler angles are at a representation singularity: cos(phi_2) = {c2:.3g} "
-                f"< {EULER_SINGULARITY_TOL} (pitch of ±90°); use orientation='rotvec' or move the desired frame"
-            )
+            raise euler_singularity(c2)
         return np.array([math.atan2(R[2, 1], R[1, 1]), math.asin(s2), 0.0])
     return np.array([math.atan2(-R[1, 2], R[2, 2]), math.atan2(s2, c2), math.atan2(-R[0, 1], R[0, 0])])
 
@@ -90,3 +87,11 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
             axis = -axis
         return a * axis / np.linalg.norm(axis)
     return a / (2.0 * math.sin(a)) * w
+
+
+def euler_singularity(c2: float) -> SingularityError:
+    """The error for XYZ Euler angles at their representation singularity (``cos φ₂ = c2`` ≈ 0)."""
+    return SingularityError(
+        f"XYZ Euler angles are at a representation singularity: cos(phi_2) = {c2:.3g} "
+        f"< {EULER_SINGULARITY_TOL} (pitch of ±90°); use orientation='rotvec' or move the desired frame"
+    )

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_matrix, readonly
-from ..errors import ParameterError, SingularityError
-from .closed_form import EULER_SINGULARITY_TOL
+from ..errors import ParameterError
+from .closed_form import EULER_SINGULARITY_TOL, euler_singularity
 
 __all__ = [
     "skew",
@@ -62,10 +62,7 @@ def rotation_to_euler_xyz(R: np.ndarray, *, strict: bool = False) -> np.ndarray:
     c2 = math.hypot(R[0, 0], R[0, 1])
     if c2 < EULER_SINGULARITY_TOL:
         if strict:
-            raise SingularityError(
-                f"XYZ Euler angles are at a representation singularity: cos(phi_2) = {c2:.3g} "
-                f"< {EULER_SINGULARITY_TOL} (pitch of ±90°); use orientation='rotvec' or move the desired frame"
-            )
+            raise euler_singularity(c2)
         s2 = min(1.0, max(-1.0, float(R[0, 2])))
         return np.array([math.atan2(R[2, 1], R[1, 1]), math.asin(s2), 0.0])
     return _rotation_class().from_matrix(R).as_euler("XYZ")
