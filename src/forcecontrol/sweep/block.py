@@ -1,0 +1,146 @@
+"""One block of sweep cases: what a local thread or a Dask worker runs (:func:`run_block`)."""
+
+from __future__ import annotations
+
+import math
+import sys
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..errors import DriftWarning, SimulationDivergedError
+
+if sys.version_info >= (3, 11):
+    pass
+else:  # pragma: no cover
+    pass
+
+from .prepare import _CAUSE_CODES, _CAUSES, MAX_JOINT_SPEED, CaseJob
+
+__all__ = ["run_block"]
+
+
+# ----------------------------------------------------------------------------- one block
+
+
+def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> list[dict[str, Any]]:
+    """Simulate a block of cases; one row (metrics, status) per case, in the jobs' order.
+
+    This is what a local thread or a Dask worker runs; the numbers do not depend on where.
+    """
+    from .._batch import OUT_COLUMNS, run_batch
+
+    rows: dict[int, dict[str, Any]] = {}
+    groups: dict[Any, list[CaseJob]] = {}
+    for j in jobs:
+        if j.fast:
+            groups.setdefault(j.law, []).append(j)
+    for law, fast in groups.items():  # the batch kernel is specialised per law
+        C = len(fast)
+        nmax = max(j.N for j in fast)
+        ref_index: dict[tuple[str, int, float], int] = {}
+        refs: list[np.ndarray] = []
+        noise_index: dict[tuple[Any, ...], int] = {(): 0}
+        noises = [np.zeros((nmax + 1, 2))]
+        ref_id = np.empty(C, np.int64)
+        noise_id = np.empty(C, np.int64)
+        bias = np.empty((C, 2))
+        for i, j in enumerate(fast):
+            key = (j.ref_key, j.N, j.Ts)
+            if key not in ref_index:
+                r = np.zeros((nmax + 1, 12))
+                r[: j.N + 1] = j.reference.sample(np.arange(j.N + 1) * j.Ts)
+                ref_index[key] = len(refs)
+                refs.append(r)
+            ref_id[i] = ref_index[key]
+            b, noise = j.sensor.sequences(j.N + 1, 2)
+            bias[i] = b
+            if np.any(noise):
+                nkey = (j.sensor.seed, tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist()), j.N)
+                if nkey not in noise_index:
+                    nz = np.zeros((nmax + 1, 2))
+                    nz[: j.N + 1] = noise
+                    noise_index[nkey] = len(noises)
+                    noises.append(nz)
+                noise_id[i] = noise_index[nkey]
+            else:
+                noise_id[i] = 0
+
+        def stack(name: str, fast: list[CaseJob] = fast, C: int = C) -> np.ndarray:
+            arrs = [np.atleast_1d(getattr(j, name)) for j in fast]
+            width = max(a.shape[0] for a in arrs)
+            out = np.zeros((C, width))
+            for i, a in enumerate(arrs):
+                out[i, : a.shape[0]] = a
+            return out
+
+        out = np.empty((C, len(OUT_COLUMNS)))
+        run_batch(
+            law, stack("K"), np.array([j.env_kind for j in fast], np.int64), stack("env_p"),
+            stack("ctrl_p"), stack("ctrl_s"),
+            np.stack(refs), ref_id, bias, np.stack(noises), noise_id,
+            np.array([j.alpha for j in fast]), stack("q0"), stack("qd0"), np.array([j.Ts for j in fast]),
+            np.array([j.nsub for j in fast], np.int64), np.array([j.N for j in fast], np.int64),
+            np.full(C, MAX_JOINT_SPEED), stack("d"), np.array([j.f_ref for j in fast]),
+            np.array([j.window for j in fast], np.int64), float(settle_band), float(stable_band), out,
+        )
+        for i, j in enumerate(fast):
+            rows[j.case_id] = _row(j, dict(zip(OUT_COLUMNS, out[i].tolist())), "batch")
+    for j in jobs:
+        if not j.fast:
+            rows[j.case_id] = _row(j, _simulate_one(j, settle_band, stable_band), "simulate")
+    return [rows[j.case_id] for j in jobs]
+
+
+def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, float]:
+    """A case outside the kernel's reach: simulate() and the same metrics."""
+    from .._batch import case_metrics
+    from ..simulation import simulate
+
+    p = j.parts or {}
+    status = 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DriftWarning)
+        try:
+            res = simulate(
+                p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], qd0=p["qd0"],
+                duration=j.N * j.Ts, sensor=p["sensor"], substeps=j.nsub, max_joint_speed=MAX_JOINT_SPEED,
+                **({} if p.get("actuator") is None else {"actuator": p["actuator"]}),
+            )
+        except SimulationDivergedError as exc:
+            res = exc.partial  # type: ignore[attr-defined]
+            status = _CAUSE_CODES.get(exc.cause, 1)
+    last = len(res.t) - 1
+    y = np.ascontiguousarray(res.wrench @ j.d)
+    norms = np.linalg.norm(res.wrench, axis=1)
+    touched = np.flatnonzero(norms != 0.0)
+    lost = bool(touched.size and np.any(norms[touched[0]:] == 0.0))
+    st, ov, err, stable, yf = case_metrics(y, last, status, j.Ts, j.window, j.f_ref, settle_band, stable_band)
+    return {
+        "status": float(status), "last_sample": float(last), "peak_force": float(np.nanmax(norms)),
+        "contact_lost": float(lost), "settling_time": st, "overshoot": ov, "steady_state_force_error": err,
+        "stable": stable, "settled_force": yf,
+    }
+
+
+def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
+    status = int(r["status"])
+    return {
+        "case_id": j.case_id,
+        "case": j.row_label or j.label,
+        **{f"param:{k}": v for k, v in j.values.items()},
+        "settling_time": r["settling_time"],
+        "overshoot": r["overshoot"],
+        "steady_state_force_error": r["steady_state_force_error"],
+        "peak_force": r["peak_force"],
+        "settled_force": r["settled_force"],
+        "stable": bool(r["stable"]),
+        "contact_lost": bool(r["contact_lost"]),
+        "status": _CAUSES.get(status, "unknown"),
+        "diverged_at": math.nan if status == 0 else int(r["last_sample"]) * j.Ts,
+        "samples": j.N,
+        "integration_substeps": j.nsub,
+        "engine": engine,
+        "_steps": int(r["last_sample"]) if status == 0 else int(r["last_sample"]) + 1,
+    }

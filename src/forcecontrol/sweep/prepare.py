@@ -1,0 +1,441 @@
+"""Preparing a sweep: the scenario and its [sweep] table, every case validated and built into a job.
+
+Cases of the chapter's arm with a built-in environment and a controller with a compiled law run
+in the compiled batch kernel (:func:`forcecontrol._batch.run_batch`, grouped by law); other
+cases go through :func:`forcecontrol.simulation.simulate` one by one (:mod:`.block`).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import sys
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..errors import DriftWarning, ForceControlError, ScenarioError
+from .spec import SweepDefinition, SweepError, SweepParameter, definition_hash
+
+if sys.version_info >= (3, 11):
+    pass
+else:  # pragma: no cover
+    pass
+
+
+__all__ = ["PreparedSweep", "CaseJob", "load_sweep_scenario", "prepare_sweep", "sweep_label", "METRIC_COLUMNS", "MAX_JOINT_SPEED"]
+
+#: metric columns of the table, in order (units in the docs of :func:`run_sweep`).
+METRIC_COLUMNS = (
+    "settling_time", "overshoot", "steady_state_force_error", "peak_force", "settled_force",
+    "stable", "contact_lost",
+)
+_CAUSES = {0: "ok", 1: "non-finite state", 2: "runaway", 3: "singular jacobian", 4: "non-finite torque"}
+_CAUSE_CODES = {v: k for k, v in _CAUSES.items()}
+META_KEY = b"forcecontrol.sweep"
+MAX_JOINT_SPEED = 50.0  # [rad/s], simulate()'s default
+
+
+# ----------------------------------------------------------------------------- scenario + [sweep]
+
+
+def load_sweep_scenario(source: Any):
+    """A scenario (built-in name, TOML path or dict) and its ``[sweep]`` table, if any.
+
+    Returns:
+        ``(Scenario, SweepDefinition | None)``.
+    """
+    from ..scenarios import load_scenario
+    from ..scenarios.core import _read_toml, scenario_source
+
+    if isinstance(source, dict):
+        data, where = copy.deepcopy(source), None
+    else:
+        path = scenario_source(source)
+        where = str(path)
+        data = _read_toml(path, where)  # the scenario loader's reading: UTF-8, nesting, readable
+    table = data.pop("sweep", None)
+    try:
+        scn = load_scenario(data)
+    except ScenarioError as exc:
+        if where is None:
+            raise
+        raise ScenarioError(str(exc).replace("<dict>", where)) from exc
+    if where is not None:
+        scn = replace(scn, source=where)
+    definition = None if table is None else SweepDefinition.from_table(table, f"{scn.source}: [sweep]")
+    return scn, definition
+
+
+# ----------------------------------------------------------------------------- path checks
+
+
+def _sweepable_top() -> list[str]:
+    from ..scenarios.core import TOP_FIELDS
+
+    return [k for k, f in TOP_FIELDS.items() if f.kind != "table" and k not in ("name", "title", "description")]
+
+
+def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:
+    """Reject a path the scenario schema does not know, naming the valid choices."""
+    from ..robots import PlanarTwoLinkParameters
+    from ..scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS
+    from ..scenarios.schema import CONTROLLERS, ENVIRONMENTS, REFERENCES
+
+    keys = p.keys
+    top = keys[0]
+    tables = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}
+    where = f"unknown parameter path '{p.path}'"
+    if len(keys) == 1:
+        choices = _sweepable_top()
+        if top not in choices:
+            raise SweepError(
+                f"{where}: '{top}' is not a sweepable top-level key; expected one of {', '.join(choices)} "
+                "or a key of [robot], [environment], [controller], [reference], [sensor]"
+            )
+        return
+    if top in tables:
+        registry = tables[top]
+        if len(keys) != 2:
+            raise SweepError(f"{where}: [{top}] keys are not tables; expected '{top}.<key>'")
+        kind = cfg.get(top, {}).get("type")
+        spec = registry.get(kind)
+        valid = sorted({"type"} | (set(spec.fields) if spec else set()))
+        if keys[1] not in valid:
+            raise SweepError(
+                f"{where} (case '{label}'): [{top}] of type '{kind}' has no key '{keys[1]}'; "
+                f"expected one of {', '.join(valid)}"
+            )
+        return
+    if top == "robot":
+        if keys[1] not in ROBOT_FIELDS:
+            raise SweepError(f"{where}: [robot] has no key '{keys[1]}'; expected one of {', '.join(ROBOT_FIELDS)}")
+        if keys[1] == "parameters":
+            names = list(PlanarTwoLinkParameters.__dataclass_fields__)
+            if len(keys) != 3 or keys[2] not in names:
+                raise SweepError(f"{where}: expected 'robot.parameters.<name>' with a name among {', '.join(names)}")
+        elif len(keys) != 2:
+            raise SweepError(f"{where}: expected 'robot.<key>'")
+        return
+    if top == "sensor":
+        if len(keys) != 2 or keys[1] not in SENSOR_FIELDS:
+            raise SweepError(f"{where}: [sensor] keys are {', '.join(SENSOR_FIELDS)}; got '{'.'.join(keys[1:])}'")
+        return
+    raise SweepError(
+        f"{where}: no table '{top}'; expected robot, environment, controller, reference, sensor or a top-level "
+        f"key ({', '.join(_sweepable_top())})"
+    )
+
+
+def _apply(cfg: dict[str, Any], p: SweepParameter, value: Any, label: str) -> None:
+    """Set ``p.path = value`` in a case configuration (creating missing [sensor]/parameters tables)."""
+    keys = p.keys
+    node = cfg
+    for k in keys[:-1]:
+        if k not in node or node[k] is None:
+            node[k] = {}
+        node = node[k]
+    last = keys[-1]
+    idx = p.indices
+    if not idx:
+        node[last] = copy.deepcopy(value)
+        return
+    if last not in node:
+        raise SweepError(
+            f"parameter '{p.path}' (case '{label}'): '{'.'.join(keys)}' is not set in the scenario, so it has no "
+            "entries to index; sweep the whole value instead"
+        )
+    cur = copy.deepcopy(node[last])
+    target = cur
+    for depth, i in enumerate(idx):
+        if not isinstance(target, list) or i >= len(target):
+            raise SweepError(
+                f"parameter '{p.path}' (case '{label}'): index [{i}] needs a list of more than {i} entries at "
+                f"'{'.'.join(keys)}{''.join(f'[{j}]' for j in idx[:depth])}'; the scenario has {target!r}"
+            )
+        if depth == len(idx) - 1:
+            target[i] = copy.deepcopy(value)
+        else:
+            target = target[i]
+    node[last] = cur
+
+
+def sweep_label(label: str, overrides: tuple[str, ...], parameters: list[SweepParameter]) -> str:
+    """The case label a sweep row carries: the scenario's, marked when the sweep overrides what the case set.
+
+    A case's label often states the values its ``[[case]]`` table sets (``k_x = 1e4 N/m``); when
+    a swept parameter replaces such a value (``overrides``: the case's own dotted keys), the
+    label would describe another case, so it becomes
+    ``"k_x = 1e4 N/m [environment.stiffness swept]"`` and the summary groups it apart.
+    """
+    own = [p.path for p in parameters
+           if any(".".join(p.keys) == k or ".".join(p.keys).startswith(k + ".") or k.startswith(".".join(p.keys) + ".")
+                  for k in overrides)]
+    return f"{label} [{', '.join(own)} swept]" if own else label
+
+
+# ----------------------------------------------------------------------------- jobs
+
+
+@dataclass
+class CaseJob:
+    """One case, ready to simulate (picklable: it travels to Dask workers).
+
+    ``fast`` cases carry the kernel's packed arrays; the others carry their parts for
+    :func:`forcecontrol.simulation.simulate`.
+    """
+
+    case_id: int
+    label: str
+    values: dict[str, Any]
+    fast: bool
+    Ts: float
+    N: int
+    nsub: int
+    window: int
+    d: np.ndarray
+    f_ref: float
+    reference: Any
+    sensor: Any
+    ref_key: str
+    K: np.ndarray | None = None
+    env_kind: int = 0
+    env_p: np.ndarray | None = None
+    law: Any = None
+    ctrl_p: np.ndarray | None = None
+    ctrl_s: np.ndarray | None = None
+    q0: np.ndarray | None = None
+    qd0: np.ndarray | None = None
+    alpha: float = 1.0
+    parts: dict[str, Any] | None = None
+    #: the label its table row carries (``label`` marked when the sweep replaces what the case set).
+    row_label: str = ""
+
+    @property
+    def steps(self) -> int:
+        """Control samples times integration substeps (the cost of the case)."""
+        return self.N * self.nsub
+
+
+def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, float]:
+    """Unit direction d of the force metrics and the reference force along it."""
+    f_d = np.asarray(ref.at(duration).force, dtype=np.float64)
+    norm = float(np.linalg.norm(f_d))
+    if norm > 0.0:
+        return f_d / norm, norm
+    if hasattr(env, "normal"):
+        return -np.asarray(env.normal, dtype=np.float64), 0.0
+    d = np.zeros(len(f_d))
+    d[0] = 1.0
+    return d, 0.0
+
+
+def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any]) -> CaseJob:
+    from ..controllers.base import Measurement
+    from ..errors import ParameterError
+    from ..limits import check_run_size, check_substeps
+    from ..robots import PlanarTwoLink
+    from ..simulation import choose_substeps, pre_start_wrench
+
+    robot, env, ctl, ref, sensor = (parts[k] for k in ("robot", "environment", "controller", "reference", "sensor"))
+    Ts = float(ctl.sample_time)
+    duration = float(parts["duration"])
+    try:  # the same limits as simulate(), before anything is allocated
+        N = check_run_size(duration, Ts, int(robot.nq), int(robot.task_dim))
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
+    if N < 1:
+        raise SweepError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
+    q0 = np.asarray(parts["q0"], dtype=np.float64)
+    qd0 = np.zeros(robot.nq) if parts["qd0"] is None else np.asarray(parts["qd0"], dtype=np.float64)
+    nsub = int(parts["substeps"]) if parts["substeps"] is not None else choose_substeps(robot, env, q0, Ts)
+    d, f_ref = _force_direction(env, ref, N * Ts)
+    window = max(1, int(round(float(parts["settle_window"]) / Ts)))
+    fast = (
+        isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None
+        and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
+        and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
+    )
+    # cases share a sampled reference only when the samples themselves are equal (a describe()
+    # of a user's reference type need not say everything that shapes it)
+    try:
+        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if fast else "python")
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
+    samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
+    job = CaseJob(
+        case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
+        hashlib.sha256(samples.tobytes()).hexdigest(),
+    )
+    if not fast:
+        job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0", "actuator")}
+        return job
+    # the controller's reset exactly as simulate() does it (same first noise sample)
+    bias, noise0 = sensor.sequences(1, robot.task_dim)
+    h0 = pre_start_wrench(robot, env, q0, qd0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DriftWarning)
+        ctl.reset(Measurement(q0, qd0, h0 + bias + noise0[0]), ref.at(0.0))
+    job.K = np.array(robot._K, dtype=np.float64)
+    job.env_kind = int(env.kind)
+    job.env_p = np.array(env.packed(), dtype=np.float64)
+    job.law = ctl.compiled_law
+    job.ctrl_p = np.array(ctl._params, dtype=np.float64)
+    job.ctrl_s = np.array(ctl.state, dtype=np.float64)
+    job.q0, job.qd0 = q0.copy(), qd0.copy()
+    job.alpha = float(sensor.alpha(Ts))
+    return job
+
+
+# ----------------------------------------------------------------------------- prepared sweep
+
+
+@dataclass
+class PreparedSweep:
+    """A validated sweep: every case built and packed, nothing run yet.
+
+    Attributes:
+        scenario: the scenario; definition: the sweep definition.
+        jobs: one :class:`CaseJob` per case, in case-id order.
+        columns: parameter columns and their kind (``"int"``, ``"float"``, ``"bool"``, ``"str"``, ``"json"``).
+        metadata: the definition stored with the table (JSON-serialisable).
+        sweep_id: hash of what determines the results (scenario cases, definition, version).
+    """
+
+    scenario: Any
+    definition: SweepDefinition
+    jobs: list[CaseJob]
+    columns: dict[str, str]
+    metadata: dict[str, Any]
+    sweep_id: str
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.jobs)
+
+
+def _column_kind(values: list[Any]) -> str:
+    if all(isinstance(v, bool) for v in values):
+        return "bool"
+    if all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+        return "int"
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return "float"
+    if all(isinstance(v, str) for v in values):
+        return "str"
+    return "json"
+
+
+def _select_cases(scn: Any, wanted: tuple[str, ...]) -> list[tuple[int, Any]]:
+    cases = list(enumerate(scn.cases))
+    if not wanted:
+        return cases
+    labels = [c.label for c in scn.cases]
+    out = []
+    for w in wanted:
+        if w in labels:
+            i = labels.index(w)
+        elif w.isdigit() and 1 <= int(w) <= len(labels):
+            i = int(w) - 1
+        else:
+            raise SweepError(
+                f"case {w!r} is not in scenario '{scn.name}'; expected a label or a 1-based index among: "
+                + "; ".join(f"{i + 1}: {lab}" for i, lab in enumerate(labels))
+            )
+        if (i, scn.cases[i]) not in out:
+            out.append((i, scn.cases[i]))
+    return out
+
+
+def prepare_sweep(
+    scenario: Any,
+    definition: SweepDefinition | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> PreparedSweep:
+    """Check a sweep whole and build every case, before anything runs.
+
+    Args:
+        scenario: a loaded scenario, a built-in name, a TOML path (may hold a ``[sweep]`` table)
+            or a dict.
+        definition: the sweep; by default the scenario file's ``[sweep]`` table.
+        progress: ``progress(built, total)`` every 100 cases (building costs about 1 ms a case).
+
+    Raises:
+        SweepError: no definition, unknown parameter path, empty range, malformed value, a case
+            that fails the scenario's validation (the message names the case and its values).
+    """
+    from ..scenarios import CaseSpec, Scenario, build_case
+
+    if isinstance(scenario, Scenario):
+        scn, file_def = scenario, None
+    else:
+        scn, file_def = load_sweep_scenario(scenario)
+    definition = definition or file_def
+    if definition is None:
+        raise SweepError(
+            f"scenario '{scn.name}' has no [sweep] table; give parameters, e.g. "
+            "--param environment.stiffness=logspace(3,6,40)"
+        )
+    selected = _select_cases(scn, definition.cases)
+    for _, case in selected:
+        for p in definition.parameters:
+            _check_path(p, case.config, case.label)
+    assignments = definition.assignments()
+    columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
+    jobs: list[CaseJob] = []
+    cid = 0
+    total = len(selected) * len(assignments)
+    for _, case in selected:
+        row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
+        for values in assignments:
+            cfg = copy.deepcopy(case.config)
+            for p in definition.parameters:
+                _apply(cfg, p, values[p.path], case.label)
+            shown = ", ".join(f"{k}={v!r}" for k, v in values.items())
+            where = f"sweep case {cid} ('{case.label}', {shown})"
+            try:
+                parts = build_case(CaseSpec(case.label, cfg, {}), where=where)
+                job = _make_job(cid, case.label, values, parts)
+                job.row_label = row_label
+                jobs.append(job)
+            except SweepError:
+                raise
+            except ForceControlError as exc:
+                raise SweepError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from exc
+            cid += 1
+            if progress is not None and (cid % 100 == 0 or cid == total):
+                progress(cid, total)
+    payload = {
+        "scenario": scn.name,
+        "cases": [{"index": ci + 1, "label": c.label, "config": c.config} for ci, c in selected],
+        "sweep": definition.describe(),
+        "forcecontrol": __version__,
+    }
+    sweep_id = definition_hash(payload)
+    metadata = {
+        "sweep_id": sweep_id,
+        "scenario": scn.name,
+        "source": scn.source,
+        "title": scn.title,
+        "n_cases": len(jobs),
+        "parameters": [p.path for p in definition.parameters],
+        "definition": definition.describe(),
+        "cases": payload["cases"],
+        "metrics": {
+            "direction": "force metrics use y = d · h_e, d the unit final reference force (or the plane's push "
+                         "direction when f_d = 0)",
+            "settling_time": "[s] first time after which |y − y_final| <= settle_band |y_final − y_0|",
+            "overshoot": "[%] 100 max(0, max sign(s) (y − y_final)) / |s|, s = y_final − y_0",
+            "steady_state_force_error": "[N] y_final − d · f_d",
+            "peak_force": "[N] max ||h_e||",
+            "settled_force": "[N] y_final, mean of y over the scenario's settle_window",
+            "stable": "no divergence, and the late residual |y − y_final| is within stable_band |s| or still decaying",
+            "contact_lost": "h_e = 0 at a sample after contact was made",
+        },
+        "forcecontrol": __version__,
+    }
+    return PreparedSweep(scn, definition, jobs, columns, metadata, sweep_id)

@@ -1,0 +1,213 @@
+"""Sweep storage: parts written atomically as blocks end, the lock on the output, resume and assembly."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import sys
+import threading
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .spec import SweepError, SweepWarning
+
+if sys.version_info >= (3, 11):
+    pass
+else:  # pragma: no cover
+    pass
+
+from .prepare import META_KEY, METRIC_COLUMNS, PreparedSweep
+
+__all__ = ["SweepResult", "read_sweep"]
+
+
+def _schema(prep: PreparedSweep):
+    import pyarrow as pa  # type: ignore[import-untyped]
+
+    kinds = {"int": pa.int64(), "float": pa.float64(), "bool": pa.bool_(), "str": pa.string(), "json": pa.string()}
+    fields = [pa.field("case_id", pa.int64()), pa.field("case", pa.string())]
+    fields += [pa.field(path, kinds[k]) for path, k in prep.columns.items()]
+    fields += [pa.field(c, pa.float64()) for c in METRIC_COLUMNS[:5]]
+    fields += [pa.field("stable", pa.bool_()), pa.field("contact_lost", pa.bool_())]
+    fields += [pa.field("status", pa.string()), pa.field("diverged_at", pa.float64()),
+               pa.field("samples", pa.int64()), pa.field("integration_substeps", pa.int64()),
+               pa.field("engine", pa.string())]
+    meta = {META_KEY: json.dumps(prep.metadata, default=str).encode()}
+    return pa.schema(fields, metadata=meta)
+
+
+def _to_table(rows: list[dict[str, Any]], prep: PreparedSweep):
+    import pyarrow as pa  # type: ignore[import-untyped]
+
+    schema = _schema(prep)
+    cols: dict[str, list[Any]] = {f.name: [] for f in schema}
+    for r in rows:
+        for name in cols:
+            if name in prep.columns:
+                v = r[f"param:{name}"]
+                if prep.columns[name] == "json":
+                    v = json.dumps(v)
+                elif prep.columns[name] == "float":
+                    v = float(v)
+                cols[name].append(v)
+            else:
+                cols[name].append(r[name])
+    return pa.Table.from_pydict(cols, schema=schema)
+
+
+@contextlib.contextmanager
+def _sigint_deferred():
+    """Hold SIGINT (Ctrl-C) back until the block ends, then raise KeyboardInterrupt (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
+def _write_atomic(table, path: Path) -> None:
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    pq.write_table(table, tmp)
+    with open(tmp, "rb") as f:
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def read_sweep(path: str | Path):
+    """A sweep table and its definition: ``(pandas.DataFrame, dict)``."""
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    table = pq.read_table(path)
+    meta = json.loads((table.schema.metadata or {}).get(META_KEY, b"{}"))
+    return table.to_pandas(), meta
+
+
+@dataclass
+class SweepResult:
+    """A finished sweep.
+
+    Attributes:
+        path: the Parquet table; table: it, as a pandas DataFrame (one row per case).
+        metadata: the sweep definition stored with it.
+        ran: cases simulated by this call; resumed: cases found already done.
+        seconds: wall time of the simulation phase; steps: arm-steps (control samples, all cases)
+            simulated by this call; a diverged case counts the samples up to its divergence.
+    """
+
+    path: Path
+    table: Any
+    metadata: dict[str, Any]
+    ran: int = 0
+    resumed: int = 0
+    seconds: float = 0.0
+    steps: int = 0
+    scheduler: str = "local"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@contextlib.contextmanager
+def _output_lock(out: Path):
+    """One sweep at a time on an output: ``<out>.lock`` holds the owner's pid (a dead owner's lock is taken over)."""
+    lock = out.with_name(out.name + ".lock")
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            try:
+                pid = int(lock.read_text().strip() or "0")
+            except (OSError, ValueError):
+                pid = 0
+            if pid and pid != os.getpid() and _alive(pid):
+                raise SweepError(
+                    f"another sweep (process {pid}) is writing {str(out)!r}; wait for it or choose another --out "
+                    f"(remove {str(lock)!r} if that process is gone)"
+                ) from None
+            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=4)
+            lock.unlink(missing_ok=True)
+            continue
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        break
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - another user's process
+        return True
+    return True
+
+
+def _set_aside(path: Path, why: str) -> None:
+    """Move a damaged file out of the way (kept for inspection) and say so."""
+    aside = path.with_name(f"{path.name}.corrupt-{int(time.time())}")
+    os.replace(path, aside)
+    warnings.warn(f"{path} is unreadable ({why}); moved to {aside.name}, its cases run again", SweepWarning, stacklevel=5)
+
+
+def _done_ids(parts_dir: Path, prep: PreparedSweep) -> set[int]:
+    """Case ids stored in verified parts; a part that cannot be read whole, or belongs to another
+    sweep, or holds other cases than its name says, is moved aside (its cases run again)."""
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    done: set[int] = set()
+    for p in sorted(parts_dir.glob("part-*.parquet")):
+        try:
+            table = pq.read_table(p)
+            meta = json.loads((table.schema.metadata or {}).get(META_KEY, b"{}"))
+            ids = table.column("case_id").to_pylist()
+            lo, hi, n = (int(v) for v in p.stem.split("-")[1:4])
+        except Exception as exc:
+            _set_aside(p, f"{type(exc).__name__}: {str(exc)[:80]}")
+            continue
+        if meta.get("sweep_id") != prep.sweep_id:
+            _set_aside(p, f"it belongs to sweep {meta.get('sweep_id')}")
+            continue
+        if len(ids) != n or (ids and (min(ids) != lo or max(ids) != hi)):
+            _set_aside(p, f"it holds {len(ids)} cases, its name says {n} from {lo} to {hi}")
+            continue
+        done.update(ids)
+    return done
+
+
+def _assemble(parts_dir: Path, prep: PreparedSweep):
+    import pyarrow as pa  # type: ignore[import-untyped]
+    import pyarrow.compute as pc  # type: ignore[import-untyped]
+    import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+    schema = _schema(prep)
+    tables = [pq.read_table(p).cast(schema) for p in sorted(parts_dir.glob("part-*.parquet"))]
+    table = pa.concat_tables(tables) if tables else schema.empty_table()
+    table = table.take(pc.sort_indices(table, [("case_id", "ascending")]))
+    ids = table.column("case_id").to_pylist()
+    if len(set(ids)) != len(ids):  # a block stored twice (a retried task): keep one copy
+        keep, seen = [], set()
+        for i, c in enumerate(ids):
+            if c not in seen:
+                seen.add(c)
+                keep.append(i)
+        table = table.take(pa.array(keep))
+        ids = table.column("case_id").to_pylist()
+    missing = sorted(set(range(prep.n_cases)) - set(ids))
+    if missing:
+        raise SweepError(f"the sweep's parts lack {len(missing)} cases (first: {missing[:5]}); run it again to finish")
+    return table.replace_schema_metadata(schema.metadata)
