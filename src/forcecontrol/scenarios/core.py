@@ -12,13 +12,34 @@ from typing import Any
 
 import numpy as np
 
-from .._json import json_safe
-from ..actuators import Actuator
 from ..errors import ForceControlError, ScenarioError
-from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
-from ..sensors import ForceSensor
-from ..simulation import SimulationResult, simulate
-from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, Field, check_table, check_value
+from ..simulation import simulate
+from .build import _actuator, _allow_contact_loss, _part, build_case  # noqa: F401
+from .checks import (  # noqa: F401
+    _ANALYSES,
+    METRICS,
+    _check,
+    _check_expected_specs,
+    _column_metric,
+    _penetration,
+    case_analysis,
+    check_expected,
+    register_analysis,
+    register_metric,
+)
+from .model import (  # noqa: F401
+    _RICH_SENSOR_KEYS,
+    ACTUATOR_FIELDS,
+    CASE_FIELDS,
+    FIGURE_FIELDS,
+    ROBOT_FIELDS,
+    SENSOR_FIELDS,
+    TOP_FIELDS,
+    CaseResult,
+    CaseSpec,
+    ScenarioRun,
+)
+from .schema import check_table
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -40,90 +61,6 @@ __all__ = [
     "check_expected",
     "METRICS",
 ]
-
-TOP_FIELDS: dict[str, Field] = {
-    "name": Field("str", True, doc="scenario name"),
-    "title": Field("str", default="", doc="one-line title"),
-    "description": Field("str", default="", doc="what the scenario shows"),
-    "duration": Field("number", True, doc="simulated time [s]"),
-    "sample_time": Field("number", default=1e-3, doc="control period Ts [s]"),
-    "substeps": Field("int", doc="RK4 steps per sample (automatic by default)"),
-    "settle_window": Field("number", default=0.1, doc="window for settled values [s]"),
-    "tolerance": Field("number", default=0.005, doc="relative tolerance against expected values"),
-    "allow_contact_loss": Field(
-        "bool", default=False,
-        doc="the case may lose contact after touching (bounces): reported, not an error (else --check fails)",
-    ),
-    "robot": Field("table", True),
-    "environment": Field("table", True),
-    "controller": Field("table", True),
-    "reference": Field("table", True),
-    "sensor": Field("table", default=None),
-    "actuator": Field("table", default=None),
-    "figure": Field("table", default=None),  # a table or an array of tables, checked below
-    "expected": Field("table", default=None),
-    "case": Field("table", default=None),  # checked separately (array of tables)
-}
-
-ROBOT_FIELDS: dict[str, Field] = {
-    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "urdf")),
-    "urdf": Field("str", doc="model = 'urdf': path of the URDF file"),
-    "frame": Field("str", doc="panda/ur5/urdf: the controlled frame (default panda_hand_tcp / tool0)"),
-    "locked_joints": Field("strlist", doc="model = 'urdf': joints fixed at zero"),
-    "q0": Field("vector", doc="initial joint positions [rad]"),
-    "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),
-    "elbow": Field("str", default="up", choices=("up", "down")),
-    "qd0": Field("vector", doc="initial joint velocities [rad/s]"),
-    "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
-}
-
-SENSOR_FIELDS: dict[str, Field] = {
-    "noise_std": Field("gain", default=0.0, doc="noise standard deviation [N]"),
-    "bias": Field("gain", default=0.0, doc="constant bias [N]"),
-    "cutoff": Field("number", doc="first-order low-pass cut-off [Hz]"),
-    "seed": Field("int", default=0),
-    # realistic sensor (RealisticForceSensor, Python loop) when any of these is given
-    "filter": Field("str", choices=("none", "first-order", "butterworth"), doc="digital filter kind"),
-    "drift": Field("gain", doc="bias drift rate in the sensor frame [N/s]"),
-    "resolution": Field("number", doc="quantisation step [N]"),
-    "delay_samples": Field("int", doc="transport delay [samples]"),
-    "zeroing_samples": Field("int", doc="readings averaged at start to estimate the bias"),
-    "tool_mass": Field("number", doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
-}
-_RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_samples", "tool_mass")
-
-#: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.actuators.Actuator`,
-#: Python engine). Per-joint keys take a number (every joint) or a list with one entry per joint.
-ACTUATOR_FIELDS: dict[str, Field] = {
-    "coulomb": Field("gain", default=0.0, doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),
-    "viscous": Field("gain", default=0.0, doc="viscous friction per joint, added to the robot's own [N m s/rad]"),
-    "coulomb_band": Field("gain", default=1e-2, doc="velocity scale of the smooth Coulomb sign per joint [rad/s], > 0"),
-    "delay_samples": Field("int", default=0, doc="actuation delay [whole samples]: the torque commanded k samples ago"),
-    "resolution": Field("gain", default=0.0, doc="torque quantum per joint [N m] (0: none)"),
-}
-
-FIGURE_FIELDS: dict[str, Field] = {
-    "name": Field("str", default="", doc="suffix of the figure's file name (several figures)"),
-    "cases": Field("strlist", doc="labels of the cases drawn (all by default)"),
-    "title": Field("str", default=""),
-    "signals": Field("strlist", default=["x", "fx"], doc="columns to plot against time"),
-    "t_max": Field("number", doc="time axis limit [s]"),
-    "zoom": Field("number", doc="inset on each force panel with the first `zoom` seconds, one dot per sample [s]"),
-    "note": Field("str", default="", doc="caption printed under the figure (what the reader needs to read it)"),
-}
-
-CASE_FIELDS = ("label", "expected")
-
-
-@dataclass(frozen=True)
-class CaseSpec:
-    """One case of a scenario: its label, full configuration and expected values."""
-
-    label: str
-    config: dict[str, Any]
-    expected: dict[str, Any]
-    #: the dotted keys the case's own ``[[case]]`` table sets (what its label usually describes).
-    overrides: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -166,122 +103,11 @@ class Scenario:
         return replace(self, cases=tuple(cases))
 
 
-@dataclass
-class CaseResult:
-    """A simulated case with its settled metrics, analysis and comparisons."""
-
-    label: str
-    result: SimulationResult
-    metrics: dict[str, float]
-    analysis: dict[str, Any]
-    checks: list[dict[str, Any]]
-
-
-@dataclass
-class ScenarioRun:
-    """The results of all cases of a scenario."""
-
-    scenario: Scenario
-    cases: list[CaseResult]
-    files: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def all_checks_pass(self) -> bool:
-        """True when every expected value is met within tolerance."""
-        return all(c["ok"] for case in self.cases for c in case.checks)
-
-    def to_json(self) -> dict[str, Any]:
-        """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...).
-
-        Standard JSON only: a NaN or infinite number is written as null, and ``notes`` lists
-        where (e.g. a metric of a case that did not settle).
-        """
-        notes: list[str] = []
-        out = json_safe(self._json_body(), notes)
-        if notes:
-            out["notes"] = ["non-finite values written as null: " + ", ".join(notes)]
-        return out
-
-    def _json_body(self) -> dict[str, Any]:
-        return {
-            "scenario": self.scenario.name,
-            "title": self.scenario.title,
-            "source": self.scenario.source,
-            "cases": [
-                {
-                    "label": c.label,
-                    "final": c.result.final(),
-                    "peak_contact_force_norm": c.result.peak_contact_force_norm(),
-                    "settled": c.metrics,
-                    "analysis": c.analysis,
-                    "checks": c.checks,
-                    "engine": c.result.metadata.get("engine"),
-                }
-                for c in self.cases
-            ],
-            "all_checks_pass": self.all_checks_pass,
-            "files": self.files,
-        }
-
-
 # ----------------------------------------------------------------------------- metrics & analysis
-
-#: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
-METRICS: dict[str, Callable[[SimulationResult, dict[str, Any], float], float]] = {}
-#: list of (predicate(parts), fn(parts) -> dict) giving analytic predictions for a case.
-_ANALYSES: list[tuple[Callable[[dict[str, Any]], bool], Callable[[dict[str, Any]], dict[str, Any]]]] = []
-
-
-def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], float], float]) -> None:
-    """Add a settled metric usable in ``expected`` tables."""
-    METRICS[name] = fn
-
-
-def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
-    """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
-    _ANALYSES.append((applies, fn))
-
-
-def case_analysis(parts: dict[str, Any]) -> dict[str, Any]:
-    """Every registered analytic prediction that applies to a built case (see :func:`build_case`)."""
-    out: dict[str, Any] = {}
-    for applies, fn in _ANALYSES:
-        if applies(parts):
-            out.update(fn(parts))
-    return out
-
-
-def check_expected(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
-    """Compare a value with an expected ``spec`` (a number, or ``{value, tol}``).
-
-    Returns:
-        ``{"metric", "value", "expected", "tolerance", "relative_error", "ok"}``; the tolerance
-        is ``tol`` when given, else ``rel_tol · |expected|``.
-    """
-    return _check(name, value, spec, rel_tol)
-
-
-def _column_metric(col: str):
-    def fn(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
-        cols = res.columns()
-        sel = res.t >= res.t[-1] - window - 1e-12
-        if col not in cols:
-            raise ScenarioError(f"metric {col!r} is not logged for a {res.m}-dimensional task space")
-        return float(np.mean(cols[col][sel]))
-
-    return fn
 
 
 for _c in ("x", "y", "z", "rx", "ry", "rz", "vx", "vy", "vz", "fx", "fy", "fz", "mx", "my", "mz"):
     register_metric(_c, _column_metric(_c))
-
-
-def _penetration(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
-    env = parts["environment"]
-    if not hasattr(env, "penetration"):
-        raise ScenarioError("metric 'penetration' needs an elastic plane")
-    sel = res.t >= res.t[-1] - window - 1e-12
-    return float(np.mean([env.penetration(x) for x in res.x[sel]]))
 
 
 register_metric("penetration", _penetration)
@@ -381,12 +207,6 @@ def _read_toml(path: Path, where: str) -> dict[str, Any]:
     if _depth(data, MAX_NESTING) > MAX_NESTING:
         raise ScenarioError(f"{where}: arrays or tables nested too deeply (at most {MAX_NESTING} levels)")
     return data
-
-
-def _allow_contact_loss(where: str, v: Any) -> bool:
-    if not isinstance(v, bool):
-        raise ScenarioError(f"{where}: key 'allow_contact_loss' must be true or false; got {v!r}")
-    return v
 
 
 def contact_losses(wrench: np.ndarray) -> int:
@@ -542,194 +362,6 @@ def _check_figures(where: str, raw: Any, labels: list[str], signals: list[str] |
     if len(set(names)) != len(names):
         raise ScenarioError(f"{where}: [[figure]] names must be distinct; got {names}")
     return out
-
-
-def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]):
-    tw = f"{where}: [{table_name}]"
-    if not isinstance(table, dict):
-        raise ScenarioError(f"{tw}: must be a table; got {table!r}")
-    kind = table.get("type")
-    if not isinstance(kind, str) or kind not in registry:  # a list or table is not hashable: no TypeError
-        raise ScenarioError(f"{tw}: key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
-    spec = registry[kind]
-    params = check_table(f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
-    try:
-        return spec.build(params, ctx)
-    except ScenarioError:
-        raise
-    except ForceControlError as exc:
-        raise ScenarioError(f"{tw} (type '{kind}'): {exc}") from exc
-
-
-def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
-    """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
-    cfg = case.config
-    unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
-    if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
-        allowed = sorted(k for k in TOP_FIELDS if k not in ("name", "title", "description", "figure", "case"))
-        raise ScenarioError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(allowed)}")
-    for key in ("robot", "environment", "controller", "reference"):
-        if key not in cfg:
-            raise ScenarioError(f"{where}: missing table [{key}]")
-    for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
-                           ("tolerance", 0.0, "a non-negative number")):
-        if cfg.get(key) is not None:
-            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
-            if v < low or (key == "settle_window" and v == 0.0):
-                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
-    _check_expected_specs(where, case.expected)
-    rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
-    if rt["model"] in ("panda", "ur5", "urdf"):
-        from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
-
-        robot = pinocchio_robot(where, rt)
-    else:
-        try:
-            if rt["model"] == "chapter-arm" and rt["parameters"]:
-                raise ScenarioError(f"{where}: [robot]: key 'parameters' needs model = 'planar-2r'")
-            params = PlanarTwoLinkParameters(**(rt["parameters"] or {}))
-            robot = PlanarTwoLink(params)
-        except TypeError as exc:
-            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
-        except ForceControlError as exc:
-            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
-    try:
-        if rt["q0"] is not None and rt["start_position"] is not None:
-            raise ScenarioError(f"{where}: [robot]: give q0 or start_position, not both")
-        if rt["q0"] is not None:
-            q0 = np.array(rt["q0"], dtype=float)
-            if q0.shape != (robot.nq,):
-                raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
-            if not np.all(np.isfinite(q0)):
-                raise ScenarioError(f"{where}: [robot]: key 'q0' must be finite [rad]; got {rt['q0']!r}")
-        elif rt["start_position"] is not None:
-            if not hasattr(robot, "inverse_kinematics"):
-                raise ScenarioError(f"{where}: [robot]: model '{rt['model']}' needs q0 (no closed-form inverse kinematics)")
-            q0 = robot.inverse_kinematics(rt["start_position"], elbow=rt["elbow"])
-        else:
-            raise ScenarioError(f"{where}: [robot]: missing key 'q0' or 'start_position'")
-        if rt["qd0"] is not None:
-            qd0 = np.array(rt["qd0"], dtype=float)
-            if qd0.shape != (robot.nq,) or not np.all(np.isfinite(qd0)):
-                raise ScenarioError(
-                    f"{where}: [robot]: key 'qd0' must be {robot.nq} finite joint velocities [rad/s]; got {rt['qd0']!r}"
-                )
-    except ScenarioError:
-        raise
-    except ForceControlError as exc:
-        raise ScenarioError(f"{where}: [robot]: {exc}") from exc
-    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
-    if Ts <= 0:
-        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
-    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
-    if duration <= 0:
-        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
-    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0}
-    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx)
-    ctx["environment"] = env
-    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
-    ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
-    st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
-    sensor: ForceSensor
-    try:
-        if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
-            from ..sensors import RealisticForceSensor, ToolGravity
-
-            tool = None if st["tool_mass"] is None else ToolGravity(st["tool_mass"])
-            sensor = RealisticForceSensor(
-                st["noise_std"], st["bias"], st["cutoff"], st["seed"], filter=st["filter"],
-                drift=0.0 if st["drift"] is None else st["drift"], resolution=st["resolution"] or 0.0,
-                delay_samples=st["delay_samples"] or 0, zeroing_samples=st["zeroing_samples"] or 0,
-                tool=tool, tool_estimate=tool,
-            )
-            sensor.filter_coefficients(Ts)
-        else:
-            sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
-        sensor.alpha(Ts)
-    except ForceControlError as exc:
-        raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
-    actuator = _actuator(where, cfg.get("actuator"), robot.nq)
-    for name, part in (("environment", env), ("reference", ref)):
-        if part.dim != robot.task_dim:
-            raise ScenarioError(
-                f"{where}: [{name}] must be {robot.task_dim}-dimensional like the robot's task space; got {part.dim}"
-            )
-    for key in case.expected:
-        if key not in METRICS and not key.startswith("analysis."):
-            raise ScenarioError(
-                f"{where}: [expected]: unknown metric '{key}'; expected one of {', '.join(sorted(METRICS))} "
-                "or 'analysis.<name>'"
-            )
-    substeps = cfg.get("substeps")
-    return {
-        "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor, "actuator": actuator,
-        "q0": q0, "qd0": rt["qd0"], "duration": duration, "substeps": substeps,
-        "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
-        "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
-    }
-
-
-def _actuator(where: str, table: Any, n: int) -> Actuator | None:
-    """The ``[actuator]`` table as an :class:`~forcecontrol.actuators.Actuator` (None without the table).
-
-    Raises:
-        ScenarioError: an unknown key, a value of the wrong type, a negative friction, delay or
-            quantum, or a per-joint list without one entry per joint (the message names the key).
-    """
-    if table is None:
-        return None
-    at = check_table(f"{where}: [actuator]", table, ACTUATOR_FIELDS)
-    if at["delay_samples"] < 0:
-        raise ScenarioError(f"{where}: [actuator]: key 'delay_samples' must be a whole number of samples >= 0; "
-                            f"got {at['delay_samples']!r}")
-    values = {}
-    for key in ("coulomb", "viscous", "coulomb_band", "resolution"):
-        v = np.asarray(at[key], dtype=float)
-        if v.ndim > 1 or (v.ndim == 1 and v.size not in (1, n)):
-            raise ScenarioError(f"{where}: [actuator]: key '{key}' must be a number or a list of {n} numbers "
-                                f"(one per joint); got {at[key]!r}")
-        values[key] = v
-    try:
-        act = Actuator(values["coulomb"], values["viscous"], values["coulomb_band"], at["delay_samples"], values["resolution"])
-        act.check(n)
-    except ForceControlError as exc:
-        raise ScenarioError(f"{where}: [actuator]: {exc}") from exc
-    return act
-
-
-def _check_expected_specs(where: str, expected: Any) -> None:
-    """Each expected value is a finite number or a table ``{value, tol}`` (finite, tol >= 0), checked before running."""
-    if not isinstance(expected, dict):
-        raise ScenarioError(f"{where}: [expected] must be a table of metric = value; got {expected!r}")
-    for key, spec in expected.items():
-        if isinstance(spec, dict):
-            extra = sorted(set(spec) - {"value", "tol"})
-            if extra or "value" not in spec:
-                raise ScenarioError(
-                    f"{where}: [expected] key '{key}' must be a number or a table {{value, tol}}; "
-                    f"got {spec!r} ({'unknown key ' + repr(extra[0]) if extra else 'no value'})"
-                )
-            items = [("value", spec["value"])] + ([("tol", spec["tol"])] if "tol" in spec else [])
-        else:
-            items = [("value", spec)]
-        for part, v in items:
-            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e308 and (part == "value" or v >= 0)
-            if not ok:
-                what = "a finite number" if part == "value" else "a finite non-negative number"
-                raise ScenarioError(f"{where}: [expected] key '{key}': {part} must be {what}; got {v!r}")
-
-
-def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
-    if isinstance(spec, dict):
-        want, tol = float(spec["value"]), float(spec.get("tol", rel_tol * abs(float(spec["value"]))))
-    else:
-        want, tol = float(spec), rel_tol * abs(float(spec))
-    tol = max(tol, 1e-12)
-    err = value - want
-    return {
-        "metric": name, "value": value, "expected": want, "tolerance": tol,
-        "relative_error": err / want if want else err, "ok": bool(abs(err) <= tol),
-    }
 
 
 def run_scenario(

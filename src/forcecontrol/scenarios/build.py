@@ -1,0 +1,176 @@
+"""Building one case of a scenario into the library's objects (robot, environment, controller, reference, sensor, actuator)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..actuators import Actuator
+from ..errors import ForceControlError, ScenarioError
+from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
+from ..sensors import ForceSensor
+from .checks import METRICS, _check_expected_specs
+from .model import _RICH_SENSOR_KEYS, ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS, CaseSpec
+from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_value
+
+__all__ = ["build_case"]
+
+
+def _allow_contact_loss(where: str, v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ScenarioError(f"{where}: key 'allow_contact_loss' must be true or false; got {v!r}")
+    return v
+
+
+def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]):
+    tw = f"{where}: [{table_name}]"
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{tw}: must be a table; got {table!r}")
+    kind = table.get("type")
+    if not isinstance(kind, str) or kind not in registry:  # a list or table is not hashable: no TypeError
+        raise ScenarioError(f"{tw}: key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
+    spec = registry[kind]
+    params = check_table(f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
+    try:
+        return spec.build(params, ctx)
+    except ScenarioError:
+        raise
+    except ForceControlError as exc:
+        raise ScenarioError(f"{tw} (type '{kind}'): {exc}") from exc
+
+
+def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
+    """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
+    cfg = case.config
+    unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
+    if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
+        allowed = sorted(k for k in TOP_FIELDS if k not in ("name", "title", "description", "figure", "case"))
+        raise ScenarioError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(allowed)}")
+    for key in ("robot", "environment", "controller", "reference"):
+        if key not in cfg:
+            raise ScenarioError(f"{where}: missing table [{key}]")
+    for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
+                           ("tolerance", 0.0, "a non-negative number")):
+        if cfg.get(key) is not None:
+            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
+            if v < low or (key == "settle_window" and v == 0.0):
+                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
+    _check_expected_specs(where, case.expected)
+    rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
+    if rt["model"] in ("panda", "ur5", "urdf"):
+        from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
+
+        robot = pinocchio_robot(where, rt)
+    else:
+        try:
+            if rt["model"] == "chapter-arm" and rt["parameters"]:
+                raise ScenarioError(f"{where}: [robot]: key 'parameters' needs model = 'planar-2r'")
+            params = PlanarTwoLinkParameters(**(rt["parameters"] or {}))
+            robot = PlanarTwoLink(params)
+        except TypeError as exc:
+            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+        except ForceControlError as exc:
+            raise ScenarioError(f"{where}: [robot.parameters]: {exc}") from exc
+    try:
+        if rt["q0"] is not None and rt["start_position"] is not None:
+            raise ScenarioError(f"{where}: [robot]: give q0 or start_position, not both")
+        if rt["q0"] is not None:
+            q0 = np.array(rt["q0"], dtype=float)
+            if q0.shape != (robot.nq,):
+                raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
+            if not np.all(np.isfinite(q0)):
+                raise ScenarioError(f"{where}: [robot]: key 'q0' must be finite [rad]; got {rt['q0']!r}")
+        elif rt["start_position"] is not None:
+            if not hasattr(robot, "inverse_kinematics"):
+                raise ScenarioError(f"{where}: [robot]: model '{rt['model']}' needs q0 (no closed-form inverse kinematics)")
+            q0 = robot.inverse_kinematics(rt["start_position"], elbow=rt["elbow"])
+        else:
+            raise ScenarioError(f"{where}: [robot]: missing key 'q0' or 'start_position'")
+        if rt["qd0"] is not None:
+            qd0 = np.array(rt["qd0"], dtype=float)
+            if qd0.shape != (robot.nq,) or not np.all(np.isfinite(qd0)):
+                raise ScenarioError(
+                    f"{where}: [robot]: key 'qd0' must be {robot.nq} finite joint velocities [rad/s]; got {rt['qd0']!r}"
+                )
+    except ScenarioError:
+        raise
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [robot]: {exc}") from exc
+    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
+    if Ts <= 0:
+        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
+    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
+    if duration <= 0:
+        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
+    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0}
+    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx)
+    ctx["environment"] = env
+    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
+    ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
+    st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
+    sensor: ForceSensor
+    try:
+        if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
+            from ..sensors import RealisticForceSensor, ToolGravity
+
+            tool = None if st["tool_mass"] is None else ToolGravity(st["tool_mass"])
+            sensor = RealisticForceSensor(
+                st["noise_std"], st["bias"], st["cutoff"], st["seed"], filter=st["filter"],
+                drift=0.0 if st["drift"] is None else st["drift"], resolution=st["resolution"] or 0.0,
+                delay_samples=st["delay_samples"] or 0, zeroing_samples=st["zeroing_samples"] or 0,
+                tool=tool, tool_estimate=tool,
+            )
+            sensor.filter_coefficients(Ts)
+        else:
+            sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
+        sensor.alpha(Ts)
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
+    actuator = _actuator(where, cfg.get("actuator"), robot.nq)
+    for name, part in (("environment", env), ("reference", ref)):
+        if part.dim != robot.task_dim:
+            raise ScenarioError(
+                f"{where}: [{name}] must be {robot.task_dim}-dimensional like the robot's task space; got {part.dim}"
+            )
+    for key in case.expected:
+        if key not in METRICS and not key.startswith("analysis."):
+            raise ScenarioError(
+                f"{where}: [expected]: unknown metric '{key}'; expected one of {', '.join(sorted(METRICS))} "
+                "or 'analysis.<name>'"
+            )
+    substeps = cfg.get("substeps")
+    return {
+        "robot": robot, "environment": env, "controller": ctl, "reference": ref, "sensor": sensor, "actuator": actuator,
+        "q0": q0, "qd0": rt["qd0"], "duration": duration, "substeps": substeps,
+        "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
+        "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
+    }
+
+
+def _actuator(where: str, table: Any, n: int) -> Actuator | None:
+    """The ``[actuator]`` table as an :class:`~forcecontrol.actuators.Actuator` (None without the table).
+
+    Raises:
+        ScenarioError: an unknown key, a value of the wrong type, a negative friction, delay or
+            quantum, or a per-joint list without one entry per joint (the message names the key).
+    """
+    if table is None:
+        return None
+    at = check_table(f"{where}: [actuator]", table, ACTUATOR_FIELDS)
+    if at["delay_samples"] < 0:
+        raise ScenarioError(f"{where}: [actuator]: key 'delay_samples' must be a whole number of samples >= 0; "
+                            f"got {at['delay_samples']!r}")
+    values = {}
+    for key in ("coulomb", "viscous", "coulomb_band", "resolution"):
+        v = np.asarray(at[key], dtype=float)
+        if v.ndim > 1 or (v.ndim == 1 and v.size not in (1, n)):
+            raise ScenarioError(f"{where}: [actuator]: key '{key}' must be a number or a list of {n} numbers "
+                                f"(one per joint); got {at[key]!r}")
+        values[key] = v
+    try:
+        act = Actuator(values["coulomb"], values["viscous"], values["coulomb_band"], at["delay_samples"], values["resolution"])
+        act.check(n)
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [actuator]: {exc}") from exc
+    return act

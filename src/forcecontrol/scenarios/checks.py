@@ -1,0 +1,104 @@
+"""What a scenario run reports and checks: the registered metrics and analyses, the expected values."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..errors import ScenarioError
+from ..simulation import SimulationResult
+
+__all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "check_expected"]
+
+
+#: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
+METRICS: dict[str, Callable[[SimulationResult, dict[str, Any], float], float]] = {}
+
+
+#: list of (predicate(parts), fn(parts) -> dict) giving analytic predictions for a case.
+_ANALYSES: list[tuple[Callable[[dict[str, Any]], bool], Callable[[dict[str, Any]], dict[str, Any]]]] = []
+
+
+def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], float], float]) -> None:
+    """Add a settled metric usable in ``expected`` tables."""
+    METRICS[name] = fn
+
+
+def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
+    """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
+    _ANALYSES.append((applies, fn))
+
+
+def case_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """Every registered analytic prediction that applies to a built case (see :func:`build_case`)."""
+    out: dict[str, Any] = {}
+    for applies, fn in _ANALYSES:
+        if applies(parts):
+            out.update(fn(parts))
+    return out
+
+
+def check_expected(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
+    """Compare a value with an expected ``spec`` (a number, or ``{value, tol}``).
+
+    Returns:
+        ``{"metric", "value", "expected", "tolerance", "relative_error", "ok"}``; the tolerance
+        is ``tol`` when given, else ``rel_tol · |expected|``.
+    """
+    return _check(name, value, spec, rel_tol)
+
+
+def _column_metric(col: str):
+    def fn(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
+        cols = res.columns()
+        sel = res.t >= res.t[-1] - window - 1e-12
+        if col not in cols:
+            raise ScenarioError(f"metric {col!r} is not logged for a {res.m}-dimensional task space")
+        return float(np.mean(cols[col][sel]))
+
+    return fn
+
+
+def _penetration(res: SimulationResult, parts: dict[str, Any], window: float) -> float:
+    env = parts["environment"]
+    if not hasattr(env, "penetration"):
+        raise ScenarioError("metric 'penetration' needs an elastic plane")
+    sel = res.t >= res.t[-1] - window - 1e-12
+    return float(np.mean([env.penetration(x) for x in res.x[sel]]))
+
+
+def _check_expected_specs(where: str, expected: Any) -> None:
+    """Each expected value is a finite number or a table ``{value, tol}`` (finite, tol >= 0), checked before running."""
+    if not isinstance(expected, dict):
+        raise ScenarioError(f"{where}: [expected] must be a table of metric = value; got {expected!r}")
+    for key, spec in expected.items():
+        if isinstance(spec, dict):
+            extra = sorted(set(spec) - {"value", "tol"})
+            if extra or "value" not in spec:
+                raise ScenarioError(
+                    f"{where}: [expected] key '{key}' must be a number or a table {{value, tol}}; "
+                    f"got {spec!r} ({'unknown key ' + repr(extra[0]) if extra else 'no value'})"
+                )
+            items = [("value", spec["value"])] + ([("tol", spec["tol"])] if "tol" in spec else [])
+        else:
+            items = [("value", spec)]
+        for part, v in items:
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 1e308 and (part == "value" or v >= 0)
+            if not ok:
+                what = "a finite number" if part == "value" else "a finite non-negative number"
+                raise ScenarioError(f"{where}: [expected] key '{key}': {part} must be {what}; got {v!r}")
+
+
+def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:
+    if isinstance(spec, dict):
+        want, tol = float(spec["value"]), float(spec.get("tol", rel_tol * abs(float(spec["value"]))))
+    else:
+        want, tol = float(spec), rel_tol * abs(float(spec))
+    tol = max(tol, 1e-12)
+    err = value - want
+    return {
+        "metric": name, "value": value, "expected": want, "tolerance": tol,
+        "relative_error": err / want if want else err, "ok": bool(abs(err) <= tol),
+    }

@@ -1,0 +1,175 @@
+"""The scenario's data model: the keys each table accepts, a case, a scenario and the results of a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from .._json import json_safe
+from ..simulation import SimulationResult
+from .schema import Field
+
+if TYPE_CHECKING:
+    from .core import Scenario
+
+__all__ = [
+    "TOP_FIELDS",
+    "ROBOT_FIELDS",
+    "SENSOR_FIELDS",
+    "ACTUATOR_FIELDS",
+    "FIGURE_FIELDS",
+    "CASE_FIELDS",
+    "CaseSpec",
+    "CaseResult",
+    "ScenarioRun",
+]
+
+
+TOP_FIELDS: dict[str, Field] = {
+    "name": Field("str", True, doc="scenario name"),
+    "title": Field("str", default="", doc="one-line title"),
+    "description": Field("str", default="", doc="what the scenario shows"),
+    "duration": Field("number", True, doc="simulated time [s]"),
+    "sample_time": Field("number", default=1e-3, doc="control period Ts [s]"),
+    "substeps": Field("int", doc="RK4 steps per sample (automatic by default)"),
+    "settle_window": Field("number", default=0.1, doc="window for settled values [s]"),
+    "tolerance": Field("number", default=0.005, doc="relative tolerance against expected values"),
+    "allow_contact_loss": Field(
+        "bool", default=False,
+        doc="the case may lose contact after touching (bounces): reported, not an error (else --check fails)",
+    ),
+    "robot": Field("table", True),
+    "environment": Field("table", True),
+    "controller": Field("table", True),
+    "reference": Field("table", True),
+    "sensor": Field("table", default=None),
+    "actuator": Field("table", default=None),
+    "figure": Field("table", default=None),  # a table or an array of tables, checked below
+    "expected": Field("table", default=None),
+    "case": Field("table", default=None),  # checked separately (array of tables)
+}
+
+
+ROBOT_FIELDS: dict[str, Field] = {
+    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "urdf")),
+    "urdf": Field("str", doc="model = 'urdf': path of the URDF file"),
+    "frame": Field("str", doc="panda/ur5/urdf: the controlled frame (default panda_hand_tcp / tool0)"),
+    "locked_joints": Field("strlist", doc="model = 'urdf': joints fixed at zero"),
+    "q0": Field("vector", doc="initial joint positions [rad]"),
+    "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),
+    "elbow": Field("str", default="up", choices=("up", "down")),
+    "qd0": Field("vector", doc="initial joint velocities [rad/s]"),
+    "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
+}
+
+
+SENSOR_FIELDS: dict[str, Field] = {
+    "noise_std": Field("gain", default=0.0, doc="noise standard deviation [N]"),
+    "bias": Field("gain", default=0.0, doc="constant bias [N]"),
+    "cutoff": Field("number", doc="first-order low-pass cut-off [Hz]"),
+    "seed": Field("int", default=0),
+    # realistic sensor (RealisticForceSensor, Python loop) when any of these is given
+    "filter": Field("str", choices=("none", "first-order", "butterworth"), doc="digital filter kind"),
+    "drift": Field("gain", doc="bias drift rate in the sensor frame [N/s]"),
+    "resolution": Field("number", doc="quantisation step [N]"),
+    "delay_samples": Field("int", doc="transport delay [samples]"),
+    "zeroing_samples": Field("int", doc="readings averaged at start to estimate the bias"),
+    "tool_mass": Field("number", doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
+}
+
+
+_RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_samples", "tool_mass")
+
+
+#: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.actuators.Actuator`,
+#: Python engine). Per-joint keys take a number (every joint) or a list with one entry per joint.
+ACTUATOR_FIELDS: dict[str, Field] = {
+    "coulomb": Field("gain", default=0.0, doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),
+    "viscous": Field("gain", default=0.0, doc="viscous friction per joint, added to the robot's own [N m s/rad]"),
+    "coulomb_band": Field("gain", default=1e-2, doc="velocity scale of the smooth Coulomb sign per joint [rad/s], > 0"),
+    "delay_samples": Field("int", default=0, doc="actuation delay [whole samples]: the torque commanded k samples ago"),
+    "resolution": Field("gain", default=0.0, doc="torque quantum per joint [N m] (0: none)"),
+}
+
+
+FIGURE_FIELDS: dict[str, Field] = {
+    "name": Field("str", default="", doc="suffix of the figure's file name (several figures)"),
+    "cases": Field("strlist", doc="labels of the cases drawn (all by default)"),
+    "title": Field("str", default=""),
+    "signals": Field("strlist", default=["x", "fx"], doc="columns to plot against time"),
+    "t_max": Field("number", doc="time axis limit [s]"),
+    "zoom": Field("number", doc="inset on each force panel with the first `zoom` seconds, one dot per sample [s]"),
+    "note": Field("str", default="", doc="caption printed under the figure (what the reader needs to read it)"),
+}
+
+
+CASE_FIELDS = ("label", "expected")
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One case of a scenario: its label, full configuration and expected values."""
+
+    label: str
+    config: dict[str, Any]
+    expected: dict[str, Any]
+    #: the dotted keys the case's own ``[[case]]`` table sets (what its label usually describes).
+    overrides: tuple[str, ...] = ()
+
+
+@dataclass
+class CaseResult:
+    """A simulated case with its settled metrics, analysis and comparisons."""
+
+    label: str
+    result: SimulationResult
+    metrics: dict[str, float]
+    analysis: dict[str, Any]
+    checks: list[dict[str, Any]]
+
+
+@dataclass
+class ScenarioRun:
+    """The results of all cases of a scenario."""
+
+    scenario: Scenario
+    cases: list[CaseResult]
+    files: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def all_checks_pass(self) -> bool:
+        """True when every expected value is met within tolerance."""
+        return all(c["ok"] for case in self.cases for c in case.checks)
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...).
+
+        Standard JSON only: a NaN or infinite number is written as null, and ``notes`` lists
+        where (e.g. a metric of a case that did not settle).
+        """
+        notes: list[str] = []
+        out = json_safe(self._json_body(), notes)
+        if notes:
+            out["notes"] = ["non-finite values written as null: " + ", ".join(notes)]
+        return out
+
+    def _json_body(self) -> dict[str, Any]:
+        return {
+            "scenario": self.scenario.name,
+            "title": self.scenario.title,
+            "source": self.scenario.source,
+            "cases": [
+                {
+                    "label": c.label,
+                    "final": c.result.final(),
+                    "peak_contact_force_norm": c.result.peak_contact_force_norm(),
+                    "settled": c.metrics,
+                    "analysis": c.analysis,
+                    "checks": c.checks,
+                    "engine": c.result.metadata.get("engine"),
+                }
+                for c in self.cases
+            ],
+            "all_checks_pass": self.all_checks_pass,
+            "files": self.files,
+        }
