@@ -1,0 +1,49 @@
+"""Force/torque sensor calibration as a workflow: plan the poses, identify, compensate, tare, watch for drift.
+
+The model is :class:`~forcecontrol.sensors.ToolGravity`'s: a static reading in free space at
+sensor orientation R_S (sensor frame S in the base frame), with ``u = R_Sᵀ g`` gravity in S,
+
+    f_S = −u m + b_f
+    τ_S = [u]× p + b_τ                 (3-D)        τ_S = u_x p_y − u_y p_x + b_τ      (planar)
+
+with m the tool's mass, ``p = m c`` its first moment (c the centre of mass in S) and b_f, b_τ the
+sensor's biases. Both equations are linear in their unknowns, so :func:`calibrate` solves two
+ordinary least-squares problems (forces in (m, b_f), moments in (p, b_τ)) and reports each
+parameter's standard uncertainty from the residual covariance ``σ² (AᵀA)⁻¹``, σ² estimated per
+problem as ``RSS / (rows − unknowns)``; c = p / m and its uncertainty by first-order propagation.
+:func:`~forcecontrol.sensors.identify_tool_gravity` gives the same estimates (same regressors,
+tested), without the uncertainty and the checks.
+
+How similar the poses are is read from the *normalised* regressor: the same matrices built
+with the unit gravity direction ``û = R_Sᵀ g/|g|``, one block per problem. Its condition number
+(largest over smallest singular value) is 1 for ideal force poses (Σ û_i = 0) and grows without
+bound as the orientations approach each other; it does not depend on units nor on the number of
+poses. :func:`plan_calibration_poses` picks joint configurations that keep it small.
+
+On the arm: :meth:`CalibrationResult.compensate` turns a raw reading into the contact wrench in
+any orientation, :func:`tare` re-estimates the biases from readings at one known pose (the
+payload kept), and :class:`DriftDetector` compares free-space readings with the model online
+and flags a bias change larger than the noise allows.
+"""
+
+from __future__ import annotations
+
+from .core import MAX_CONDITION, CalibrationResult, calibrate, regressor_condition, tare
+from .data import calibration_data_from_columns, read_calibration_data
+from .drift import DriftCheck, DriftDetector
+from .plan import CalibrationPlan, plan_calibration_poses, sensor_orientation
+
+__all__ = [
+    "MAX_CONDITION",
+    "CalibrationPlan",
+    "CalibrationResult",
+    "DriftCheck",
+    "DriftDetector",
+    "calibrate",
+    "plan_calibration_poses",
+    "regressor_condition",
+    "sensor_orientation",
+    "tare",
+    "calibration_data_from_columns",
+    "read_calibration_data",
+]
