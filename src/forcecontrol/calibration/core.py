@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validate import positive_scalar
 from ..errors import DimensionError, MeasurementError, ParameterError
-from ..sensors import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor
+from ..sensors.gravity import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor
 
 __all__ = ["CalibrationResult", "calibrate", "regressor_condition", "tare", "MAX_CONDITION"]
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._validate import nonnegative_scalar
 from ..errors import DimensionError, ParameterError
-from ..sensors import _force_regressor, _torque_regressor, planar_sensor_rotation
+from ..sensors.gravity import _force_regressor, _torque_regressor, planar_sensor_rotation
 from .core import _condition, _gravity_in_sensor, _normalised_blocks, _rotations
 
 __all__ = ["CalibrationPlan", "sensor_orientation", "plan_calibration_poses"]
