@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.analysis.force import ForceLoopAxis, force_loop_axes, operational_mass
+from forcecontrol.analysis.force import ForceLoopAxis, force_loop_axes
+from forcecontrol.analysis.force_design import operational_mass
 
 ARM = fc.PlanarTwoLink()
 Q0 = ARM.inverse_kinematics([1.0, 0.0], elbow="up")

@@ -18,12 +18,12 @@ _LAZY = {
     "ComplianceEquilibrium": ".compliance",
     "compliance_equilibrium": ".compliance",
     "joint_space_compliance": ".compliance",
-    "ForceGains": ".force",
+    "ForceGains": ".force_design",
     "ForceLoopAxis": ".force",
-    "design_force_gains": ".force",
+    "design_force_gains": ".force_design",
     "force_loop_axes": ".force",
-    "operational_mass": ".force",
-    "sampled_stability_limit": ".force",
+    "operational_mass": ".force_design",
+    "sampled_stability_limit": ".force_design",
     "AxisDynamics": ".impedance",
     "impedance_axis": ".impedance",
     "ImpedanceModes": ".impedance",
@@ -33,14 +33,8 @@ _LAZY = {
 if TYPE_CHECKING:  # pragma: no cover
     from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
     from .design import DESIGN_SCHEMES, GainDesign, LoopModel, design_gains, loop_model
-    from .force import (
-        ForceGains,
-        ForceLoopAxis,
-        design_force_gains,
-        force_loop_axes,
-        operational_mass,
-        sampled_stability_limit,
-    )
+    from .force import ForceLoopAxis, force_loop_axes
+    from .force_design import ForceGains, design_force_gains, operational_mass, sampled_stability_limit
     from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
 
 

@@ -47,7 +47,7 @@ import numpy as np
 from .._lazy import lazy_import
 from .._validate import nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
-from .force import design_force_gains
+from .force_design import design_force_gains
 
 control = lazy_import("control")
 

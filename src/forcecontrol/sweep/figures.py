@@ -30,7 +30,8 @@ def analytic_spectral_radius(parts: dict[str, Any]) -> float:
     environment with a diagonal stiffness; the force axis is the base axis of the largest
     component of the final reference force (x when f_d = 0).
     """
-    from ..analysis.force import force_loop_axes, operational_mass
+    from ..analysis.force import force_loop_axes
+    from ..analysis.force_design import operational_mass
     from ..errors import ForceControlError
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
@@ -58,7 +59,7 @@ def _radius(config: dict[str, Any], label: str, assign: dict[str, Any]) -> float
     """ρ of the case ``config`` with ``assign`` applied (memoised on the resulting configuration:
     cases that differ only in a swept parameter share their boundary)."""
     from ..scenarios import CaseSpec, build_case
-    from .run import _apply
+    from .prepare import _apply
 
     cfg = copy.deepcopy(config)
     for path, v in assign.items():

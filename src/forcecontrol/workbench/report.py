@@ -42,7 +42,7 @@ def _is_sweep_table(path: Path) -> bool:
     try:
         import pyarrow.parquet as pq  # type: ignore[import-untyped]
 
-        from ..sweep.run import META_KEY
+        from ..sweep.prepare import META_KEY
 
         return META_KEY in (pq.read_schema(path).metadata or {})
     except Exception:  # noqa: BLE001 - not a readable Parquet file: not a sweep table
@@ -147,7 +147,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
     """Plotly figures of a sweep table: one per scenario case, a map (or curve) per metric.
 
     Args:
-        df, meta: the table and its definition (:func:`forcecontrol.sweep.run.read_sweep`).
+        df, meta: the table and its definition (:func:`forcecontrol.sweep.read_sweep`).
         resolution: points per axis of the analytic boundary; boundary: draw it where the analysis applies.
 
     Returns:
@@ -233,7 +233,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
 
 def _case_config(cases: dict[str, Any], row_label: str) -> dict[str, Any] | None:
     """The scenario case of a table row: its label, or its label marked ``"<label> [<paths> swept]"``
-    (:func:`forcecontrol.sweep.run.sweep_label`)."""
+    (:func:`forcecontrol.sweep.prepare.sweep_label`)."""
     if row_label in cases:
         return cases[row_label]
     for label, cfg in cases.items():

@@ -1,0 +1,148 @@
+"""Direct force control design: gains from (9.42)/(9.47), the sampled-loop stability limit, the operational mass."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import positive_scalar
+from ..errors import ParameterError
+from .force import _scheme
+
+if TYPE_CHECKING:
+    from .force import ForceLoopAxis
+
+__all__ = ["ForceGains", "design_force_gains", "sampled_stability_limit", "operational_mass"]
+
+
+@dataclass(frozen=True)
+class ForceGains:
+    """Gains of one axis from :func:`design_force_gains`.
+
+    Attributes:
+        damping: k_D [N s/m]; force_gain: k_F [m/N]; integral_gain: k_I [m/(N s)] (0 for the
+            inner velocity loop).
+    """
+
+    damping: float
+    force_gain: float
+    integral_gain: float = 0.0
+
+
+def design_force_gains(
+    scheme: str,
+    inertia: float,
+    stiffness: float,
+    environment_stiffness: float,
+    natural_frequency: float,
+    damping_ratio: float,
+    real_pole: float | None = None,
+) -> ForceGains:
+    """Gains placing the continuous poles at ω_n, ζ (and −p) for a given environment stiffness.
+
+    * inner velocity loop: ``m s² + k_D s + k_P k_F k = m (s² + 2 ζ ω_n s + ω_n²)``, so
+      ``k_D = 2 ζ ω_n m``, ``k_F = m ω_n² / (k_P k)``;
+    * inner position / parallel (PI): ``m s³ + k_D s² + k_P (1 + k_F k) s + k_P k k_I
+      = m (s² + 2 ζ ω_n s + ω_n²)(s + p)``, so ``k_D = m (2 ζ ω_n + p)``,
+      ``k_F = (m (ω_n² + 2 ζ ω_n p) / k_P − 1) / k``, ``k_I = m ω_n² p / (k_P k)``.
+
+    Args:
+        scheme: ``"inner-position"``, ``"inner-velocity"`` or ``"parallel"``.
+        inertia: m_d [kg]; stiffness: k_P [N/m] (kept: it sets the position loop).
+        environment_stiffness: k [N/m], > 0.
+        natural_frequency: ω_n [rad/s], > 0; damping_ratio: ζ, > 0.
+        real_pole: p [rad/s], > 0, the third pole −p (PI schemes only, required there).
+
+    Raises:
+        ParameterError: impossible request (e.g. it needs k_F < 0: the position loop is already
+            faster than requested; lower stiffness or raise ω_n).
+    """
+    scheme = _scheme(scheme)
+    m = positive_scalar("inertia", inertia)
+    kp = positive_scalar("stiffness", stiffness)
+    k = positive_scalar("environment_stiffness", environment_stiffness)
+    wn = positive_scalar("natural_frequency", natural_frequency)
+    zeta = positive_scalar("damping_ratio", damping_ratio)
+    if scheme == "inner-velocity":
+        if real_pole is not None:
+            raise ParameterError(f"real_pole must be None for the inner velocity loop (second order); got {real_pole!r}")
+        return ForceGains(2.0 * zeta * wn * m, m * wn * wn / (kp * k), 0.0)
+    if real_pole is None:
+        raise ParameterError(f"real_pole must be given for the {scheme} scheme (third order); got None")
+    p = positive_scalar("real_pole", real_pole)
+    kf = (m * (wn * wn + 2.0 * zeta * wn * p) / kp - 1.0) / k
+    if kf < 0.0:
+        raise ParameterError(
+            f"cannot place the poles with stiffness k_P = {kp:.6g} N/m: it needs force_gain "
+            f"k_F = {kf:.6g} m/N < 0; expected m (ω_n² + 2 ζ ω_n p) >= k_P"
+        )
+    return ForceGains(m * (2.0 * zeta * wn + p), kf, m * wn * wn * p / (kp * k))
+
+
+def sampled_stability_limit(
+    axis: ForceLoopAxis,
+    sample_time: float,
+    *,
+    arm_inertia: float | None = None,
+    low: float = 1.0,
+    high: float = 1e12,
+    rtol: float = 1e-6,
+) -> float:
+    """The largest environment stiffness k [N/m] for which the sampled loop stays stable.
+
+    Scans k on a logarithmic grid from ``low`` for the first k whose sampled loop
+    (:meth:`ForceLoopAxis.sampled`) has a pole on or outside the unit circle, then bisects.
+
+    Args:
+        axis: the loop (its own environment_stiffness is ignored).
+        sample_time: Ts [s].
+        arm_inertia: the arm's operational mass along the axis m_x [kg] (see :func:`operational_mass`);
+            None: exact inverse dynamics, a double integrator.
+        low, high: search range [N/m]; rtol: relative tolerance of the result.
+
+    Returns:
+        The limit [N/m]; ``inf`` when stable up to ``high``.
+
+    Raises:
+        ParameterError: the loop is already unstable at ``low``.
+    """
+    low = positive_scalar("low", low)
+    high = positive_scalar("high", high)
+
+    def stable(k: float) -> bool:
+        return axis.with_environment_stiffness(k).spectral_radius(sample_time, arm_inertia) < 1.0
+
+    if not stable(low):
+        raise ParameterError(f"the sampled loop is unstable already at low = {low:.6g} N/m; expected a stable start")
+    grid = np.geomspace(low, high, int(math.ceil(math.log10(high / low) * 20)) + 1)
+    a = low
+    for k in grid[1:]:
+        if not stable(float(k)):
+            b = float(k)
+            break
+        a = float(k)
+    else:
+        return math.inf
+    while b - a > rtol * a:
+        c = math.sqrt(a * b)
+        if stable(c):
+            a = c
+        else:
+            b = c
+    return a
+
+
+def operational_mass(robot: Any, q: Any, direction: Any) -> float:
+    """The arm's mass seen by a force along a unit direction ν at q: ``1 / (νᵀ J B⁻¹ Jᵀ ν)`` [kg].
+
+    This is what an uncompensated change of the contact force accelerates within one sample.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    nu = np.asarray(direction, dtype=np.float64)
+    nu = nu / np.linalg.norm(nu)
+    J = robot.jacobian(q)
+    B = robot.mass_matrix(q)
+    return float(1.0 / (nu @ J @ np.linalg.solve(B, J.T) @ nu))
