@@ -11,7 +11,7 @@ import re
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
@@ -138,29 +138,50 @@ def show_command(scenario: Annotated[str, typer.Argument(help="built-in scenario
 
 
 @app.command("schema")
-def schema_command() -> None:
-    """Print the scenario file schema: every table, type and key."""
-    from ..scenarios import CONTROLLERS, ENVIRONMENTS, REFERENCES
-    from ..scenarios.core import ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS
+def schema_command(
+    json_out: Annotated[bool, typer.Option("--json", help="print the JSON schema (generated from the pydantic models)")] = False,
+) -> None:
+    """Print the scenario file schema: every table, type and key (generated from the scenario's pydantic models)."""
+    from ..scenarios.model import scenario_json_schema
 
-    def dump(title: str, fields) -> None:
+    schema = scenario_json_schema()
+    if json_out:
+        print(json.dumps(schema, indent=2))
+        return
+    defs = schema.get("$defs", {})
+
+    def kind(p: dict[str, Any]) -> str:
+        if "$ref" in p:
+            return p["$ref"].rsplit("/", 1)[-1]
+        if "anyOf" in p:
+            return " | ".join(kind(q) for q in p["anyOf"])
+        if p.get("type") == "array":
+            return f"list[{kind(p.get('items', {}))}]"
+        return str(p.get("type", p.get("const", p.get("enum", "any"))))
+
+    def dump(title: str, model: dict[str, Any]) -> None:
         t = Table(title=escape(title), title_justify="left")
-        t.add_column("key", style="bold")
-        t.add_column("kind")
-        t.add_column("required")
-        t.add_column("default")
-        t.add_column("meaning")
-        for k, f in fields.items():
-            t.add_row(k, f.kind, "yes" if f.required else "", "" if f.default is None else escape(repr(f.default)), escape(f.doc))
+        for col in ("key", "kind", "required", "default", "meaning"):
+            t.add_column(col, style="bold" if col == "key" else None)
+        required = set(model.get("required", ()))
+        for k, p in model.get("properties", {}).items():
+            if k == "type":
+                continue
+            default = "" if "default" not in p or p["default"] is None else escape(repr(p["default"]))
+            t.add_row(k, escape(kind(p)), "yes" if k in required else "", default, escape(p.get("description", "")))
         console.print(t)
 
-    dump("top level", TOP_FIELDS)
-    dump("[robot]", ROBOT_FIELDS)
-    dump("[sensor]", SENSOR_FIELDS)
-    dump("[actuator]", ACTUATOR_FIELDS)
-    for label, reg in (("environment", ENVIRONMENTS), ("controller", CONTROLLERS), ("reference", REFERENCES)):
-        for name, spec in reg.items():
-            dump(f"[{label}] type = \"{name}\": {spec.doc}", spec.fields)
+    top = {"properties": {k: v for k, v in schema["properties"].items() if "$ref" not in v and "discriminator" not in v},
+           "required": schema.get("required", [])}
+    dump("top level", top)
+    for table in ("robot", "sensor", "actuator", "figure"):
+        if table in defs:
+            dump(f"[{table}]", defs[table])
+    for name, model in sorted(defs.items()):
+        label, _, _ = name.partition("_")
+        const = model.get("properties", {}).get("type", {}).get("const")
+        if const is not None:
+            dump(f'[{label}] type = "{const}"', model)
 
 
 @app.command("run")

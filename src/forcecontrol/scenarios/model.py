@@ -13,6 +13,8 @@ if TYPE_CHECKING:
     from .core import Scenario
 
 __all__ = [
+    "scenario_model",
+    "scenario_json_schema",
     "TOP_FIELDS",
     "ROBOT_FIELDS",
     "SENSOR_FIELDS",
@@ -173,3 +175,49 @@ class ScenarioRun:
             "all_checks_pass": self.all_checks_pass,
             "files": self.files,
         }
+
+
+def scenario_model() -> Any:
+    """The pydantic model of a whole scenario file, generated from the tables' fields and the registries.
+
+    ``environment``, ``controller`` and ``reference`` are unions discriminated by ``type`` over the
+    registered part types (a type registered later appears once the model is built again).
+    """
+    from typing import Annotated, Union
+
+    from pydantic import ConfigDict, create_model
+    from pydantic import Field as PField
+
+    from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, _annotation, table_model
+
+    def parts(label: str, registry: dict[str, Any]) -> Any:
+        models = tuple(
+            table_model(f"{label}_{name}".replace("-", "_"), spec.fields, type_name=name) for name, spec in registry.items()
+        )
+        return Annotated[Union[models], PField(discriminator="part_type")]  # noqa: UP007 - a tuple of models
+
+    defs: dict[str, Any] = {}
+    for i, (k, f) in enumerate(TOP_FIELDS.items()):
+        if f.kind == "table":
+            continue
+        ann = _annotation(f) if f.required or f.default is not None else _annotation(f) | None
+        defs[f"top{i}"] = (ann, PField(... if f.required else f.default, alias=k, description=f.doc or None))
+    defs["robot"] = (table_model("robot", ROBOT_FIELDS), PField(description="the manipulator"))
+    defs["sensor"] = (table_model("sensor", SENSOR_FIELDS) | None, PField(None, description="the force sensor"))
+    defs["actuator"] = (table_model("actuator", ACTUATOR_FIELDS) | None, PField(None, description="the joints' actuators"))
+    defs["environment"] = (parts("environment", ENVIRONMENTS), PField(description="what the arm touches"))
+    defs["controller"] = (parts("controller", CONTROLLERS), PField(description="the control law"))
+    defs["reference"] = (parts("reference", REFERENCES), PField(description="x_d(t), f_d(t)"))
+    figure = table_model("figure", FIGURE_FIELDS)
+    defs["figure"] = (figure | list[figure] | None, PField(None, description="the figure, or figures, to draw"))
+    defs["expected"] = (dict[str, Any] | None, PField(None, description="values the run is checked against"))
+    defs["case"] = (list[dict[str, Any]] | None, PField(None, description="per-case overrides (dotted keys)"))
+    defs["sweep"] = (dict[str, Any] | None, PField(None, description="a sweep of this scenario (forcecontrol sweep)"))
+    return create_model(  # type: ignore[call-overload]
+        "Scenario", __config__=ConfigDict(extra="forbid", title="forcecontrol scenario"), **defs,
+    )
+
+
+def scenario_json_schema() -> dict[str, Any]:
+    """The JSON schema of a scenario file (what ``forcecontrol schema --json`` prints), from :func:`scenario_model`."""
+    return scenario_model().model_json_schema(by_alias=True)

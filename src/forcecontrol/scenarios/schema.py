@@ -90,59 +90,140 @@ def register_reference(name: str, fields: dict[str, Field], build, doc: str = ""
     _register(REFERENCES, name, fields, build, doc)
 
 
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def _describe(v: Any) -> str:
     return f"{v!r} ({type(v).__name__})"
 
 
+_EXPECTED = {
+    "number": "a finite number",
+    "int": "an integer",
+    "bool": "true or false",
+    "str": "a string",
+    "vector": "a non-empty list of numbers",
+    "gain": "a number, a list of numbers (diagonal) or a list of rows (matrix)",
+    "strlist": "a non-empty list of strings",
+    "table": "a table",
+}
+
+
+def _expected(field: Field) -> str:
+    if field.kind == "str" and field.choices:
+        return "one of " + ", ".join(repr(c) for c in field.choices)
+    return _EXPECTED[field.kind]
+
+
+# ----------------------------------------------------------------------------- pydantic models
+
+
+def _finite(v: float | int) -> float:
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError("not finite")
+    return v
+
+
+def _annotation(field: Field) -> Any:
+    """The pydantic type of a field kind (strict: no strings for numbers, no numbers for booleans)."""
+    from typing import Annotated, Literal
+
+    from pydantic import AfterValidator, StrictBool, StrictFloat, StrictInt, StrictStr, conlist
+
+    number = Annotated[StrictInt | StrictFloat, AfterValidator(_finite)]  # a scalar: finite, as a float
+    entry = StrictInt | StrictFloat  # an entry of a vector or gain: the constructors check its value
+    kind = field.kind
+    if kind == "number":
+        return number
+    if kind == "int":
+        return StrictInt
+    if kind == "bool":
+        return StrictBool
+    if kind == "str":
+        return Literal[field.choices] if field.choices else StrictStr  # type: ignore[valid-type]
+    if kind == "vector":
+        return conlist(entry, min_length=1)
+    if kind == "gain":
+        return entry | conlist(entry, min_length=1) | conlist(conlist(entry, min_length=1), min_length=1)
+    if kind == "strlist":
+        return conlist(StrictStr, min_length=1)
+    if kind == "table":
+        return dict[str, Any]
+    raise ValueError(f"unknown field kind {kind!r}")
+
+
+_MODELS: dict[int, tuple[dict[str, Field], Any]] = {}
+
+
+def table_model(name: str, fields: dict[str, Field], type_name: str | None = None) -> Any:
+    """The pydantic model of a table with these fields (cached; ``type = type_name`` for a part's table).
+
+    Keys are fields by alias (a TOML key may be any name); unknown keys are refused
+    (``extra="forbid"``); each field carries its doc as the JSON schema's description.
+    """
+    key = id(fields) if type_name is None else hash((id(fields), type_name))
+    hit = _MODELS.get(key)
+    if hit is not None and hit[0] is fields:
+        return hit[1]
+    from typing import Literal
+
+    from pydantic import ConfigDict, create_model
+    from pydantic import Field as PField
+
+    defs: dict[str, Any] = {}
+    if type_name is not None:
+        defs["part_type"] = (Literal[type_name], PField(alias="type", description="the part's type"))  # type: ignore[valid-type]
+    for i, (k, f) in enumerate(fields.items()):
+        default = ... if f.required else f.default
+        defs[f"f{i}"] = (_annotation(f) if f.required or f.default is not None else _annotation(f) | None,
+                         PField(default, alias=k, description=f.doc or None))
+    model = create_model(  # type: ignore[call-overload]
+        name, __config__=ConfigDict(extra="forbid", populate_by_name=False, title=name), **defs,
+    )
+    _MODELS[key] = (fields, model)
+    return model
+
+
+def _raise_first(where: str, err: Any, table: dict[str, Any], fields: dict[str, Field], extra_ok: tuple[str, ...]) -> None:
+    """The library's message for the first problem pydantic found in a table."""
+    order = {k: i for i, k in enumerate(fields)}
+
+    def rank(e: dict[str, Any]) -> tuple[int, Any]:  # as the checks read: unknown keys (by name), then fields in order
+        k = str((e.get("loc") or ("",))[0])
+        return (0, k) if e["type"] == "extra_forbidden" else (1, order.get(k, len(order)))
+
+    e = min(err.errors(), key=rank)
+    loc = e.get("loc") or ("",)
+    key = str(loc[0])
+    if e["type"] == "extra_forbidden":
+        raise ScenarioError(
+            f"{where}: unknown key '{key}'; expected one of: {', '.join(sorted(set(fields) | set(extra_ok)))}"
+        ) from None
+    field = fields.get(key)
+    if e["type"] == "missing" and field is not None:
+        raise ScenarioError(f"{where}: missing key '{key}' ({field.doc or field.kind})") from None
+    if field is None:  # pragma: no cover - every located error is on a declared key
+        raise ScenarioError(f"{where}: {e.get('msg')}") from None
+    value = table.get(key)
+    raise ScenarioError(f"{where}: key '{key}' must be {_expected(field)}; got {_describe(value)}") from None
+
+
 def check_value(where: str, key: str, field: Field, value: Any) -> Any:
-    """Check one value's type; return it (ints become floats for numbers)."""
-    k = field.kind
-    ok = True
-    if k == "number":
-        ok = _is_number(value) and math.isfinite(float(value))
-        value = float(value) if ok else value
-    elif k == "int":
-        ok = isinstance(value, int) and not isinstance(value, bool)
-    elif k == "bool":
-        ok = isinstance(value, bool)
-    elif k == "str":
-        ok = isinstance(value, str) and (not field.choices or value in field.choices)
-    elif k == "vector":
-        ok = isinstance(value, list) and len(value) > 0 and all(_is_number(x) for x in value)
-    elif k == "gain":
-        ok = _is_number(value) or (
-            isinstance(value, list)
-            and len(value) > 0
-            and (
-                all(_is_number(x) for x in value)
-                or all(isinstance(r, list) and all(_is_number(x) for x in r) for r in value)
-            )
-        )
-    elif k == "strlist":
-        ok = isinstance(value, list) and len(value) > 0 and all(isinstance(x, str) for x in value)
-    elif k == "table":
-        ok = isinstance(value, dict)
-    if not ok:
-        expected = {
-            "number": "a finite number",
-            "int": "an integer",
-            "bool": "true or false",
-            "str": "one of " + ", ".join(repr(c) for c in field.choices) if field.choices else "a string",
-            "vector": "a non-empty list of numbers",
-            "gain": "a number, a list of numbers (diagonal) or a list of rows (matrix)",
-            "strlist": "a non-empty list of strings",
-            "table": "a table",
-        }[k]
-        raise ScenarioError(f"{where}: key '{key}' must be {expected}; got {_describe(value)}")
-    return value
+    """Check one value's type (by the field's pydantic type); return it (ints become floats for numbers)."""
+    from pydantic import TypeAdapter, ValidationError
+
+    adapter = _ADAPTERS.get((field.kind, field.choices))
+    if adapter is None:
+        adapter = _ADAPTERS[(field.kind, field.choices)] = TypeAdapter(_annotation(field))
+    try:
+        return adapter.validate_python(value)
+    except ValidationError:
+        raise ScenarioError(f"{where}: key '{key}' must be {_expected(field)}; got {_describe(value)}") from None
+
+
+_ADAPTERS: dict[tuple[str, tuple[str, ...]], Any] = {}
 
 
 def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tuple[str, ...] = ()) -> dict[str, Any]:
-    """Check a table against its fields: unknown keys, missing keys and types.
+    """Check a table against its fields with its pydantic model: unknown keys, missing keys, types.
 
     Args:
         where: prefix for messages, e.g. ``"scenario.toml: [controller]"``.
@@ -151,23 +232,21 @@ def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tupl
         extra_ok: keys accepted without checking (such as ``type``).
 
     Returns:
-        A new dict with defaults filled in.
+        A new dict with defaults filled in (numbers as floats).
+
+    Raises:
+        ScenarioError: naming the file, the table and the key, what was expected and what was given.
     """
+    from pydantic import ValidationError
+
     if not isinstance(table, dict):
         raise ScenarioError(f"{where}: must be a table; got {_describe(table)}")
-    unknown = sorted(set(table) - set(fields) - set(extra_ok))
-    if unknown:
-        raise ScenarioError(
-            f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(sorted(set(fields) | set(extra_ok)))}"
-        )
-    out: dict[str, Any] = {}
-    for key, field in fields.items():
-        if key in table:
-            out[key] = check_value(where, key, field, table[key])
-        elif field.required:
-            raise ScenarioError(f"{where}: missing key '{key}' ({field.doc or field.kind})")
-        else:
-            out[key] = field.default
+    model = table_model("table", fields)
+    try:
+        checked = model.model_validate({k: v for k, v in table.items() if k not in extra_ok})
+    except ValidationError as err:
+        _raise_first(where, err, table, fields, extra_ok)
+    out = checked.model_dump(by_alias=True)
     for key in extra_ok:
         if key in table:
             out[key] = table[key]
