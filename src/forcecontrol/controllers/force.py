@@ -370,8 +370,9 @@ class InnerVelocityForceController(_DirectForceController):
 
     Args:
         force_gain: K_F = C_F, scalar, (m,) or diagonal (m, m) [m/N], >= 0, not all zero.
-        robot, inertia, damping, stiffness, environment_stiffness, posture, singularity, task_frame,
-            sample_time: as for :class:`InnerPositionForceController`.
+
+    The other arguments (robot, inertia, damping, stiffness, environment_stiffness, posture,
+    singularity, task_frame, sample_time) are those of :class:`InnerPositionForceController`.
     """
 
     law = staticmethod(laws.inner_velocity)
