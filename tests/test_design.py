@@ -17,7 +17,8 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.analysis import ForceLoopAxis, operational_mass, sampled_stability_limit
-from forcecontrol.analysis.design import design_gains, loop_model
+from forcecontrol.analysis.design import loop_model
+from forcecontrol.analysis.gain_design import design_gains
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.estimation import StiffnessEstimator
 

@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING, Any
 
 _LAZY = {
     "DESIGN_SCHEMES": ".design",
-    "GainDesign": ".design",
+    "GainDesign": ".gain_design",
     "LoopModel": ".design",
-    "design_gains": ".design",
+    "design_gains": ".gain_design",
     "loop_model": ".design",
     "ComplianceEquilibrium": ".compliance",
     "compliance_equilibrium": ".compliance",
@@ -32,9 +32,10 @@ _LAZY = {
 
 if TYPE_CHECKING:  # pragma: no cover
     from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
-    from .design import DESIGN_SCHEMES, GainDesign, LoopModel, design_gains, loop_model
+    from .design import DESIGN_SCHEMES, LoopModel, loop_model
     from .force import ForceLoopAxis, force_loop_axes
     from .force_design import ForceGains, design_force_gains, operational_mass, sampled_stability_limit
+    from .gain_design import GainDesign, design_gains
     from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
 
 

@@ -42,7 +42,7 @@ def design_command(
     from ..errors import ForceControlError, OutputError
 
     try:
-        from ..analysis.design import design_gains
+        from ..analysis.gain_design import design_gains
 
         d = design_gains(
             scheme, (k_min, k_max), sample_time, delay_samples=delay, filter_cutoff=filter_cutoff,
