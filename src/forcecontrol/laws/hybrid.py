@@ -25,6 +25,37 @@ def _block(p, o, rows, cols):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _blocks9(p, o, s0, s1, s2, s3, s4, s5, s6, s7, s8):  # pragma: no cover - compiled
+    """Nine consecutive row-major blocks of p from offset o, of shapes s0..s8 (rows, cols)."""
+    b0, o = _block(p, o, s0[0], s0[1])
+    b1, o = _block(p, o, s1[0], s1[1])
+    b2, o = _block(p, o, s2[0], s2[1])
+    b3, o = _block(p, o, s3[0], s3[1])
+    b4, o = _block(p, o, s4[0], s4[1])
+    b5, o = _block(p, o, s5[0], s5[1])
+    b6, o = _block(p, o, s6[0], s6[1])
+    b7, o = _block(p, o, s7[0], s7[1])
+    b8, o = _block(p, o, s8[0], s8[1])
+    return b0, b1, b2, b3, b4, b5, b6, b7, b8
+
+
+@njit(cache=True, inline="always")
+def _velocity_servo(S_v_pinv, K, xd, ref, d, ws):  # pragma: no cover - compiled
+    """(9.80)/(9.95), the part both hybrid laws share: ``ν = S_v† ẋ_e``, ``ν_d = S_v† ẋ_d``,
+    ``α_ν = ν̇_d + K (ν_d − ν)``; returns views (ν, ν_d, α_ν, scratch) of ``ws``."""
+    l = S_v_pinv.shape[0]
+    nu = ws[0:l]
+    nu_d = ws[d : d + l]
+    alpha = ws[2 * d : 2 * d + l]
+    tmp = ws[3 * d : 4 * d]
+    mv_into(S_v_pinv, xd, nu)
+    mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
+    mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d (r̈_d)
+    _mv_diff_add(K, nu_d, nu, alpha, tmp)
+    return nu, nu_d, alpha, tmp
+
+
+@njit(cache=True, inline="always")
 def _mv_add(A, x, out):  # pragma: no cover - compiled
     """``out += A x``."""
     r, c = A.shape
@@ -55,27 +86,13 @@ def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pra
     d = int(p[0])
     k = int(p[1])
     l = d - k
-    o = 2
-    S_v, o = _block(p, o, d, l)
-    S_v_pinv, o = _block(p, o, l, d)
-    S_f_pinv, o = _block(p, o, k, d)
-    CpS_f, o = _block(p, o, d, k)
-    L_hat, o = _block(p, o, k, d)
-    K_Pnu, o = _block(p, o, l, l)
-    K_Inu, o = _block(p, o, l, l)
-    K_Dlam, o = _block(p, o, k, k)
-    K_Plam, o = _block(p, o, k, k)
-    nu = ws[0:l]
-    nu_d = ws[d : d + l]
-    alpha = ws[2 * d : 2 * d + l]
-    tmp = ws[3 * d : 4 * d]
+    S_v, S_v_pinv, S_f_pinv, CpS_f, L_hat, K_Pnu, K_Inu, K_Dlam, K_Plam = _blocks9(
+        p, 2, (d, l), (l, d), (k, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k)
+    )
+    nu, nu_d, alpha, tmp = _velocity_servo(S_v_pinv, K_Pnu, xd, ref, d, ws)
     f_lam = ws[4 * d : 4 * d + k]
     lam_a = ws[5 * d : 5 * d + k]
     lam_b = ws[6 * d : 6 * d + k]
-    mv_into(S_v_pinv, xd, nu)
-    mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
-    mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d
-    _mv_diff_add(K_Pnu, nu_d, nu, alpha, tmp)
     _mv_add(K_Inu, s[0:l], alpha)
     mv_into(S_f_pinv, ref[5 * d : 6 * d], f_lam)  # λ̈_d
     mv_into(S_f_pinv, ref[4 * d : 5 * d], lam_a)  # λ̇_d
@@ -107,29 +124,15 @@ def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma:
     k = int(p[1])
     position_mode = p[2] != 0.0
     l = d - k
-    o = 3
-    S_v, o = _block(p, o, d, l)
-    S_v_pinv, o = _block(p, o, l, d)
-    S_f, o = _block(p, o, d, k)
-    S_f_pinv, o = _block(p, o, k, d)
-    K_1, o = _block(p, o, l, l)
-    K_2, o = _block(p, o, l, l)
-    K_Plam, o = _block(p, o, k, k)
-    K_Ilam, o = _block(p, o, k, k)
-    S_v_dot, o = _block(p, o, d, l)
-    nu = ws[0:l]
-    nu_d = ws[d : d + l]
-    alpha = ws[2 * d : 2 * d + l]
-    tmp = ws[3 * d : 4 * d]
+    S_v, S_v_pinv, S_f, S_f_pinv, K_1, K_2, K_Plam, K_Ilam, S_v_dot = _blocks9(
+        p, 3, (d, l), (l, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k), (d, l)
+    )
+    nu, nu_d, alpha, tmp = _velocity_servo(S_v_pinv, K_1, xd, ref, d, ws)
     f_lam = ws[4 * d : 4 * d + k]
     lam_d = ws[5 * d : 5 * d + k]
     lam = ws[6 * d : 6 * d + k]
     r_d = ws[7 * d : 7 * d + l]
     r = ws[8 * d : 8 * d + l]
-    mv_into(S_v_pinv, xd, nu)
-    mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
-    mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d (r̈_d)
-    _mv_diff_add(K_1, nu_d, nu, alpha, tmp)
     if position_mode:
         mv_into(S_v_pinv, ref[0:d], r_d)
         mv_into(S_v_pinv, x, r)
