@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from .core import Scenario
 
 __all__ = [
+    "SWEEP_FIELDS",
     "scenario_model",
     "scenario_json_schema",
     "TOP_FIELDS",
@@ -104,6 +105,17 @@ FIGURE_FIELDS: dict[str, Field] = {
     "note": Field("str", default="", doc="caption printed under the figure (what the reader needs to read it)"),
 }
 
+
+#: keys of a scenario's ``[sweep]`` table (besides ``cases`` and ``[sweep.parameters]``); see
+#: :class:`forcecontrol.sweep.SweepDefinition`.
+SWEEP_FIELDS: dict[str, Field] = {
+    "design": Field("str", default="grid", doc="'grid' (every combination) or 'random' (samples draws)",
+                    choices=("grid", "random")),
+    "samples": Field("int", default=0, doc="design = 'random': number of cases drawn"),
+    "seed": Field("int", default=0, doc="design = 'random': seed of the draws"),
+    "settle_band": Field("number", default=0.02, doc="settling band, fraction of the force step"),
+    "stable_band": Field("number", default=0.05, doc="residual oscillation accepted as stable, fraction of the step"),
+}
 
 CASE_FIELDS = ("label", "expected")
 
@@ -212,7 +224,16 @@ def scenario_model() -> Any:
     defs["figure"] = (figure | list[figure] | None, PField(None, description="the figure, or figures, to draw"))
     defs["expected"] = (dict[str, Any] | None, PField(None, description="values the run is checked against"))
     defs["case"] = (list[dict[str, Any]] | None, PField(None, description="per-case overrides (dotted keys)"))
-    defs["sweep"] = (dict[str, Any] | None, PField(None, description="a sweep of this scenario (forcecontrol sweep)"))
+    from pydantic import StrictInt, StrictStr
+
+    sweep_fields = {
+        "cases": (StrictStr | list[StrictStr | StrictInt] | None, PField(None, description="scenario cases to sweep")),
+        "parameters": (dict[str, Any], PField(description="path = values (grid) or distribution (random)")),
+    }
+    sweep = create_model(  # type: ignore[call-overload]
+        "sweep", __base__=table_model("sweep", SWEEP_FIELDS), **sweep_fields,
+    )
+    defs["sweep"] = (sweep | None, PField(None, description="a sweep of this scenario (forcecontrol sweep)"))
     return create_model(  # type: ignore[call-overload]
         "Scenario", __config__=ConfigDict(extra="forbid", title="forcecontrol scenario"), **defs,
     )

@@ -327,12 +327,13 @@ class SweepDefinition:
         Keys: ``design``, ``samples``, ``seed``, ``cases``, ``settle_band``, ``stable_band`` and
         ``[sweep.parameters]`` (``"environment.stiffness" = "logspace(3, 6, 40)"``).
         """
-        if not isinstance(table, dict):
-            raise SweepError(f"{where}: must be a table; got {table!r}")
-        allowed = {"design", "samples", "seed", "cases", "settle_band", "stable_band", "parameters"}
-        unknown = sorted(set(table) - allowed)
-        if unknown:
-            raise SweepError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(sorted(allowed))}")
+        from ..scenarios.model import SWEEP_FIELDS
+        from ..scenarios.schema import check_table
+
+        try:  # the keys' types by the [sweep] table's pydantic model
+            checked = check_table(where, table, SWEEP_FIELDS, extra_ok=("cases", "parameters"))
+        except ScenarioError as exc:
+            raise SweepError(str(exc)) from None
         params = table.get("parameters")
         if not isinstance(params, dict) or not params:
             raise SweepError(f"{where}: key 'parameters' must be a non-empty table of path = values; got {params!r}")
@@ -342,9 +343,8 @@ class SweepDefinition:
         if isinstance(cases, str):
             cases = [cases]
         return cls.from_options(
-            flat, design=table.get("design", "grid"), samples=table.get("samples", 0), seed=table.get("seed", 0),
-            cases=[str(c) for c in cases], settle_band=table.get("settle_band", 0.02),
-            stable_band=table.get("stable_band", 0.05),
+            flat, design=checked["design"], samples=checked["samples"], seed=checked["seed"],
+            cases=[str(c) for c in cases], settle_band=checked["settle_band"], stable_band=checked["stable_band"],
         )
 
     def assignments(self, n_cases: int = 1) -> list[dict[str, Any]]:
