@@ -161,8 +161,8 @@ def schema_command(
 
     def dump(title: str, model: dict[str, Any]) -> None:
         t = Table(title=escape(title), title_justify="left")
-        for col in ("key", "kind", "required", "default", "meaning"):
-            t.add_column(col, style="bold" if col == "key" else None)
+        for col in ("key", "kind", "required", "default", "meaning"):  # keys never wrap (they are looked up)
+            t.add_column(col, style="bold" if col == "key" else None, no_wrap=col == "key")
         required = set(model.get("required", ()))
         for k, p in model.get("properties", {}).items():
             if k == "type":

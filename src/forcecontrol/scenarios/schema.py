@@ -150,7 +150,7 @@ def _annotation(field: Field) -> Any:
     raise ValueError(f"unknown field kind {kind!r}")
 
 
-_MODELS: dict[int, tuple[dict[str, Field], Any]] = {}
+_MODELS: dict[tuple[int, str, str | None], tuple[dict[str, Field], Any]] = {}
 
 
 def table_model(name: str, fields: dict[str, Field], type_name: str | None = None) -> Any:
@@ -159,7 +159,7 @@ def table_model(name: str, fields: dict[str, Field], type_name: str | None = Non
     Keys are fields by alias (a TOML key may be any name); unknown keys are refused
     (``extra="forbid"``); each field carries its doc as the JSON schema's description.
     """
-    key = id(fields) if type_name is None else hash((id(fields), type_name))
+    key = (id(fields), name, type_name)
     hit = _MODELS.get(key)
     if hit is not None and hit[0] is fields:
         return hit[1]
