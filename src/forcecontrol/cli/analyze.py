@@ -13,14 +13,14 @@ from typing import Annotated
 
 import typer
 
-from .app import _fail, compile_notice
+from .app import JsonOut, _fail, compile_notice
 
 __all__ = ["analyze_command"]
 
 
 def analyze_command(
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    json_out: JsonOut = False,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected analysis value is missed")] = False,
     figures: Annotated[
         bool, typer.Option(help="also simulate and write one figure per controller type with the linearised model")

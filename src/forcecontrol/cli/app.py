@@ -21,6 +21,10 @@ from rich.table import Table
 from .. import __version__, _numba_cache
 from ..errors import ForceControlError
 
+#: options shared by the commands.
+JsonOut = Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")]
+ForceOverwrite = Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")]
+
 app = typer.Typer(
     name="forcecontrol",
     help="Force control of robot manipulators: the chapter's schemes, simulated, analysed and checked.",
@@ -187,13 +191,13 @@ def schema_command(
 @app.command("run")
 def run_command(
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    json_out: JsonOut = False,
     out: Annotated[Path, typer.Option(help="folder for the figure and data files")] = Path("forcecontrol-out"),
     figure: Annotated[bool, typer.Option(help="write the figure (PNG)")] = True,
     data: Annotated[DataFormat, typer.Option(help="also write each case's log (+ JSON metadata)")] = DataFormat.none,
     engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected value is missed")] = False,
-    force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
+    force: ForceOverwrite = False,
     animate: Annotated[
         bool, typer.Option("--animate", help="also write an animation (GIF) of each case: the arm, the environment, the force")
     ] = False,

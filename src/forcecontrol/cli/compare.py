@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, compile_notice
+from .app import JsonOut, _fail, compile_notice
 
 __all__ = ["compare_command", "compare_scenario"]
 
@@ -32,7 +32,7 @@ def compare_scenario(name: str) -> dict[str, Any]:
 
 def compare_command(
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Run a scenario on the built-in simulator and on MuJoCo; report both and why they differ."""
     from rich.console import Console

@@ -9,7 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, _slug, compile_notice, console, prepare_output
+from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output
 from .replay import JointTopic, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
 
 __all__ = ["compare_trace_command"]
@@ -46,8 +46,8 @@ def compare_trace_command(
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
     wrench_sense: WrenchSense = "by-end-effector",
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
-    force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
+    json_out: JsonOut = False,
+    force: ForceOverwrite = False,
 ) -> None:
     """Compare a simulated trace with a recorded one: time shift, RMS and max force/position errors, a figure."""
     from rich.table import Table

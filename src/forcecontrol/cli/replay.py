@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, _slug, compile_notice, console, prepare_output
+from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 
@@ -65,8 +65,8 @@ def replay_command(
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
     wrench_sense: WrenchSense = "by-end-effector",
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
-    force: Annotated[bool, typer.Option("--force", help="overwrite files already in the output folder")] = False,
+    json_out: JsonOut = False,
+    force: ForceOverwrite = False,
 ) -> None:
     """Run a scenario's controller over a recorded log: the torques and force errors it would have produced."""
     from rich.table import Table

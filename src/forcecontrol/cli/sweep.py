@@ -10,6 +10,8 @@ from typing import Annotated
 
 import typer
 
+from .app import JsonOut
+
 __all__ = ["sweep_command"]
 
 
@@ -40,7 +42,7 @@ def sweep_command(
     x: Annotated[str | None, typer.Option(help="figure x axis (a swept parameter)")] = None,  # noqa: UP007
     y: Annotated[str | None, typer.Option(help="figure y axis (a swept parameter)")] = None,  # noqa: UP007
     overwrite: Annotated[bool, typer.Option(help="replace a different sweep stored at --out")] = False,
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object")] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Sweep scenario parameters (grid or Monte Carlo), locally or on a Dask cluster; resumable.
 

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from .app import _fail
+from .app import JsonOut, _fail
 
 if TYPE_CHECKING:
     import numpy as np
@@ -84,7 +84,7 @@ def task_command(
     frame: Annotated[FrameChoice, typer.Option(help="frame the matrices are expressed in")] = FrameChoice.constraint,
     time: Annotated[float, typer.Option("--time", help="time [s] (for a moving constraint frame)")] = 0.0,
     pinv: Annotated[bool, typer.Option("--pinv", help="also print S_f† and S_v† (9.55), W = I")] = False,
-    json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")] = False,
+    json_out: JsonOut = False,
 ) -> None:
     """Print a task's natural and artificial constraints and S_f, S_v, like Tables 9.1–9.3."""
     from rich.console import Console
