@@ -56,6 +56,28 @@ def test_damp_gives_natural_frequency_and_damping_of_the_velocity_loop():
     np.testing.assert_allclose(zeta, 2.5 / math.sqrt(60.0), rtol=1e-12)
 
 
+@pytest.mark.parametrize("scheme, gains", [("inner-position", PI), ("parallel", PI), ("inner-velocity", P),
+                                           ("inner-position", {**PI, "force_gain": 0.0})])
+@pytest.mark.parametrize("k", [0.0, 1e3, 3.7e5])
+def test_poles_zeros_and_damping_agree_with_python_control(scheme, gains, k):
+    """The analysis computes poles, zeros and damping without importing python-control (start-up time);
+    they equal control.poles, control.zeros and control.damp of the same state space."""
+    ax = ForceLoopAxis(scheme, **gains, environment_stiffness=k)
+    sys = ax.state_space()
+    np.testing.assert_allclose(np.sort_complex(ax.poles()), np.sort_complex(control.poles(sys)), rtol=1e-9, atol=1e-9)
+    if k > 0:
+        np.testing.assert_allclose(np.sort_complex(ax.zeros()), np.sort_complex(control.zeros(sys[0, 0])),
+                                   rtol=1e-9, atol=1e-9)
+    else:  # no contact: f_e/f_d is identically zero and has no zeros
+        assert ax.zeros().size == 0 and not np.any(sys[0, 0].C) and not np.any(sys[0, 0].D)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        wn, zeta, p = control.damp(sys, doprint=False)
+    mine = ax.damping_table()
+    order, ref = np.argsort(mine[2]), np.argsort(p)
+    np.testing.assert_allclose(mine[0][order], np.asarray(wn)[ref], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(mine[1][order], np.asarray(zeta)[ref], rtol=1e-9, atol=1e-12, equal_nan=True)
+
+
 @pytest.mark.parametrize("scheme", ["inner-position", "inner-velocity", "parallel"])
 def test_equilibrium_is_9_44_and_matches_the_dc_gain(scheme):
     """Steady f_e = f_d and x_e = x_r + f_d/k (9.44); the linear model's final value agrees."""
@@ -198,6 +220,44 @@ def test_stability_limit_scales_with_the_force_gain():
     a1 = ForceLoopAxis("inner-velocity", **P)
     a2 = ForceLoopAxis("inner-velocity", 100.0, 500.0, 2500.0, 0.0048)
     assert sampled_stability_limit(a2, TS) == pytest.approx(sampled_stability_limit(a1, TS) / 2, rel=1e-4)
+
+
+def _first_unstable_on_a_dense_grid(ax, Ts, mx, k_max):
+    """The first k of a dense grid (4000 log points plus steps of 5e-4 rad in θ = Ts √(k/m_x))
+    whose sampled loop has a pole on or outside the unit circle (the sampled model itself is checked
+    against python-control's zero-order hold in test_sampled_plant_is_python_controls_zero_order_hold)."""
+    ks = np.geomspace(1.0, k_max, 4000)
+    if mx is not None:
+        theta = np.arange(1e-3, Ts * math.sqrt(k_max / mx), 5e-4)
+        ks = np.union1d(ks, mx * (theta / Ts) ** 2)
+    for k in ks:
+        if ax.with_environment_stiffness(k).spectral_radius(Ts, mx) >= 1.0:
+            return k
+    return math.inf
+
+
+@pytest.mark.parametrize("scheme, force_gain, Ts, mx", [
+    ("inner-velocity", 3.6e-3, 1e-3, None),     # double integrator: the main crossing
+    ("inner-position", 1e-4, 1e-3, 30.0),       # main crossing below the Nyquist point
+    ("inner-position", 3.6e-3, 5e-3, 0.5),      # window just below θ = π (a coarse scan stepped over it)
+    ("parallel", 1e-2, 1e-3, 3.0),              # same, at another mass
+    ("inner-velocity", 1e-4, 1e-4, 0.5),        # stable up to θ = π: the limit is the Nyquist window
+])
+def test_stability_limit_is_the_first_crossing_of_a_dense_grid(scheme, force_gain, Ts, mx):
+    """The root-finder limit is the first unstable stiffness of a dense grid, to the grid's spacing (0.2 %),
+    and never above it; with an arm mass it never exceeds m_x (π / Ts)²."""
+    gains = dict(inertia=1.0, damping=12.5 if scheme != "inner-velocity" else 50.0, stiffness=25.0,
+                 force_gain=force_gain)
+    if scheme != "inner-velocity":
+        gains["integral_gain"] = 2.5 * force_gain
+    ax = ForceLoopAxis(scheme, **gains)
+    limit = sampled_stability_limit(ax, Ts, arm_inertia=mx)
+    dense = _first_unstable_on_a_dense_grid(ax, Ts, mx, 3.0 * limit)
+    assert limit <= dense <= limit * 1.002
+    assert ax.with_environment_stiffness(limit).spectral_radius(Ts, mx) < 1.0
+    assert ax.with_environment_stiffness(limit * (1 + 1e-5)).spectral_radius(Ts, mx) >= 1.0
+    if mx is not None:
+        assert limit <= mx * (math.pi / Ts) ** 2
 
 
 # ---------------------------------------------------------------------------- gain design

@@ -148,8 +148,8 @@ class ForceLoopAxis:
         Gz[1] -= kd
         return Gz / m, Gw / m, Hz, Hw
 
-    def state_space(self) -> control.StateSpace:
-        """The continuous closed loop: states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x]."""
+    def _continuous_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(A, B, C, D) of :meth:`state_space` as arrays (no python-control import)."""
         Gz, Gw, Hz, Hw = self._law()
         nz = len(self.states)
         A = np.zeros((nz, nz))
@@ -163,7 +163,12 @@ class ForceLoopAxis:
         D = np.zeros((2, 3))
         C[0, 0], D[0, 2] = k, -k
         C[1, 0] = 1.0
-        return control.ss(A, B, C, D, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states, name=self.scheme)
+        return A, B, C, D
+
+    def state_space(self) -> control.StateSpace:
+        """The continuous closed loop: states :attr:`states`, inputs [f_d, x_d, x_r], outputs [f_e, x]."""
+        return control.ss(*self._continuous_matrices(), inputs=_INPUTS, outputs=_OUTPUTS, states=self.states,
+                          name=self.scheme)
 
     def force_transfer_function(self) -> control.TransferFunction:
         """f_e(s)/f_d(s), e.g. ``k k_P (k_F s + k_I) / (m s³ + k_D s² + k_P (1 + k_F k) s + k_P k k_I)``."""
@@ -179,23 +184,43 @@ class ForceLoopAxis:
         Inner position and parallel with PI: ``[m, k_D, k_P (1 + k_F k), k_P k k_I]``; inner velocity:
         ``[m, k_D, k_P k_F k]`` (9.47).
         """
-        A = self.state_space().A
-        return self.inertia * np.real(np.poly(A))
+        return self.inertia * np.real(np.poly(self._continuous_matrices()[0]))
 
+    # poles, zeros and damping are the eigenvalues of the state matrix and of the system pencil,
+    # computed here without importing python-control (1-5 s) for the ``analyze`` command; the tests
+    # check them against ``control.poles``, ``control.zeros`` and ``control.damp``.
     def poles(self) -> np.ndarray:
-        """Closed-loop poles [rad/s] (``control.poles``), sorted by real part then imaginary part."""
-        p = control.poles(self.state_space())
+        """Closed-loop poles [rad/s] (eigenvalues of A), sorted by real part then imaginary part."""
+        p = np.linalg.eigvals(self._continuous_matrices()[0])
         return np.array(sorted(p, key=lambda z: (round(z.real, 12), z.imag)))
 
     def zeros(self) -> np.ndarray:
-        """Zeros of f_e/f_d [rad/s] (``control.zeros``): ``−k_I / k_F`` with PI and k_F > 0."""
-        return np.asarray(control.zeros(self.state_space()[0, 0]))
+        """Zeros of f_e/f_d [rad/s]: ``−k_I / k_F`` with PI and k_F > 0.
+
+        The finite generalised eigenvalues of the pencil ``([[A, b], [c, d]], [[I, 0], [0, 0]])``
+        of the input f_d and output f_e (the invariant zeros of a SISO system). Empty without
+        contact (k = 0: f_e/f_d is identically zero).
+        """
+        from scipy.linalg import eigvals
+
+        if self.environment_stiffness == 0.0:
+            return np.empty(0)
+        A, B, C, D = self._continuous_matrices()
+        n = A.shape[0]
+        M = np.block([[A, B[:, :1]], [C[:1], D[:1, :1]]])
+        N = np.zeros_like(M)
+        N[:n, :n] = np.eye(n)
+        z = eigvals(M, N)
+        z = z[np.isfinite(z)]
+        return np.real_if_close(z[np.abs(z) < 1e12])
 
     def damping_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(ω_n [rad/s], ζ, poles)`` of the closed loop (``control.damp``, without printing)."""
+        """``(ω_n [rad/s], ζ, poles)`` of the closed loop, as ``control.damp``: ω_n = |p|, ζ = −Re p / |p|."""
+        p = np.linalg.eigvals(self._continuous_matrices()[0])
+        wn = np.abs(p)
         with np.errstate(divide="ignore", invalid="ignore"):  # a pole at 0 (free axis) has ζ = nan
-            wn, zeta, p = control.damp(self.state_space(), doprint=False)
-        return np.asarray(wn), np.asarray(zeta), np.asarray(p)
+            zeta = -np.real(p) / wn
+        return wn, zeta, p
 
     def is_stable(self) -> bool:
         """All continuous poles strictly in the left half-plane."""

@@ -93,8 +93,16 @@ def sampled_stability_limit(
 ) -> float:
     """The largest environment stiffness k [N/m] for which the sampled loop stays stable.
 
-    Scans k on a logarithmic grid from ``low`` for the first k whose sampled loop
-    (:meth:`ForceLoopAxis.sampled`) has a pole on or outside the unit circle, then bisects.
+    The boundary is the smallest k at which the largest pole modulus ρ(k) of the sampled loop
+    (:meth:`ForceLoopAxis.sampled`) reaches 1: k is doubled from ``low`` until ρ >= 1, and the
+    crossing inside the last doubling is found with Brent's method (``scipy.optimize.brentq``) on
+    ``ρ − 1`` in ln k.
+
+    With ``arm_inertia`` m_x the contact is an undamped oscillator of θ = Ts √(k / m_x) radians per
+    sample. At θ = π (the contact's frequency at the Nyquist frequency) ρ = 1, and just below it
+    the loop has a narrow window of slow growth (ρ − 1 of order 1e-6 per sample, found on every
+    loop tried); beyond π, windows recur near every θ = nπ. The search therefore ends at
+    θ = π: the limit is the first crossing below it, and never more than ``m_x (π / Ts)²``.
 
     Args:
         axis: the loop (its own environment_stiffness is ignored).
@@ -104,35 +112,37 @@ def sampled_stability_limit(
         low, high: search range [N/m]; rtol: relative tolerance of the result.
 
     Returns:
-        The limit [N/m]; ``inf`` when stable up to ``high``.
+        The limit [N/m] (the stable side of the final bracket); ``inf`` when stable up to ``high``.
 
     Raises:
         ParameterError: the loop is already unstable at ``low``.
     """
+    from scipy.optimize import brentq
+
     low = positive_scalar("low", low)
     high = positive_scalar("high", high)
+    rtol = positive_scalar("rtol", rtol)
+    Ts = positive_scalar("sample_time", sample_time)
+    mx = None if arm_inertia is None else positive_scalar("arm_inertia", arm_inertia)
+    tol = 0.25 * math.log1p(rtol)  # in u = ln k: the relative tolerance rtol on k
 
-    def stable(k: float) -> bool:
-        return axis.with_environment_stiffness(k).spectral_radius(sample_time, arm_inertia) < 1.0
+    def margin(u: float) -> float:
+        return axis.with_environment_stiffness(math.exp(u)).spectral_radius(Ts, mx) - 1.0
 
-    if not stable(low):
+    a = math.log(low)
+    if margin(a) >= 0.0:
         raise ParameterError(f"the sampled loop is unstable already at low = {low:.6g} N/m; expected a stable start")
-    grid = np.geomspace(low, high, int(math.ceil(math.log10(high / low) * 20)) + 1)
-    a = low
-    for k in grid[1:]:
-        if not stable(float(k)):
-            b = float(k)
-            break
-        a = float(k)
-    else:
-        return math.inf
-    while b - a > rtol * a:
-        c = math.sqrt(a * b)
-        if stable(c):
-            a = c
-        else:
-            b = c
-    return a
+    top = math.log(high)
+    nyquist = mx is not None and 2.0 * math.log(math.pi * (1.0 - 1e-7) / Ts) + math.log(mx) < top
+    if nyquist:  # θ = π (1 − 1e-7): inside the window below the Nyquist point (see above)
+        top = 2.0 * math.log(math.pi * (1.0 - 1e-7) / Ts) + math.log(mx)
+    while a < top:
+        b = min(a + math.log(2.0), top)
+        if margin(b) >= 0.0:
+            root = brentq(margin, a, b, xtol=tol, rtol=4.0 * np.finfo(float).eps)
+            return math.exp(root - tol if margin(root) >= 0.0 else root)
+        a = b
+    return math.exp(top) if nyquist else math.inf
 
 
 def operational_mass(robot: Any, q: Any, direction: Any) -> float:
