@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["axis_names"]
+from typing import Any
+
+__all__ = ["axis_names", "joint_columns"]
 
 
 def axis_names(m: int) -> tuple[list[str], list[str], list[str]]:
@@ -18,3 +20,16 @@ def axis_names(m: int) -> tuple[list[str], list[str], list[str]]:
         return (["x", "y", "z", "rx", "ry", "rz"], ["vx", "vy", "vz", "wx", "wy", "wz"],
                 ["fx", "fy", "fz", "mx", "my", "mz"])
     return [f"x{i}" for i in range(m)], [f"v{i}" for i in range(m)], [f"f{i}" for i in range(m)]
+
+
+def joint_columns(t: Any, q: Any, qd: Any, torque: Any, extra: Any = None, extra_name: str = "") -> dict[str, Any]:
+    """The flat columns ``t, q1 qd1 u1 [extra1] q2 ...`` of a log (``extra_name`` formats the
+    optional per-joint column, e.g. ``"uc{}"``); the task-space columns are added by the caller."""
+    cols: dict[str, Any] = {"t": t}
+    for i in range(q.shape[1]):
+        cols[f"q{i + 1}"] = q[:, i]
+        cols[f"qd{i + 1}"] = qd[:, i]
+        cols[f"u{i + 1}"] = torque[:, i]
+        if extra is not None:
+            cols[extra_name.format(i + 1)] = extra[:, i]
+    return cols

@@ -10,36 +10,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["mv", "mtv", "mv_into", "solve2", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
+__all__ = ["mv", "mv_into", "solve2", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
 
 #: a pivot smaller than this times the matrix's largest entry counts as singular.
 SINGULAR_RCOND = 1e-10
-
-
-@njit(cache=True, fastmath=False)
-def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """Return ``A @ x`` for a small dense matrix."""
-    r, c = A.shape
-    out = np.zeros(r)
-    for i in range(r):
-        s = 0.0
-        for j in range(c):
-            s += A[i, j] * x[j]
-        out[i] = s
-    return out
-
-
-@njit(cache=True, fastmath=False)
-def mtv(A: np.ndarray, x: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """Return ``A.T @ x`` for a small dense matrix."""
-    r, c = A.shape
-    out = np.zeros(c)
-    for j in range(c):
-        s = 0.0
-        for i in range(r):
-            s += A[i, j] * x[i]
-        out[j] = s
-    return out
 
 
 @njit(cache=True, fastmath=False, inline="always")
@@ -51,6 +25,14 @@ def mv_into(A: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:  # pragma: n
         for j in range(c):
             s += A[i, j] * x[j]
         out[i] = s
+
+
+@njit(cache=True, fastmath=False)
+def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """Return ``A @ x`` for a small dense matrix (a new array; see :func:`mv_into`)."""
+    out = np.zeros(A.shape[0])
+    mv_into(A, x, out)
+    return out
 
 
 @njit(cache=True, fastmath=False, inline="always")

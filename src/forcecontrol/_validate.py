@@ -74,6 +74,27 @@ def as_matrix(name: str, value: Any, shape: tuple[int, int] | None = None) -> np
     return readonly(a)
 
 
+def as_square(what: str, value: Any, size: int) -> np.ndarray:
+    """A finite (size, size) float matrix: a scalar means ``value * I``, a (size,) vector ``diag(value)``.
+
+    ``what`` starts every message (e.g. ``"stiffness must be a (2, 2) matrix"``): ParameterError for
+    values that are not numbers or not finite, DimensionError for another shape.
+    """
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{what}; got {value!r}") from exc
+    if a.ndim == 0:
+        a = float(a) * np.eye(size)
+    elif a.shape == (size,):
+        a = np.diag(a)
+    if a.shape != (size, size):
+        raise DimensionError(f"{what}; got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(f"{what}; got non-finite entries {a.tolist()}")
+    return a
+
+
 def as_gain_matrix(
     name: str,
     value: Any,
@@ -116,36 +137,31 @@ def as_gain_matrix(
     a = 0.5 * (a + a.T)
     w = np.linalg.eigvalsh(a)
     tol = 1e-12 * scale
-    if definite and w.min() <= tol:
-        raise ParameterError(
-            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(w, 9).tolist()}"
-        )
-    if not definite and w.min() < -tol:
+    if (w.min() <= tol) if definite else (w.min() < -tol):
         raise ParameterError(
             f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(w, 9).tolist()}"
         )
     return readonly(a)
 
 
-def positive_scalar(name: str, value: Any) -> float:
-    """A finite number > 0."""
-    _numbers(name, value, "a positive number")
+def _scalar(name: str, value: Any, what: str, unit: str, ok: Any) -> float:
+    """A finite float for which ``ok(v)`` holds, else ParameterError naming ``what`` (and ``unit``)."""
+    _numbers(name, value, what)
+    want = f"{what} [{unit}]" if unit else what
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a positive number; got {value!r}") from exc
-    if not math.isfinite(v) or v <= 0.0:
-        raise ParameterError(f"{name} must be a positive number; got {value!r}")
+        raise ParameterError(f"{name} must be {want}; got {value!r}") from exc
+    if not math.isfinite(v) or not ok(v):
+        raise ParameterError(f"{name} must be {want}; got {value!r}")
     return v
 
 
-def nonnegative_scalar(name: str, value: Any) -> float:
-    """A finite number >= 0."""
-    _numbers(name, value, "a non-negative number")
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be a non-negative number; got {value!r}") from exc
-    if not math.isfinite(v) or v < 0.0:
-        raise ParameterError(f"{name} must be a non-negative number; got {value!r}")
-    return v
+def positive_scalar(name: str, value: Any, unit: str = "") -> float:
+    """A finite number > 0 (``unit`` is named in the message)."""
+    return _scalar(name, value, "a positive number", unit, lambda v: v > 0.0)
+
+
+def nonnegative_scalar(name: str, value: Any, unit: str = "") -> float:
+    """A finite number >= 0 (``unit`` is named in the message)."""
+    return _scalar(name, value, "a non-negative number", unit, lambda v: v >= 0.0)

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ._axes import joint_columns
 from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from .conventions import BY_END_EFFECTOR
 from .errors import DimensionError, FrameError, MeasurementError, ParameterError
@@ -80,13 +81,7 @@ class ReplayResult:
 
     def columns(self) -> dict[str, np.ndarray]:
         """Flat named columns: ``t``, ``q1 qd1 u1 u1_recorded ...``, ``fx ...``, ``fd_x ...``, ``ef_x ...``."""
-        cols: dict[str, np.ndarray] = {"t": self.t}
-        for i in range(self.torque.shape[1]):
-            cols[f"q{i + 1}"] = self.q[:, i]
-            cols[f"qd{i + 1}"] = self.qd[:, i]
-            cols[f"u{i + 1}"] = self.torque[:, i]
-            if self.torque_recorded is not None:
-                cols[f"u{i + 1}_recorded"] = self.torque_recorded[:, i]
+        cols = joint_columns(self.t, self.q, self.qd, self.torque, self.torque_recorded, "u{}_recorded")
         for j, name in enumerate(wrench_axis_names(self.wrench.shape[1])):
             cols[name] = self.wrench[:, j]
             cols[f"{name}_reference"] = self.force_reference[:, j]

@@ -10,6 +10,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ._axes import axis_names as _axis_names
+from ._axes import joint_columns
 from .controllers.base import REFERENCE_FIELDS
 from .errors import ParameterError
 
@@ -142,13 +143,7 @@ class SimulationResult:
         (angular velocity) and ``mx my mz`` (moments). References are ``ref_<field>_<axis>``.
         """
         pose, twist, wrench = _axis_names(self.m)
-        cols: dict[str, np.ndarray] = {"t": self.t}
-        for i in range(self.q.shape[1]):
-            cols[f"q{i + 1}"] = self.q[:, i]
-            cols[f"qd{i + 1}"] = self.qd[:, i]
-            cols[f"u{i + 1}"] = self.torque[:, i]
-            if self.torque_commanded is not None:
-                cols[f"uc{i + 1}"] = self.torque_commanded[:, i]
+        cols = joint_columns(self.t, self.q, self.qd, self.torque, self.torque_commanded, "uc{}")
         for i in range(self.m):
             cols[pose[i]] = self.x[:, i]
             cols[twist[i]] = self.xd[:, i]

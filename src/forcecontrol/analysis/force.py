@@ -37,7 +37,7 @@ from typing import Any, Literal
 import numpy as np
 
 from .._lazy import lazy_import
-from .._validate import nonnegative_scalar, positive_scalar
+from .._validate import as_square, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, DriftWarning, ParameterError
 
 control = lazy_import("control")  # python-control costs 1-5 s to import: loaded on first use
@@ -431,13 +431,7 @@ def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLo
             f"ParallelForcePositionController; got {type(controller).__name__}"
         )
     m = controller.m
-    K = np.asarray(environment_stiffness, dtype=np.float64)
-    if K.ndim == 0:
-        K = float(K) * np.eye(m)
-    elif K.shape == (m,):
-        K = np.diag(K)
-    if K.shape != (m, m):
-        raise DimensionError(f"environment_stiffness must be a scalar, ({m},) or ({m}, {m}); got shape {K.shape}")
+    K = as_square(f"environment_stiffness must be a scalar, ({m},) or ({m}, {m})", environment_stiffness, m)
     R = getattr(controller, "task_frame", None)
     frame = "the base frame" if R is None else "the controller's task frame"
     R = np.eye(m) if R is None else np.asarray(R)

@@ -9,17 +9,11 @@ from __future__ import annotations
 from . import analyze, calibrate, compare, compare_trace, convert, design, replay, report, sweep, task, tune
 from .app import app, main
 
-app.command("analyze")(analyze.analyze_command)
-app.command("task")(task.task_command)
-app.command("sweep")(sweep.sweep_command)
-app.command("compare")(compare.compare_command)
-app.command("calibrate")(calibrate.calibrate_command)
-app.command("calibrate-plan")(calibrate.calibrate_plan_command)
-app.command("replay")(replay.replay_command)
-app.command("compare-trace")(compare_trace.compare_trace_command)
-app.command("convert")(convert.convert_command)
-app.command("design")(design.design_command)
-app.command("tune")(tune.tune_command)
-app.command("report")(report.report_command)
+# each module's ``*_command`` functions, in the order of ``forcecontrol --help``:
+# ``calibrate_plan_command`` is the command ``calibrate-plan``
+for _module in (analyze, task, sweep, compare, calibrate, replay, compare_trace, convert, design, tune, report):
+    for _name, _fn in vars(_module).items():
+        if _name.endswith("_command") and getattr(_fn, "__module__", None) == _module.__name__:
+            app.command(_name.removesuffix("_command").replace("_", "-"))(_fn)
 
 __all__ = ["app", "main"]

@@ -6,14 +6,13 @@ the work is done by :func:`forcecontrol.analysis.report.analyze_scenario`.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice
+from .app import JsonOut, _fail, compile_notice, print_json
 
 __all__ = ["analyze_command"]
 
@@ -57,8 +56,7 @@ def analyze_command(
     except ForceControlError as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
     else:
         console = Console(width=None if sys.stdout.isatty() else 132)
         console.print(f"[bold]{report['title'] or report['scenario']}[/]")

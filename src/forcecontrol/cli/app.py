@@ -111,6 +111,13 @@ def prepare_output(out: Path, name: str, force: bool) -> Path:
     return folder
 
 
+def print_json(obj: Any) -> None:
+    """Print one JSON object (NaN and infinity as null, NumPy values as numbers) for ``--json``."""
+    from .._json import json_safe
+
+    sys.stdout.write(json.dumps(json_safe(obj), indent=2, allow_nan=False) + "\n")
+
+
 def _fail(exc: Exception) -> NoReturn:
     """Print ``error: <message>`` on stderr (the message verbatim: ``[controller]`` is text, not markup); exit 2."""
     err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
@@ -243,8 +250,7 @@ def run_command(
             run.files[f"data:{c.label}"] = str(d)
             run.files[f"metadata:{c.label}"] = str(m)
     if json_out:
-        from .._json import json_safe
-        sys.stdout.write(json.dumps(json_safe(run.to_json()), indent=2, allow_nan=False) + "\n")
+        print_json(run.to_json())
     else:
         _print_summary(run)
     if check and not run.all_checks_pass:

@@ -11,7 +11,6 @@ configurations that make a well-conditioned calibration for a robot
 
 from __future__ import annotations
 
-import json
 import sys
 from enum import Enum
 from pathlib import Path
@@ -19,7 +18,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail
+from .app import _fail, print_json
 
 __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
@@ -61,9 +60,7 @@ def calibrate_command(
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     console = Console(width=None if sys.stdout.isatty() else 132)
     kind = "planar" if report["dim"] == 2 else "3-D"
@@ -138,9 +135,7 @@ def calibrate_plan_command(
 
             _fail(OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}"))
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     console = Console(width=None if sys.stdout.isatty() else 132)
     nq = len(report["joint_positions"][0])

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from typing import Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice
+from .app import JsonOut, _fail, compile_notice, print_json
 
 __all__ = ["compare_command", "compare_scenario"]
 
@@ -46,8 +44,7 @@ def compare_command(
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     console = Console()
     t = Table(title=f"{report['scenario']}: contact force, built-in simulator vs MuJoCo", title_justify="left")

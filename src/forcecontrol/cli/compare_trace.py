@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output
-from .replay import JointTopic, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
+from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output, print_json
+from .replay import CaseLabel, JointTopic, RecordedLog, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
 
 __all__ = ["compare_trace_command"]
 
@@ -36,11 +34,11 @@ def _simulated(source: str, case: str | None, fmt: RecordFormat, args: tuple[str
 
 def compare_trace_command(
     simulated: Annotated[str, typer.Argument(help="a scenario (simulated now) or a data file of a simulated trace")],
-    recorded: Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet, a ROS 2 bag folder or an .mcap file")],
+    recorded: RecordedLog,
     format: Annotated[RecordFormat, typer.Option("--format", help="format of RECORDED (default: from the path)")] = (
         RecordFormat.auto
     ),
-    case: Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")] = None,
+    case: CaseLabel = None,
     max_shift: Annotated[float, typer.Option(help="largest time shift searched to align the traces [s]")] = 0.1,
     out: Annotated[Path, typer.Option(help="folder for the figure")] = Path("forcecontrol-out"),
     joint_topic: JointTopic = "/joint_states",
@@ -69,9 +67,7 @@ def compare_trace_command(
     report = {"simulated": name, "recorded": str(recorded), "samples": int(cmp.t.size), "metrics": cmp.metrics,
               "files": {"figure": str(figure)}}
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     t = Table(title=f"{name} against {recorded}", title_justify="left")
     t.add_column("metric")

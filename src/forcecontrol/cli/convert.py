@@ -13,16 +13,14 @@ base frame, ROS order x, y, z, w).
 
 from __future__ import annotations
 
-import json
-import sys
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, console
-from .replay import RecordFormat
+from .app import _fail, console, print_json
+from .replay import RecordedLog, RecordFormat
 
 __all__ = ["convert_command", "convert_report", "RobotName"]
 
@@ -186,7 +184,7 @@ def convert_report(
 
 
 def convert_command(
-    data: Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet, a ROS 2 bag folder or an .mcap file")],
+    data: RecordedLog,
     source: Annotated[str, typer.Option("--from", help="the file's wrench convention (see --help text)")],
     target: Annotated[str, typer.Option("--to", help="the convention to write")],
     out: Annotated[Path | None, typer.Option(help="output .csv or .parquet (default: DATA's name + '-TO.csv' here)")] = None,
@@ -218,9 +216,7 @@ def convert_command(
     except (ForceControlError, ImportError, OSError) as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     t = Table(title=f"{data}: wrench {report['from']['name']} → {report['to']['name']}", title_justify="left")
     t.add_column("")

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from .app import _fail
+from .app import _fail, print_json
 
 __all__ = ["design_command"]
 
@@ -62,9 +61,7 @@ def design_command(
     except ForceControlError as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe({**d.as_dict(), "scenario": written}), indent=2, allow_nan=False) + "\n")
+        print_json({**d.as_dict(), "scenario": written})
         return
     from rich.console import Console
     from rich.table import Table

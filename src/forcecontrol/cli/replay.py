@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output
+from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output, print_json
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 
@@ -18,6 +16,8 @@ __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 JointTopic = Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")]
 WrenchTopic = Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")]
 WrenchSense = Annotated[str, typer.Option(help="what the log's wrench is: by-end-effector (h_e) or on-end-effector")]
+RecordedLog = Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet, a ROS 2 bag folder or an .mcap file")]
+CaseLabel = Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")]
 
 
 class RecordFormat(str, Enum):
@@ -58,9 +58,9 @@ def read_log(path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_top
 
 def replay_command(
     scenario: Annotated[str, typer.Argument(help="built-in name or .toml file: its controller, robot and reference")],
-    data: Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet, a ROS 2 bag folder or an .mcap file")],
+    data: RecordedLog,
     format: Annotated[RecordFormat, typer.Option("--format", help="format of DATA (default: from the path)")] = RecordFormat.auto,
-    case: Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")] = None,
+    case: CaseLabel = None,
     out: Annotated[Path, typer.Option(help="folder for the replay table (CSV) and figure")] = Path("forcecontrol-out"),
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
@@ -94,9 +94,7 @@ def replay_command(
               "period": result.metadata["period"], "metrics": result.metrics(),
               "files": {"table": str(table), "figure": str(figure)}}
     if json_out:
-        from .._json import json_safe
-
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     t = Table(title=f"{scn.name} ({spec.label}) replayed over {data}", title_justify="left")
     t.add_column("quantity")

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from enum import Enum
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from .app import JsonOut
+from .app import JsonOut, print_json
 
 __all__ = ["sweep_command"]
 
@@ -131,8 +129,7 @@ def sweep_command(
         "files": files,
     }
     if json_out:
-        from .._json import json_safe
-        sys.stdout.write(json.dumps(json_safe(summary), indent=2, allow_nan=False) + "\n")
+        print_json(summary)
         return
     from rich.markup import escape
     from rich.table import Table

@@ -7,14 +7,13 @@ end-effector frame.
 
 from __future__ import annotations
 
-import json
 import sys
 from enum import Enum
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail
+from .app import JsonOut, _fail, print_json
 
 if TYPE_CHECKING:
     import numpy as np
@@ -107,8 +106,7 @@ def task_command(
     except ForceControlError as exc:
         _fail(exc)
     if json_out:
-        from .._json import json_safe
-        sys.stdout.write(json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n")
+        print_json(report)
         return
     console.print(f"[bold]{report['task']}[/]: {report['description']}")
     table = Table(title=f"Natural and artificial constraints (m = {report['m']})", title_justify="left")

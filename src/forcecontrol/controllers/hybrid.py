@@ -146,6 +146,16 @@ class HybridCompliantController(Controller):
 ForceLaw = Literal["feedforward", "proportional", "integral"]
 
 
+def _motion_gain(motion: str, name: str, value: Any, what: str, other: str, other_value: Any, size: int) -> np.ndarray:
+    """The gain the motion law ``motion`` needs (``name``, required), refusing the other law's (``other``)."""
+    if value is None:
+        raise ParameterError(f"{name} must be given for motion={motion!r} ({what}); got None")
+    if other_value is not None:
+        law = "position" if motion == "velocity" else "velocity"
+        raise ParameterError(f"{other} applies to motion={law!r} only; got a value with motion={motion!r}")
+    return as_gain_matrix(name, value, size)
+
+
 class HybridRigidController(Controller):
     """Hybrid force/velocity (or force/position) control on a rigid environment, (9.91)–(9.95).
 
@@ -222,21 +232,11 @@ class HybridRigidController(Controller):
         self.force_law = force_law
         self.velocity_gain = as_gain_matrix("velocity_gain", velocity_gain, l)
         if motion == "velocity":
-            if velocity_integral_gain is None:
-                raise ParameterError("velocity_integral_gain must be given for motion='velocity' (K_Iν of (9.80)); got None")
-            if position_gain is not None:
-                raise ParameterError(
-                    "position_gain applies to motion='position' only (K_Pr of (9.95)); got a value with motion='velocity'"
-                )
-            self.second_gain = as_gain_matrix("velocity_integral_gain", velocity_integral_gain, l)
+            self.second_gain = _motion_gain(motion, "velocity_integral_gain", velocity_integral_gain, "K_Iν of (9.80)",
+                                            "position_gain", position_gain, l)
         else:
-            if position_gain is None:
-                raise ParameterError("position_gain must be given for motion='position' (K_Pr of (9.95)); got None")
-            if velocity_integral_gain is not None:
-                raise ParameterError(
-                    "velocity_integral_gain applies to motion='velocity' only; got a value with motion='position'"
-                )
-            self.second_gain = as_gain_matrix("position_gain", position_gain, l)
+            self.second_gain = _motion_gain(motion, "position_gain", position_gain, "K_Pr of (9.95)",
+                                            "velocity_integral_gain", velocity_integral_gain, l)
         zero = np.zeros((k, k))
         self.force_gain = zero
         self.force_integral_gain = zero

@@ -33,7 +33,7 @@ import numpy as np
 from .._validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
-from ..laws.spatial import spatial_impedance_torque
+from ..laws.spatial import desired_frame_terms, spatial_impedance_torque
 from ..robots.base import RobotModel
 from ..spatial import Wrench, euler_xyz_T, euler_xyz_T_dot, euler_xyz_T_inv, rotvec_T
 from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz, rotation_vector  # per sample
@@ -46,7 +46,6 @@ __all__ = [
     "SpatialHybridController",
     "DesiredFrameError",
     "desired_frame_error",
-    "error_acceleration_bias",
     "spatial_impedance_acceleration",
 ]
 
@@ -128,37 +127,10 @@ def desired_frame_error(
     w_rel = v[3:] - w_d
     R_de = RdT @ R_e
     phi, T, Tinv = _orientation_terms(R_de, orientation, t)
-    w_rel_d = RdT @ w_rel
-    phid = Tinv @ w_rel_d
-    x = np.empty(6)
-    x[:3] = -(RdT @ e)
-    x[3:] = -phi
-    xd = np.empty(6)
-    xd[:3] = RdT @ (_cross(w_d, e) - e_dot)
-    xd[3:] = -phid
-    JAd = np.empty_like(J)
-    JAd[:3] = RdT @ J[:3]
-    JAd[3:] = Tinv @ (RdT @ J[3:])
-    c = error_acceleration_bias(RdT, Tinv, _T_dot(orientation, phi, phid), phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, Jdq)
+    phid = Tinv @ (RdT @ w_rel)
+    x, xd, JAd, c = desired_frame_terms(np.ascontiguousarray(RdT), Tinv, _T_dot(orientation, phi, phid), phi, phid,
+                                        e, e_dot, w_d, wd_dot, od_ddot, w_rel, J, Jdq)
     return DesiredFrameError(x, xd, JAd, c, R_d)
-
-
-def error_acceleration_bias(RdT, Tinv, Tdot, phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, Jdq) -> np.ndarray:
-    """``c = −J̇_Ad q̇ + ḃ``: the part of x̃̈ (9.34) independent of q̈, (6,).
-
-    Position (differentiate ``x̃_P = −R_dᵀ e``, e = o_e − o_d, twice with ``Ṙ_d = S(ω_d) R_d``)::
-
-        c_P = −R_dᵀ [ (S(ω_d)² − S(ω̇_d)) e − 2 S(ω_d) ė + J̇_P q̇ − ö_d ]
-
-    Orientation (``x̃_O = −φ``, ``φ̇ = T⁻¹ R_dᵀ (ω_e − ω_d)``)::
-
-        c_O = −T⁻¹ ( −Ṫ φ̇ + R_dᵀ [ −S(ω_d)(ω_e − ω_d) + J̇_O q̇ − ω̇_d ] )
-    """
-    c = np.empty(6)
-    wxe = _cross(w_d, e)
-    c[:3] = -(RdT @ (_cross(w_d, wxe) - _cross(wd_dot, e) - 2.0 * _cross(w_d, e_dot) + Jdq[:3] - od_ddot))
-    c[3:] = -(Tinv @ (RdT @ (Jdq[3:] - _cross(w_d, w_rel) - wd_dot) - Tdot @ phid))
-    return c
 
 
 def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md_inv, K_D, K_P) -> np.ndarray:

@@ -21,6 +21,9 @@ class Environment(ABC):
     kind: ClassVar[int] = 0
     #: operational-space dimension the environment works in.
     dim: int
+    #: ``describe()["type"]`` (None: the class name) and the attributes it lists.
+    describe_type: ClassVar[str | None] = None
+    described: ClassVar[tuple[str, ...]] = ()
 
     @abstractmethod
     def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
@@ -62,5 +65,10 @@ class Environment(ABC):
         return self.wrench(T.x, T.xd)
 
     def describe(self) -> dict[str, Any]:
-        """Parameters as plain values (for metadata)."""
-        return {"type": type(self).__name__}
+        """Parameters as plain values (for metadata): ``type`` (:attr:`describe_type`, the class name
+        by default) and the attributes named in :attr:`described`, arrays as nested lists."""
+        out: dict[str, Any] = {"type": self.describe_type or type(self).__name__}
+        for name in self.described:
+            value = getattr(self, name)
+            out[name] = value.tolist() if isinstance(value, np.ndarray) else value
+        return out

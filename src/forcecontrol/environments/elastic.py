@@ -73,6 +73,8 @@ class ElasticPlane(Environment):
     """
 
     kind: ClassVar[int] = 1
+    describe_type: ClassVar[str | None] = "elastic-plane"
+    described: ClassVar[tuple[str, ...]] = ("point", "normal", "stiffness", "damping")
 
     def __init__(self, point: Any, normal: Any, stiffness: float, damping: float = 0.0) -> None:
         self.point = as_vector("point", point)
@@ -122,15 +124,6 @@ class ElasticPlane(Environment):
         """``[ν (m), p_r (m), k, c]``."""
         return np.concatenate([self.normal, self.point, [self.stiffness, self.damping]])
 
-    def describe(self) -> dict[str, Any]:
-        return {
-            "type": "elastic-plane",
-            "point": self.point.tolist(),
-            "normal": self.normal.tolist(),
-            "stiffness": self.stiffness,
-            "damping": self.damping,
-        }
-
 
 class LinearSpring(Environment):
     """A bilateral linear spring ``h_e = K (x_e − x_r) + D ẋ_e`` (9.38) with K symmetric PSD.
@@ -142,6 +135,8 @@ class LinearSpring(Environment):
     """
 
     kind: ClassVar[int] = 2
+    describe_type: ClassVar[str | None] = "linear-spring"
+    described: ClassVar[tuple[str, ...]] = ("stiffness", "rest_position", "damping")
 
     def __init__(self, stiffness: Any, rest_position: Any, damping: Any = 0.0) -> None:
         self.rest_position = as_vector("rest_position", rest_position)
@@ -162,11 +157,3 @@ class LinearSpring(Environment):
     def packed(self) -> np.ndarray:
         """``[K (m²), D (m²), x_r (m)]``."""
         return np.concatenate([self.stiffness.ravel(), self.damping.ravel(), self.rest_position])
-
-    def describe(self) -> dict[str, Any]:
-        return {
-            "type": "linear-spring",
-            "stiffness": self.stiffness.tolist(),
-            "rest_position": self.rest_position.tolist(),
-            "damping": self.damping.tolist(),
-        }

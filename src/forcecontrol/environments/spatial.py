@@ -43,6 +43,8 @@ class SpatialSpring(Environment):
         damping: D, symmetric positive semi-definite (6, 6) (default 0).
     """
 
+    described: ClassVar[tuple[str, ...]] = ("stiffness", "damping", "rest_position", "rest_rotation")
+
     def __init__(self, stiffness: Any, rest_position: Any, rest_rotation: Any = None, damping: Any = 0.0) -> None:
         self.dim = 6
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6, definite=False)
@@ -68,15 +70,6 @@ class SpatialSpring(Environment):
         """K in the base frame, (6, 6) (sets the simulator's integration step)."""
         return np.array(self._K0)
 
-    def describe(self) -> dict[str, Any]:
-        return {
-            "type": "SpatialSpring",
-            "stiffness": self.stiffness.tolist(),
-            "damping": self.damping.tolist(),
-            "rest_position": self.rest_position.tolist(),
-            "rest_rotation": self.rest_rotation.tolist(),
-        }
-
 
 class Table(Environment):
     """A horizontal-or-not elastic table: one-sided, frictionless point contact at the end-effector origin.
@@ -88,6 +81,8 @@ class Table(Environment):
         point: a point of the undeformed surface [m], (3,); normal: outward normal (3,).
         stiffness: k [N/m] > 0; damping: c [N s/m] >= 0.
     """
+
+    described: ClassVar[tuple[str, ...]] = ("point", "normal", "stiffness", "damping")
 
     def __init__(self, point: Any, normal: Any = (0.0, 0.0, 1.0), stiffness: float = 1e4, damping: float = 0.0) -> None:
         self.dim = 6
@@ -118,15 +113,6 @@ class Table(Environment):
         K = np.zeros((6, 6))
         K[:3, :3] = self.stiffness * np.outer(self.normal, self.normal)
         return K
-
-    def describe(self) -> dict[str, Any]:
-        return {
-            "type": "Table",
-            "point": self.point.tolist(),
-            "normal": self.normal.tolist(),
-            "stiffness": self.stiffness,
-            "damping": self.damping,
-        }
 
 
 class ConstantWrench(Environment):

@@ -40,9 +40,10 @@ def _blocks9(p, o, s0, s1, s2, s3, s4, s5, s6, s7, s8):  # pragma: no cover - co
 
 
 @njit(cache=True, inline="always")
-def _velocity_servo(S_v_pinv, K, xd, ref, d, ws):  # pragma: no cover - compiled
+def _velocity_servo(S_v_pinv, K, xd, ref, d, k, ws):  # pragma: no cover - compiled
     """(9.80)/(9.95), the part both hybrid laws share: ``ν = S_v† ẋ_e``, ``ν_d = S_v† ẋ_d``,
-    ``α_ν = ν̇_d + K (ν_d − ν)``; returns views (ν, ν_d, α_ν, scratch) of ``ws``."""
+    ``α_ν = ν̇_d + K (ν_d − ν)``; returns views (ν, ν_d, α_ν, scratch) of ``ws`` and the force
+    loop's three k-vectors (f_λ and two scratch vectors for λ's)."""
     l = S_v_pinv.shape[0]
     nu = ws[0:l]
     nu_d = ws[d : d + l]
@@ -52,7 +53,7 @@ def _velocity_servo(S_v_pinv, K, xd, ref, d, ws):  # pragma: no cover - compiled
     mv_into(S_v_pinv, ref[d : 2 * d], nu_d)
     mv_into(S_v_pinv, ref[2 * d : 3 * d], alpha)  # ν̇_d (r̈_d)
     _mv_diff_add(K, nu_d, nu, alpha, tmp)
-    return nu, nu_d, alpha, tmp
+    return nu, nu_d, alpha, tmp, ws[4 * d : 4 * d + k], ws[5 * d : 5 * d + k], ws[6 * d : 6 * d + k]
 
 
 @njit(cache=True, inline="always")
@@ -89,10 +90,7 @@ def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pra
     S_v, S_v_pinv, S_f_pinv, CpS_f, L_hat, K_Pnu, K_Inu, K_Dlam, K_Plam = _blocks9(
         p, 2, (d, l), (l, d), (k, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k)
     )
-    nu, nu_d, alpha, tmp = _velocity_servo(S_v_pinv, K_Pnu, xd, ref, d, ws)
-    f_lam = ws[4 * d : 4 * d + k]
-    lam_a = ws[5 * d : 5 * d + k]
-    lam_b = ws[6 * d : 6 * d + k]
+    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _velocity_servo(S_v_pinv, K_Pnu, xd, ref, d, k, ws)
     _mv_add(K_Inu, s[0:l], alpha)
     mv_into(S_f_pinv, ref[5 * d : 6 * d], f_lam)  # λ̈_d
     mv_into(S_f_pinv, ref[4 * d : 5 * d], lam_a)  # λ̇_d
@@ -127,10 +125,7 @@ def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma:
     S_v, S_v_pinv, S_f, S_f_pinv, K_1, K_2, K_Plam, K_Ilam, S_v_dot = _blocks9(
         p, 3, (d, l), (l, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k), (d, l)
     )
-    nu, nu_d, alpha, tmp = _velocity_servo(S_v_pinv, K_1, xd, ref, d, ws)
-    f_lam = ws[4 * d : 4 * d + k]
-    lam_d = ws[5 * d : 5 * d + k]
-    lam = ws[6 * d : 6 * d + k]
+    nu, nu_d, alpha, tmp, f_lam, lam_d, lam = _velocity_servo(S_v_pinv, K_1, xd, ref, d, k, ws)
     r_d = ws[7 * d : 7 * d + l]
     r = ws[8 * d : 8 * d + l]
     if position_mode:

@@ -15,7 +15,7 @@ from numba import njit
 
 from .impedance import impedance_core
 
-__all__ = ["spatial_impedance_torque"]
+__all__ = ["desired_frame_terms", "spatial_impedance_torque"]
 
 
 @njit(cache=True)
@@ -40,14 +40,44 @@ def _R_xyz(phi):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def desired_frame_terms(RdT, Tinv, Tdot, phi, phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, J, Jdq):  # pragma: no cover - compiled
+    """x̃ (9.9), x̃̇ (9.33), J_Ad (9.14) and ``c = −J̇_Ad q̇ + ḃ`` on the desired frame, (6,), (6,), (6, n), (6,).
+
+    From the representation's φ, T⁻¹(φ), Ṫ and φ̇ = T⁻¹ R_dᵀ (ω_e − ω_d), the position error
+    ``e = o_e − o_d`` and its rate, ω_d, ω̇_d, ö_d, ``ω_e − ω_d``, J and J̇q̇. c is the part of
+    x̃̈ (9.34) independent of q̈:
+
+    * position (``x̃_P = −R_dᵀ e`` differentiated twice with ``Ṙ_d = S(ω_d) R_d``):
+      ``c_P = −R_dᵀ [ (S(ω_d)² − S(ω̇_d)) e − 2 S(ω_d) ė + J̇_P q̇ − ö_d ]``;
+    * orientation (``x̃_O = −φ``):
+      ``c_O = −T⁻¹ ( −Ṫ φ̇ + R_dᵀ [ −S(ω_d)(ω_e − ω_d) + J̇_O q̇ − ω̇_d ] )``.
+
+    Used by the compiled law below and, for every orientation representation, by
+    :func:`forcecontrol.controllers.spatial.desired_frame_error`.
+    """
+    x = np.empty(6)
+    x[:3] = -(RdT @ e)
+    x[3:] = -phi
+    xd = np.empty(6)
+    wxe = _c3(w_d, e)
+    xd[:3] = RdT @ (wxe - e_dot)
+    xd[3:] = -phid
+    JAd = np.empty((6, J.shape[1]))
+    JAd[:3] = RdT @ J[:3]
+    JAd[3:] = Tinv @ (RdT @ J[3:])
+    c = np.empty(6)
+    c[:3] = -(RdT @ (_c3(w_d, wxe) - _c3(wd_dot, e) - 2.0 * _c3(w_d, e_dot) + Jdq[:3] - od_ddot))
+    c[3:] = -(Tinv @ (RdT @ (Jdq[3:] - _c3(w_d, w_rel) - wd_dot) - Tdot @ phid))
+    return x, xd, JAd, c
+
+
+@njit(cache=True)
 def spatial_impedance_torque(
     R_e, o_e, J, Jdq, B, nv, q, qd, h, pos, vel, acc, Md_inv, K_D, K_P, use_force, posture, k_n, d_n, has_posture, thr, lmax
 ):  # pragma: no cover - compiled
     """(9.30) with (9.35): 6-D impedance on the desired frame, XYZ Euler error, in one compiled call.
 
-    The error (9.9) on the desired frame and its rates (9.33)–(9.34) (the formulas of
-    :func:`forcecontrol.controllers.spatial.desired_frame_error` and
-    :func:`~forcecontrol.controllers.spatial.error_acceleration_bias`, tested equal), the
+    The error (9.9) on the desired frame and its rates (9.33)–(9.34) (:func:`desired_frame_terms`), the
     impedance equation :func:`forcecontrol.laws.impedance_core` (the planar law's), the redundant
     or damped solve of :func:`~forcecontrol.controllers.redundant.redundant_acceleration`, then
     ``u = B y + n + Jᵀ h``. With ``use_force`` false the h_e^d term is left out of the requested
@@ -91,19 +121,7 @@ def spatial_impedance_torque(
             [0.0, cc1 * d1, -ss1 * cc2 * d1 - cc1 * ss2 * d2],
         ]
     )
-    x = np.empty(6)
-    x[:3] = -(RdT @ e)
-    x[3:] = -phi
-    xd = np.empty(6)
-    xd[:3] = RdT @ (_c3(w_d, e) - e_dot)
-    xd[3:] = -phid
-    JAd = np.empty((6, n))
-    JAd[:3] = RdT @ J[:3]
-    JAd[3:] = Tinv @ (RdT @ J[3:])
-    c = np.empty(6)
-    wxe = _c3(w_d, e)
-    c[:3] = -(RdT @ (_c3(w_d, wxe) - _c3(wd_dot, e) - 2.0 * _c3(w_d, e_dot) + Jdq[:3] - od_ddot))
-    c[3:] = -(Tinv @ (RdT @ (Jdq[3:] - _c3(w_d, w_rel) - wd_dot) - Tdot @ phid))
+    x, xd, JAd, c = desired_frame_terms(RdT, Tinv, Tdot, phi, phid, e, e_dot, w_d, wd_dot, od_ddot, w_rel, J, Jdq)
     h_d = np.empty(6)
     h_d[:3] = RdT @ h[:3]
     h_d[3:] = RdT @ h[3:]

@@ -8,7 +8,7 @@ from typing import Any
 from ..controllers import ImpedanceController, JointSpacePD, OperationalSpacePD
 from ..environments import ElasticPlane, LinearSpring
 from ..trajectories import LinearPath, SampledReference, Setpoint
-from .schema import Field, register_controller, register_environment, register_reference
+from .schema import TRAPEZOID_FIELDS, Field, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- environments
 
@@ -123,11 +123,7 @@ register_reference(
 register_reference(
     "linear-path",
     {
-        "start": Field("vector", True, doc="p_i [m]"),
-        "end": Field("vector", True, doc="p_f [m]"),
-        "duration": Field("number", True, doc="t_f [s]"),
-        "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
-        "start_time": Field("number", default=0.0, doc="[s]"),
+        **TRAPEZOID_FIELDS,
         "force": Field("vector", doc="constant f_d [N]"),
     },
     lambda p, ctx: LinearPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"], p["force"]),

@@ -26,7 +26,7 @@ from ..environments.rigid import PlaneConstraint, RigidEnvironment
 from ..errors import ParameterError, ScenarioError
 from ..task import SelectionMatrices, inclined_plane
 from ..trajectories import LinearPath
-from .schema import Field, register_controller, register_environment, register_reference
+from .schema import TRAPEZOID_FIELDS, Field, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -186,11 +186,7 @@ register_controller(
 register_reference(
     "path-on-plane",
     {
-        "start": Field("vector", True, doc="p_i [m]"),
-        "end": Field("vector", True, doc="p_f [m]"),
-        "duration": Field("number", True, doc="t_f [s]"),
-        "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
-        "start_time": Field("number", default=0.0, doc="[s]"),
+        **TRAPEZOID_FIELDS,
         "angle": Field("number", default=45.0, doc="the plane's angle to x0 [deg]: y_c = [−sin a, cos a]"),
         "normal_force": Field("number", default=0.0, doc="λ_d along y_c [N] (negative: into the plane)"),
     },

@@ -17,7 +17,7 @@ import numpy as np
 from .._validate import as_matrix, as_vector
 from ..errors import DimensionError, ScenarioError
 from ..spatial import euler_xyz_to_rotation, rotation_to_euler_xyz
-from .schema import Field, register_controller, register_environment, register_reference
+from .schema import TIMING_FIELDS, Field, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- robots
 
@@ -113,9 +113,7 @@ register_reference(
         "start_offset": Field("vector", doc="start of the line − o_e(q0), base frame [m]"),
         "end_offset": Field("vector", True, doc="end of the line − o_e(q0), base frame [m]"),
         "rotation": Field("vector", doc="constant orientation: XYZ Euler angles of R_0ᵀ R_d [deg]"),
-        "duration": Field("number", True, doc="t_f [s]"),
-        "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
-        "start_time": Field("number", default=0.0, doc="when the motion starts [s]"),
+        **TIMING_FIELDS,
         "force": Field("vector", doc="h_d = [f; μ] on the environment, base frame [N, N m]"),
     },
     _pose_line,

@@ -251,3 +251,17 @@ def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tupl
         if key in table:
             out[key] = table[key]
     return out
+
+
+#: The keys of a straight segment with a trapezoidal speed profile (the paths of
+#: :mod:`.parts`, :mod:`.parts_hybrid` and :mod:`.parts_spatial`).
+TIMING_FIELDS = {
+    "duration": Field("number", True, doc="t_f [s]"),
+    "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
+    "start_time": Field("number", default=0.0, doc="when the motion starts [s]"),
+}
+TRAPEZOID_FIELDS = {
+    "start": Field("vector", True, doc="p_i [m]"),
+    "end": Field("vector", True, doc="p_f [m]"),
+    **TIMING_FIELDS,
+}

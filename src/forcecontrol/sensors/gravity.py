@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import positive_scalar
+from .._validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["planar_sensor_rotation", "ToolGravity", "identify_tool_gravity"]
@@ -87,13 +87,7 @@ class ToolGravity:
                  *, dim: int = 2, gravity: float = 9.81) -> None:
         if dim not in (2, 3):
             raise ParameterError(f"dim must be 2 (planar) or 3; got {dim!r}")
-        try:
-            m = float(mass)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"tool mass must be a non-negative number [kg]; got {mass!r}") from exc
-        if not math.isfinite(m) or m < 0.0:
-            raise ParameterError(f"tool mass must be a non-negative number [kg]; got {mass!r}")
-        self.mass = m
+        self.mass = nonnegative_scalar("tool mass", mass, "kg")
         self.dim = dim
         self.gravity = positive_scalar("gravity", gravity)
         self.com = self._vec("com", com, dim)

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import nonnegative_scalar
 from ..errors import DimensionError, ParameterError
 from .core import _FILTERS, ForceSensor
 from .gravity import ToolGravity, _gravity_vector, planar_sensor_rotation
@@ -83,13 +84,7 @@ class RealisticForceSensor(ForceSensor):
             raise DimensionError(f"drift must be a scalar or a vector; got shape {self.drift.shape}")
         if not np.all(np.isfinite(self.drift)):
             raise ParameterError(f"drift must be finite [N/s]; got {self.drift.tolist()}")
-        try:
-            res = float(resolution)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"resolution must be a non-negative number [N]; got {resolution!r}") from exc
-        if not math.isfinite(res) or res < 0.0:
-            raise ParameterError(f"resolution must be a non-negative number [N]; got {resolution!r}")
-        self.resolution = res
+        self.resolution = nonnegative_scalar("resolution", resolution, "N")
         for name, v in (("delay_samples", delay_samples), ("zeroing_samples", zeroing_samples)):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
                 raise ParameterError(f"{name} must be a non-negative integer; got {v!r}")

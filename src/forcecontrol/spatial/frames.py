@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -54,8 +54,20 @@ class Transform:
         )
 
 
+class _FrameTagged:
+    """Checks shared by :class:`Wrench` and :class:`Twist`: two 3-vectors and two frame names."""
+
+    _parts: ClassVar[tuple[str, str]]
+
+    def __post_init__(self) -> None:
+        for part in self._parts:
+            object.__setattr__(self, part, as_vector(part, getattr(self, part), 3))
+        _name("frame", self.frame)  # type: ignore[attr-defined]
+        _name("point", self.point)  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True)
-class Wrench:
+class Wrench(_FrameTagged):
     """A force and a moment, expressed in frame ``frame``, the moment taken about ``point``'s origin.
 
     Attributes:
@@ -64,16 +76,12 @@ class Wrench:
         point: the frame whose origin the moment is taken about.
     """
 
+    _parts: ClassVar[tuple[str, str]] = ("force", "moment")
     force: np.ndarray
     moment: np.ndarray
     frame: str = "world"
     point: str = "world"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "force", as_vector("force", self.force, 3))
-        object.__setattr__(self, "moment", as_vector("moment", self.moment, 3))
-        _name("frame", self.frame)
-        _name("point", self.point)
 
     @classmethod
     def from_vector(cls, h: Any, frame: str = "world", point: str = "world") -> Wrench:
@@ -138,23 +146,19 @@ class Wrench:
 
 
 @dataclass(frozen=True)
-class Twist:
+class Twist(_FrameTagged):
     """A linear and an angular velocity in frame ``frame``, the linear one of ``point``'s origin.
 
     Attributes:
         linear: v [m/s], (3,); angular: ω [rad/s], (3,).
     """
 
+    _parts: ClassVar[tuple[str, str]] = ("linear", "angular")
     linear: np.ndarray
     angular: np.ndarray
     frame: str = "world"
     point: str = "world"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "linear", as_vector("linear", self.linear, 3))
-        object.__setattr__(self, "angular", as_vector("angular", self.angular, 3))
-        _name("frame", self.frame)
-        _name("point", self.point)
 
     @property
     def vector(self) -> np.ndarray:

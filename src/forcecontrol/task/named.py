@@ -18,24 +18,23 @@ from .frame import ConstraintFrame, _rot_z, planar_rotation
 from .spec import Task
 
 
+def _fixed_frame_task(name: str, directions: tuple[str, ...], rotation: Any, origin: Any,
+                      references: Mapping[str, float] | None, description: str) -> Task:
+    """A task of the chapter in a constraint frame fixed in the base (identity rotation by default)."""
+    frame = ConstraintFrame(np.eye(3) if rotation is None else rotation, origin)
+    return Task(name, directions, frame=frame, references=references, description=description)
+
+
 def sliding_on_plane(rotation: Any = None, origin: Any = None, references: Mapping[str, float] | None = None) -> Task:
     """Sliding a prismatic object on a planar surface, Table 9.1 (z_c normal to the plane)."""
-    return Task(
-        "sliding-on-plane", ("vz", "wx", "wy", "fx", "fy", "mz"),
-        frame=ConstraintFrame(np.eye(3) if rotation is None else rotation, origin),
-        references=references,
-        description="sliding a prismatic object on a planar surface (Table 9.1, Fig. 9.12)",
-    )
+    return _fixed_frame_task("sliding-on-plane", ("vz", "wx", "wy", "fx", "fy", "mz"), rotation, origin, references,
+                             "sliding a prismatic object on a planar surface (Table 9.1, Fig. 9.12)")
 
 
 def peg_in_hole(rotation: Any = None, origin: Any = None, references: Mapping[str, float] | None = None) -> Task:
     """Inserting a cylindrical peg in a hole, Table 9.2 (z_c along the hole's axis)."""
-    return Task(
-        "peg-in-hole", ("vx", "vy", "wx", "wy", "fz", "mz"),
-        frame=ConstraintFrame(np.eye(3) if rotation is None else rotation, origin),
-        references=references,
-        description="insertion of a cylindrical peg in a hole (Table 9.2, Fig. 9.13)",
-    )
+    return _fixed_frame_task("peg-in-hole", ("vx", "vy", "wx", "wy", "fz", "mz"), rotation, origin, references,
+                             "insertion of a cylindrical peg in a hole (Table 9.2, Fig. 9.13)")
 
 
 def turning_crank(

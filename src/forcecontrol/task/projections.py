@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_matrix
+from .._validate import as_matrix, as_square
 from ..errors import DimensionError, ParameterError
 
 #: the degrees of freedom of each space, in vector order.
@@ -41,18 +41,7 @@ def _weight(name: str, value: Any, d: int) -> np.ndarray:
     weights transformed by a change of units (entries spanning many decades) are accepted.
     """
     what = f"{name} must be a symmetric positive definite ({d}, {d}) matrix"
-    try:
-        a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{what}; got {value!r}") from exc
-    if a.ndim == 0:
-        a = float(a) * np.eye(d)
-    elif a.shape == (d,):
-        a = np.diag(a)
-    if a.shape != (d, d):
-        raise DimensionError(f"{what}; got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ParameterError(f"{what}; got non-finite entries {a.tolist()}")
+    a = as_square(what, value, d)
     scale = float(np.abs(a).max()) if a.size else 1.0
     if not np.allclose(a, a.T, rtol=1e-12, atol=1e-14 * scale):
         raise ParameterError(f"{what}; got a non-symmetric matrix")
