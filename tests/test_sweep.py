@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 import forcecontrol as fc
 from forcecontrol._batch import case_metrics, run_case
-from forcecontrol.analysis.force import force_loop_axes
+from forcecontrol.analysis import force_loop_axes
 from forcecontrol.analysis.force_design import operational_mass, sampled_stability_limit
 from forcecontrol.cli import app
 from forcecontrol.controllers.base import Measurement

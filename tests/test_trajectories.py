@@ -94,7 +94,7 @@ def test_sampled_profile_is_exact_under_zero_order_hold(tf, tc, Ts):
 
 
 def _at(t, tf, tc):
-    from forcecontrol.trajectories import _trapezoid_scalar
+    from forcecontrol.trajectories.profiles import _trapezoid_scalar
 
     return _trapezoid_scalar(float(t), tf, tc)
 

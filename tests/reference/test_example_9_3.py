@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.analysis.force import ForceLoopAxis, force_loop_axes
+from forcecontrol.analysis import ForceLoopAxis, force_loop_axes
 from forcecontrol.analysis.force_design import operational_mass
 
 ARM = fc.PlanarTwoLink()

@@ -21,7 +21,7 @@ _LAZY = {
     "ForceGains": ".force_design",
     "ForceLoopAxis": ".force",
     "design_force_gains": ".force_design",
-    "force_loop_axes": ".force",
+    "force_loop_axes": ".force_design",
     "operational_mass": ".force_design",
     "sampled_stability_limit": ".force_design",
     "AxisDynamics": ".impedance",
@@ -33,8 +33,8 @@ _LAZY = {
 if TYPE_CHECKING:  # pragma: no cover
     from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
     from .design import DESIGN_SCHEMES, LoopModel, loop_model
-    from .force import ForceLoopAxis, force_loop_axes
-    from .force_design import ForceGains, design_force_gains, operational_mass, sampled_stability_limit
+    from .force import ForceLoopAxis
+    from .force_design import ForceGains, design_force_gains, force_loop_axes, operational_mass, sampled_stability_limit
     from .gain_design import GainDesign, design_gains
     from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
 

@@ -4,18 +4,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from .._validate import positive_scalar
+from .._validate import as_square, positive_scalar
 from ..errors import ParameterError
-from .force import _scheme
+from .force import ForceLoopAxis, _scheme
 
-if TYPE_CHECKING:
-    from .force import ForceLoopAxis
-
-__all__ = ["ForceGains", "design_force_gains", "sampled_stability_limit", "operational_mass"]
+__all__ = ["ForceGains", "design_force_gains", "force_loop_axes", "sampled_stability_limit", "operational_mass"]
 
 
 @dataclass(frozen=True)
@@ -143,6 +140,64 @@ def sampled_stability_limit(
             return math.exp(root - tol if margin(root) >= 0.0 else root)
         a = b
     return math.exp(top) if nyquist else math.inf
+
+
+def force_loop_axes(controller: Any, environment_stiffness: Any) -> list[ForceLoopAxis]:
+    """The per-axis linearised loops of a direct force controller on an environment of stiffness K.
+
+    Args:
+        controller: an :class:`~forcecontrol.controllers.force.InnerPositionForceController`,
+            :class:`~forcecontrol.controllers.force.InnerVelocityForceController` or
+            :class:`~forcecontrol.controllers.force.ParallelForcePositionController` with diagonal
+            M_d, K_D, K_P.
+        environment_stiffness: K (m, m) [N/m] (scalar or (m,) allowed), in the base frame; with the
+            controller's gains it must be diagonal in the controller's task frame (the base frame
+            unless the controller has a ``task_frame``), where the axes are then numbered.
+
+    Raises:
+        ParameterError: a matrix is not diagonal (the axes do not decouple) or the controller is
+            not a direct force controller.
+    """
+    from ..controllers.force import (
+        InnerPositionForceController,
+        InnerVelocityForceController,
+        ParallelForcePositionController,
+    )
+
+    names: dict[type, str] = {
+        InnerPositionForceController: "inner-position",
+        InnerVelocityForceController: "inner-velocity",
+        ParallelForcePositionController: "parallel",
+    }
+    scheme = names.get(type(controller))
+    if scheme is None:
+        raise ParameterError(
+            "controller must be an InnerPositionForceController, InnerVelocityForceController or "
+            f"ParallelForcePositionController; got {type(controller).__name__}"
+        )
+    m = controller.m
+    K = as_square(f"environment_stiffness must be a scalar, ({m},) or ({m}, {m})", environment_stiffness, m)
+    R = getattr(controller, "task_frame", None)
+    frame = "the base frame" if R is None else "the controller's task frame"
+    R = np.eye(m) if R is None else np.asarray(R)
+    mats = {name: R.T @ np.asarray(M) @ R for name, M in (("inertia", controller.inertia), ("damping", controller.damping),
+                                                          ("stiffness", controller.stiffness), ("environment_stiffness", K))}
+    for name, M in mats.items():
+        if np.any(np.abs(M - np.diag(np.diag(M))) > 1e-9 * max(1.0, float(np.max(np.abs(M))))):
+            raise ParameterError(
+                f"{name} must be diagonal for a per-axis analysis in {frame} (Sect. 9.4); "
+                f"got {np.round(M, 9).tolist()} there"
+            )
+    controller_inertia, controller_damping, controller_stiffness = mats["inertia"], mats["damping"], mats["stiffness"]
+    K = mats["environment_stiffness"]
+    return [
+        ForceLoopAxis(
+            scheme, float(controller_inertia[i, i]), float(controller_damping[i, i]),
+            float(controller_stiffness[i, i]), float(controller.force_gain[i]),
+            float(controller.integral_gain[i]), float(K[i, i]), getattr(controller, "integrator_start", None),
+        )
+        for i in range(m)
+    ]
 
 
 def operational_mass(robot: Any, q: Any, direction: Any) -> float:

@@ -148,7 +148,7 @@ def _linear_overlay(parts: dict[str, Any], t: Any) -> tuple[int, Any] | None:
     )
     from ..errors import ForceControlError
     from ..trajectories import Setpoint
-    from .force import force_loop_axes
+    from .force_design import force_loop_axes
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
     if not isinstance(ctl, (InnerPositionForceController, InnerVelocityForceController, ParallelForcePositionController)):

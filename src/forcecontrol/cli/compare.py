@@ -13,7 +13,7 @@ __all__ = ["compare_command", "compare_scenario"]
 
 def compare_scenario(name: str) -> dict[str, Any]:
     """Run every case of a scenario on both engines and compare the contact force (see ``compare_engines``)."""
-    from ..engines.mujoco import compare_engines
+    from ..engines.compare import compare_engines
     from ..scenarios import load_scenario, run_scenario
 
     scn = load_scenario(name)

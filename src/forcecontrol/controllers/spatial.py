@@ -9,7 +9,7 @@ Impedance (9.30), (9.35): ``u = B y + n + Jᵀ h_e`` with y solving
 ``J_Ad y = M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d) − J̇_Ad q̇ + ḃ``, which gives the
 configuration-independent impedance (9.36) ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_e^d``, all vectors on the
 desired frame. ``−J̇_Ad q̇ + ḃ`` is computed as one term, the part of x̃̈ that does not depend on
-q̈ (written out in :func:`error_acceleration_bias`), for a desired frame moving with
+q̈ (written out in :func:`forcecontrol.laws.spatial.desired_frame_terms`), for a desired frame moving with
 ``[ȯ_d; ω_d]`` and ``[ö_d; ω̇_d]``.
 
 Redundant arms (n > 6) and singularities: y is solved with

@@ -121,8 +121,7 @@ def force_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     """
     import math
 
-    from ..analysis.force import force_loop_axes
-    from ..analysis.force_design import operational_mass, sampled_stability_limit
+    from ..analysis.force_design import force_loop_axes, operational_mass, sampled_stability_limit
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
     K = env.stiffness_matrix()

@@ -30,8 +30,7 @@ def analytic_spectral_radius(parts: dict[str, Any]) -> float:
     environment with a diagonal stiffness; the force axis is the base axis of the largest
     component of the final reference force (x when f_d = 0).
     """
-    from ..analysis.force import force_loop_axes
-    from ..analysis.force_design import operational_mass
+    from ..analysis.force_design import force_loop_axes, operational_mass
     from ..errors import ForceControlError
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]

@@ -310,8 +310,7 @@ class TuneSession:
 
     def _poles_and_stability(self, parts: dict[str, Any], analysis: dict[str, Any], notes: list[str],
                              n: int) -> tuple[dict[str, np.ndarray], StabilityCurve | None]:
-        from ..analysis.force import force_loop_axes
-        from ..analysis.force_design import operational_mass, sampled_stability_limit
+        from ..analysis.force_design import force_loop_axes, operational_mass, sampled_stability_limit
 
         ctl, env = parts["controller"], parts["environment"]
         poles: dict[str, np.ndarray] = {}
