@@ -465,6 +465,68 @@ def test_hybrid_presses_20_newtons_on_a_table_while_tracing_a_line(franka):
     assert np.allclose(res.x[-1, :2], x1[:2], atol=1e-4)
 
 
+def _step_state(franka, seed):
+    rng = np.random.default_rng(seed)
+    q = PANDA_READY + rng.normal(0, 0.1, 7)
+    qd = rng.normal(0, 0.3, 7)
+    h = rng.normal(0, 5.0, 6)
+    return q, qd, h, Measurement(q, qd, h)
+
+
+def test_compliance_6d_step_is_9_15_written_out(franka):
+    """SpatialComplianceController.step (the planar law (8.110) on the desired frame) equals
+    g + J_Adᵀ (K_P x̃ − K_D J_Ad q̇) (9.15), written out here, with full (coupled) gains and a moving
+    frame, plus the redundant arm's null-space damping torque."""
+    from forcecontrol.controllers.spatial import SpatialComplianceController
+
+    A = RNG.normal(0, 1, (6, 6))
+    K_P = A @ A.T + 300.0 * np.eye(6)
+    K_D = 0.1 * K_P + 5.0 * np.eye(6)
+    c = SpatialComplianceController(franka, K_P, K_D)
+    q, qd, _h, meas = _step_state(franka, 3)
+    ref = _moving_desired(0.4)
+    u = c.step(0.4, meas, ref)
+    R_e, o_e, J, Jdq, _B, _nv, g = franka.spatial_terms(q, qd)
+    R_d = euler_xyz_to_rotation(ref.position[3:])
+    xt = pose_error(ref.position[:3], R_d, o_e, R_e)
+    JAd = analytical_jacobian_desired(J, R_d, -xt[3:])
+    # the redundant arm's default null-space damping, projected out of the task directions
+    tau0 = _B @ c.posture.acceleration(q, qd)
+    tau0 = tau0 - JAd.T @ np.linalg.lstsq(JAd.T, tau0, rcond=None)[0]
+    np.testing.assert_allclose(u, g + JAd.T @ (K_P @ xt - K_D @ (JAd @ qd)) + tau0, rtol=1e-10, atol=1e-9)
+
+
+def test_hybrid_6d_step_requests_the_hybrid_acceleration(franka):
+    """SpatialHybridController.step (the planar hybrid law on the desired frame) makes the arm accelerate
+    so that J_Ad q̈ = c − x̃̈* with x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ and
+    f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ), λ̇ = −C⁻¹ S_fᵀ x̃̇ (written out here; gains diagonal
+    in the desired frame, two force directions, a moving desired frame and force references)."""
+    from forcecontrol.controllers.spatial import SpatialHybridController
+
+    S_f = np.zeros((6, 2))
+    S_f[2, 0] = S_f[3, 1] = 1.0
+    C = np.diag([2e-4, 5e-3])
+    K_P, K_D = np.diag([400.0, 300.0, 200.0, 100.0, 90.0, 80.0]), np.diag([40.0, 35.0, 30.0, 20.0, 19.0, 18.0])
+    K_Pl, K_Dl = np.diag([400.0, 250.0]), np.diag([40.0, 30.0])
+    c = SpatialHybridController(franka, S_f, C, K_P, K_D, K_Pl, K_Dl)
+    q, qd, h, meas = _step_state(franka, 5)
+    base = _moving_desired(0.3)
+    fd, fdr, fdd = np.array([1.0, -2.0, -15.0, 0.5, 0.2, 0.1]), RNG.normal(0, 3, 6), RNG.normal(0, 3, 6)
+    ref = Reference(base.position, base.velocity, base.acceleration, fd, fdr, fdd)
+    u = c.step(0.3, meas, ref)
+    R_e, o_e, J, Jdq, B, nv, _g = franka.spatial_terms(q, qd)
+    qdd = np.linalg.solve(B, u - nv - J.T @ h)  # the arm's response to u with the contact wrench h
+    err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref)
+    X = np.zeros((6, 6))
+    X[:3, :3] = X[3:, 3:] = err.R_d.T
+    lam, lam_d, lam_d_dot, lam_d_ddot = (S_f.T @ (X @ w) for w in (h, fd, fdr, fdd))
+    lam_dot = -np.linalg.solve(C, S_f.T @ err.xd)
+    f_lam = lam_d_ddot + K_Dl @ (lam_d_dot - lam_dot) + K_Pl @ (lam_d - lam)
+    P_v = np.eye(6) - S_f @ S_f.T
+    xdd_star = P_v @ (-K_D @ err.xd - K_P @ err.x) - S_f @ (C @ f_lam)
+    np.testing.assert_allclose(err.JAd @ qdd, err.c - xdd_star, rtol=1e-7, atol=1e-6)
+
+
 def test_hybrid_rejects_bad_force_directions(franka):
     """Force directions that are not (6, k) or are linearly dependent raise ParameterError."""
     from forcecontrol.controllers.spatial import SpatialHybridController

@@ -35,7 +35,7 @@ from ..robots.base import RobotModel
 from ..spatial import euler_xyz_T, euler_xyz_T_dot
 from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz  # per sample
 from .base import Measurement, Reference
-from .spatial import _cross, _SpatialBase, desired_frame_error
+from .spatial import _cross, _SpatialBase, desired_frame_error, spatial_impedance_acceleration
 
 __all__ = ["AdmittanceController", "compliant_frame"]
 
@@ -198,7 +198,7 @@ class AdmittanceController(_SpatialBase):
             return self._check_output(t, u, measurement)
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref_t, self.orientation, t)
-        r = err.c + self.motion_damping @ err.xd + self.motion_stiffness @ err.x
+        r = spatial_impedance_acceleration(err, h_d, self._eye6, self.motion_damping, self.motion_stiffness, False)
         u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         self.state[:] = self._Ad @ self.state + self._Gd @ h_d
         return self._check_output(t, u, measurement)

@@ -117,7 +117,7 @@ class HybridCompliantController(Controller):
         self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
         self.state = np.zeros(l)
         self._params = np.concatenate([
-            [float(d), float(k)], self._S_v.ravel(), self._S_v_pinv.ravel(), self._S_f_pinv.ravel(),
+            [float(d), float(k), 0.0], self._S_v.ravel(), self._S_v_pinv.ravel(), self._S_f_pinv.ravel(),
             self._CpS_f.ravel(), self._L_hat.ravel(), self.velocity_gain.ravel(),
             self.velocity_integral_gain.ravel(), self.force_rate_gain.ravel(), self.force_gain.ravel(),
         ])

@@ -30,6 +30,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from .. import laws
 from .._validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
@@ -133,11 +134,15 @@ def desired_frame_error(
     return DesiredFrameError(x, xd, JAd, c, R_d)
 
 
-def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md_inv, K_D, K_P) -> np.ndarray:
-    """The ``J_Ad q̈`` that (9.35) asks for: ``c + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d)`` (:func:`forcecontrol.laws.impedance_core`)."""
+def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md_inv, K_D, K_P,
+                                   use_force: bool = True) -> np.ndarray:
+    """The ``J_Ad q̈`` that (9.35) asks for: ``c + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_e^d)`` (:func:`forcecontrol.laws.impedance_core`).
+
+    Without ``use_force`` the h_e^d term is left out (the motion loop of admittance control).
+    """
     r = np.empty(6)
     G = np.concatenate([np.ravel(Md_inv), np.ravel(K_D), np.ravel(K_P)])
-    impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), True, np.empty(6), r)
+    impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), use_force, np.empty(6), r)
     return r
 
 
@@ -288,14 +293,21 @@ class SpatialComplianceController(_SpatialBase):
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
         self.damping = as_gain_matrix("damping", damping, 6)
+        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
+        self._zero_ref = np.zeros(36)
+        self._zero_h = np.zeros(6)
+        self._ws = np.zeros(12)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.15) for this sample."""
         q, qd = measurement.q, measurement.qd
-        R_e, o_e, J, Jdq, B, _nv, g = self._spatial.spatial_terms(q, qd)
+        R_e, o_e, J, Jdq, B, nv, g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         JAd = err.JAd
-        u = g + JAd.T @ (self.stiffness @ err.x - self.damping @ (JAd @ qd))
+        # (9.15) is (8.110), laws.os_pd, on the desired frame: x_d = 0, x_e = −x̃, ẋ_e = J_Ad q̇, J = J_Ad
+        u = np.empty(q.shape[0])
+        laws.os_pd(t, self.sample_time, q, qd, -err.x, JAd @ qd, JAd, Jdq, B, nv, g, self._zero_h, self._zero_ref,
+                   self._params, self._zero_h, self._ws, u)
         if self.posture is not None:
             # Euclidean (not dynamically consistent) null-space projection of the posture torque:
             # it leaves the equilibrium (9.16) unchanged but can disturb task transients
@@ -363,30 +375,37 @@ class SpatialHybridController(_SpatialBase):
         self.damping = as_gain_matrix("damping", damping, 6)
         self.force_stiffness = as_gain_matrix("force_stiffness", force_stiffness, k)
         self.force_damping = as_gain_matrix("force_damping", force_damping, k)
-        self._P_v = np.eye(6) - Q @ Q.T
-        self._C_inv = np.linalg.inv(self.compliance)
+        # the planar hybrid law (9.77)-(9.82), laws.hybrid_compliant_acceleration, on the desired frame:
+        # pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) with r = S_vᵀ(−x̃) and gains
+        # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement)
+        S_v = np.ascontiguousarray(np.linalg.svd(Q, full_matrices=True)[0][:, k:])
+        l = 6 - k
+        self._params = np.concatenate([
+            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.T.ravel(), (Q @ self.compliance).ravel(),
+            np.linalg.solve(self.compliance, Q.T).ravel(), (S_v.T @ self.damping @ S_v).ravel(),
+            (S_v.T @ self.stiffness @ S_v).ravel(), self.force_damping.ravel(), self.force_stiffness.ravel(),
+        ])
+        self._integral = np.zeros(l)  # ∫(ν_d − ν) of (9.80): unused by the pose servo
+        self._ws = np.zeros(9 * 6)
+        self._ref = np.zeros(36)
+        self._hc = np.zeros(6)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques of the 6-D hybrid law for this sample."""
+        """Torques of the 6-D hybrid law for this sample: (9.77)-(9.82) on the desired frame, then (9.30)."""
         q, qd = measurement.q, measurement.qd
         h = self._wrench(measurement.wrench)
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         RdT = err.R_d.T
-        S_f = self.force_selection
-
-        def to_d(w):
-            return np.concatenate([RdT @ w[:3], RdT @ w[3:]])
-
-        lam = S_f.T @ to_d(h)
-        lam_d = S_f.T @ to_d(reference.force)
-        lam_d_dot = S_f.T @ to_d(reference.force_rate)
-        lam_d_ddot = S_f.T @ to_d(reference.force_accel)
-        lam_dot = -self._C_inv @ (S_f.T @ err.xd)
-        f_lam = lam_d_ddot + self.force_damping @ (lam_d_dot - lam_dot) + self.force_stiffness @ (lam_d - lam)
-        xdd_star = self._P_v @ (-self.damping @ err.xd - self.stiffness @ err.x) - S_f @ (self.compliance @ f_lam)
-        r = err.c - xdd_star
-        u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
+        ref = self._ref  # pose, twist and acceleration of the desired frame in its own coordinates: zero
+        for i, w in enumerate((reference.force, reference.force_rate, reference.force_accel)):
+            ref[18 + 6 * i : 21 + 6 * i] = RdT @ w[:3]
+            ref[21 + 6 * i : 24 + 6 * i] = RdT @ w[3:]
+        h_d = np.concatenate([RdT @ h[:3], RdT @ h[3:]])
+        a = np.empty(6)
+        laws.hybrid_compliant_acceleration(t, self.sample_time, -err.x, -err.xd, h_d, ref, self._params,
+                                           self._integral, self._ws, a, self._hc)
+        u = self._redundant_torque(err.JAd, err.c + a, q, qd, B, nv, J, h)  # x̃̈ = −J_Ad q̈ + c = −a
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:

@@ -2,9 +2,9 @@
 
 Packed parameters (row-major blocks; d = task dimension, k = force-controlled, l = d − k):
 
-* compliant: ``p = [d, k, S_v (d l), S_v† (l d), S_f† (k d), C′ S_f (d k), L̂ (k d), K_Pν (l²),
-  K_Iν (l²), K_Dλ (k²), K_Pλ (k²)]`` with ``L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ`` (λ̇ = L̂ v_e, (9.82));
-  state ``s = ∫(ν_d − ν)`` (l).
+* compliant: ``p = [d, k, position_mode, S_v (d l), S_v† (l d), S_f† (k d), C′ S_f (d k), L̂ (k d),
+  K_1 (l²), K_2 (l²), K_Dλ (k²), K_Pλ (k²)]`` with ``L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ`` (λ̇ = L̂ v_e,
+  (9.82)) and K_1, K_2 as for the rigid law; state ``s = ∫(ν_d − ν)`` (l).
 * rigid: ``p = [d, k, position_mode, S_v (d l), S_v† (l d), S_f (d k), S_f† (k d), K_1 (l²),
   K_2 (l²), K_Pλ (k²), K_Iλ (k²), Ṡ_v (d l)]``; velocity motion: ``K_1 = K_Pν, K_2 = K_Iν``
   (9.80); position motion: ``K_1 = K_Dr, K_2 = K_Pr`` (9.95) with ``r = S_v† x``; state
@@ -57,6 +57,24 @@ def _velocity_servo(S_v_pinv, K, xd, ref, d, k, ws):  # pragma: no cover - compi
 
 
 @njit(cache=True, inline="always")
+def _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, k, s, ws):  # pragma: no cover - compiled
+    """α_ν of both hybrid laws: (9.80) ``ν̇_d + K_1 (ν_d − ν) + K_2 ∫(ν_d − ν)`` or, with
+    ``position_mode``, (9.95) ``r̈_d + K_1 (ṙ_d − ν) + K_2 (r_d − r)``, ``r = S_v† x``; returns the
+    views of :func:`_velocity_servo`."""
+    l = d - k
+    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _velocity_servo(S_v_pinv, K_1, xd, ref, d, k, ws)
+    if position_mode:
+        r_d = ws[7 * d : 7 * d + l]
+        r = ws[8 * d : 8 * d + l]
+        mv_into(S_v_pinv, ref[0:d], r_d)
+        mv_into(S_v_pinv, x, r)
+        _mv_diff_add(K_2, r_d, r, alpha, tmp)
+    else:
+        _mv_add(K_2, s[0:l], alpha)
+    return nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b
+
+
+@njit(cache=True, inline="always")
 def _mv_add(A, x, out):  # pragma: no cover - compiled
     """``out += A x``."""
     r, c = A.shape
@@ -79,7 +97,9 @@ def _mv_diff_add(A, x, y, out, tmp):  # pragma: no cover - compiled
 def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no cover - compiled
     """(9.77) ``α = S_v α_ν + Ĉ′ S_f f_λ`` with (9.80) and (9.81); advances ``∫(ν_d − ν)``.
 
-    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` (9.80), ``ν = S_v† ẋ_e`` (9.60);
+    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` (9.80), ``ν = S_v† ẋ_e`` (9.60) (or, with
+    ``position_mode``, the pose servo (9.95) ``r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r)``, as the 6-D
+    hybrid on the desired frame uses it);
     ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)`` (9.81), ``λ = S_f† h_e`` (9.54),
     ``λ̇ = L̂ ẋ_e`` (9.82); ``Ĉ′ = (I − P_v) Ĉ`` (9.72) (C′, not C: with C the force and
     velocity loops would not decouple). Closed loop ``ν̇ = α_ν`` (9.78), ``λ̈ = f_λ`` (9.79).
@@ -87,11 +107,10 @@ def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pra
     d = int(p[0])
     k = int(p[1])
     l = d - k
-    S_v, S_v_pinv, S_f_pinv, CpS_f, L_hat, K_Pnu, K_Inu, K_Dlam, K_Plam = _blocks9(
-        p, 2, (d, l), (l, d), (k, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k)
+    S_v, S_v_pinv, S_f_pinv, CpS_f, L_hat, K_1, K_2, K_Dlam, K_Plam = _blocks9(
+        p, 3, (d, l), (l, d), (k, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k)
     )
-    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _velocity_servo(S_v_pinv, K_Pnu, xd, ref, d, k, ws)
-    _mv_add(K_Inu, s[0:l], alpha)
+    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _motion_servo(S_v_pinv, K_1, K_2, p[2] != 0.0, x, xd, ref, d, k, s, ws)
     mv_into(S_f_pinv, ref[5 * d : 6 * d], f_lam)  # λ̈_d
     mv_into(S_f_pinv, ref[4 * d : 5 * d], lam_a)  # λ̇_d
     mv_into(L_hat, xd, lam_b)  # λ̇
@@ -125,15 +144,7 @@ def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma:
     S_v, S_v_pinv, S_f, S_f_pinv, K_1, K_2, K_Plam, K_Ilam, S_v_dot = _blocks9(
         p, 3, (d, l), (l, d), (d, k), (k, d), (l, l), (l, l), (k, k), (k, k), (d, l)
     )
-    nu, nu_d, alpha, tmp, f_lam, lam_d, lam = _velocity_servo(S_v_pinv, K_1, xd, ref, d, k, ws)
-    r_d = ws[7 * d : 7 * d + l]
-    r = ws[8 * d : 8 * d + l]
-    if position_mode:
-        mv_into(S_v_pinv, ref[0:d], r_d)
-        mv_into(S_v_pinv, x, r)
-        _mv_diff_add(K_2, r_d, r, alpha, tmp)
-    else:
-        _mv_add(K_2, s[0:l], alpha)
+    nu, nu_d, alpha, tmp, f_lam, lam_d, lam = _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, k, s, ws)
     mv_into(S_f_pinv, ref[3 * d : 4 * d], lam_d)
     mv_into(S_f_pinv, h, lam)
     for j in range(k):
