@@ -111,11 +111,14 @@ def test_first_order_filter_step_response_is_analytic():
 
 
 def test_butterworth_coefficients_match_scipy_and_halve_power_at_cutoff():
-    """Second-order Butterworth: coefficients = scipy.signal.butter; a sine at f_c comes out at 1/√2 amplitude."""
-    from scipy import signal
+    """Second-order Butterworth (scipy.signal.butter): the coefficients of the pre-warped bilinear transform
+    written out (K = tan(π f_c Ts)); a sine at f_c comes out at 1/√2 amplitude."""
     s = RealisticForceSensor(cutoff=50.0, filter="butterworth")
     b, a = s.filter_coefficients(TS)
-    b_ref, a_ref = signal.butter(2, 50.0, fs=1 / TS)
+    K = math.tan(math.pi * 50.0 * TS)
+    norm = 1.0 / (1.0 + math.sqrt(2.0) * K + K * K)
+    b_ref = np.array([1.0, 2.0, 1.0]) * K * K * norm
+    a_ref = np.array([1.0, 2.0 * (K * K - 1.0) * norm, (1.0 - math.sqrt(2.0) * K + K * K) * norm])
     np.testing.assert_allclose(b, b_ref, rtol=1e-12)
     np.testing.assert_allclose(a, a_ref, rtol=1e-12)
     t = np.arange(4000) * TS

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from typing import Any
 
@@ -38,7 +37,7 @@ class RealisticForceSensor(ForceSensor):
 
     The first-order filter is ForceSensor's ``y_k = y_{k−1} + α (x_k − y_{k−1})``,
     ``α = 1 − exp(−2π f_c Ts)``; ``"butterworth"`` is the second-order Butterworth low-pass by the
-    bilinear transform with pre-warping (``K = tan(π f_c Ts)``). Both start at rest on the first
+    bilinear transform with pre-warping (``scipy.signal.butter(2, f_c, fs=1/Ts)``). Both start at rest on the first
     sample (no start-up transient).
 
     Args:
@@ -137,12 +136,11 @@ class RealisticForceSensor(ForceSensor):
         alpha = self.alpha(sample_time)  # checks the Nyquist limit
         if self.filter == "first-order":
             return np.array([alpha]), np.array([1.0, alpha - 1.0])
-        K = math.tan(math.pi * float(self.cutoff or 0.0) * sample_time)  # cutoff is set: the filter is not 'none'
-        norm = 1.0 / (1.0 + math.sqrt(2.0) * K + K * K)
-        b0 = K * K * norm
-        a1 = 2.0 * (K * K - 1.0) * norm
-        a2 = (1.0 - math.sqrt(2.0) * K + K * K) * norm
-        return np.array([b0, 2.0 * b0, b0]), np.array([1.0, a1, a2])
+        from scipy.signal import butter  # type: ignore[import-untyped]  # only for this filter (import cost)
+
+        # second-order Butterworth low-pass, bilinear transform pre-warped at the cut-off
+        b, a = butter(2, float(self.cutoff or 0.0), btype="low", fs=1.0 / sample_time)
+        return np.asarray(b, dtype=np.float64), np.asarray(a, dtype=np.float64)
 
     def _quantise(self, x: np.ndarray) -> np.ndarray:
         return self.resolution * np.round(x / self.resolution) if self.resolution > 0.0 else x
