@@ -74,6 +74,10 @@ MUTANTS = [
            "    _mv_add(S_v_dot, nu, a)\n", "\n"),
     Mutant("M10", "inner velocity loop (9.45)/(9.46): K_F dropped from x_F", "laws/force.py",
            "acc += p[oR + i * m + j] * (p[oF + j] * e[j] + xi)", "acc += p[oR + i * m + j] * (e[j] + xi)"),
+    Mutant("M11", "6-D compliance (9.15): damping on J q̇ instead of J_Ad q̇", "controllers/spatial.py",
+           "-err.x, JAd @ qd, JAd, Jdq", "-err.x, J @ qd, JAd, Jdq"),
+    Mutant("M12", "6-D hybrid (9.77): C replaced by C⁻¹ in the force term", "controllers/spatial.py",
+           "(Q @ self.compliance).ravel()", "(Q @ np.linalg.inv(self.compliance)).ravel()"),
 ]
 
 
