@@ -527,6 +527,68 @@ def test_hybrid_6d_step_requests_the_hybrid_acceleration(franka):
     np.testing.assert_allclose(err.JAd @ qdd, err.c - xdd_star, rtol=1e-7, atol=1e-6)
 
 
+def _euler_pose(robot, q):
+    """[o_e; XYZ Euler angles of R_e] from scipy's Rotation (independent of the library's conversions)."""
+    from scipy.spatial.transform import Rotation
+
+    R, p = robot.frame_pose(q)
+    return np.concatenate([p, Rotation.from_matrix(R).as_euler("XYZ")])
+
+
+def test_base_frame_impedance_step_gives_the_9_31_acceleration(franka):
+    """frame='base': the arm accelerates so that ẍ_e = ẍ_d + M_d⁻¹ (K_D (ẋ_d − ẋ_e) + K_P (x_d − x_e) − h_A)
+    in x_e = [o_e; φ_e] (9.31), h_A = T_Aᵀ h_e; ẋ_e and ẍ_e by finite differences of scipy's Euler angles
+    along the motion the torque produces; x_d and its derivatives from the analytic moving reference."""
+    M_d = np.diag([2.0, 2.5, 3.0, 0.2, 0.25, 0.3])
+    K_D = np.diag([80.0, 90.0, 100.0, 6.0, 7.0, 8.0])
+    K_P = np.diag([900.0, 1000.0, 1100.0, 40.0, 50.0, 60.0])
+    c = SpatialImpedanceController(franka, M_d, K_D, K_P, frame="base")
+    q, qd, h, meas = _step_state(franka, 11)
+    t0 = 0.3
+    ref = _moving_desired(t0)
+    u = c.step(t0, meas, ref)
+    _R, _o, J, _Jdq, B, nv, _g = franka.spatial_terms(q, qd)
+    qdd = np.linalg.solve(B, u - nv - J.T @ h)
+    step = 1e-4
+    xs = [_euler_pose(franka, q + qd * s + 0.5 * qdd * s * s) for s in (-step, 0.0, step)]
+    x_e, xd_e, xdd_e = xs[1], (xs[2] - xs[0]) / (2 * step), (xs[2] - 2 * xs[1] + xs[0]) / step**2
+    phi, phid, phidd = (np.array([0.2 + 0.3 * t0, -0.1 + 0.2 * t0 * t0, 0.4 - 0.5 * t0]), np.array([0.3, 0.4 * t0, -0.5]),
+                        np.array([0.0, 0.4, 0.0]))  # the orientation of _moving_desired and its derivatives
+    x_d = np.concatenate([ref.position[:3], phi])
+    xd_d = np.concatenate([ref.velocity[:3], phid])
+    xdd_d = np.concatenate([ref.acceleration[:3], phidd])
+    h_A = np.concatenate([h[:3], euler_xyz_T(x_e[3:]).T @ h[3:]])
+    want = xdd_d + np.linalg.solve(M_d, K_D @ (xd_d - xd_e) + K_P @ (x_d - x_e) - h_A)
+    np.testing.assert_allclose(xdd_e, want, rtol=1e-4, atol=2e-3 * np.abs(want).max())
+
+
+def test_base_frame_impedance_settles_at_the_9_32_equilibrium(franka):
+    """frame='base' against a 6-D spring: at rest K_P (x_d − x_e) = h_A = T_Aᵀ h_e (the equilibrium of (9.32))."""
+    x0 = _euler_pose(franka, PANDA_READY)
+    R0 = euler_xyz_to_rotation(x0[3:])
+    K = np.diag([3000.0, 2000.0, 2500.0, 30.0, 20.0, 25.0])
+    env = SpatialSpring(K, x0[:3], R0)
+    x_d = x0 + np.array([0.01, -0.008, 0.006, 0.05, -0.04, 0.03])
+    K_P = np.diag([1000.0, 1000.0, 1000.0, 40.0, 40.0, 40.0])
+    c = SpatialImpedanceController(franka, np.diag([2, 2, 2, 0.1, 0.1, 0.1]), np.diag([120, 120, 120, 4, 4, 4.0]), K_P,
+                                   frame="base", posture=NullSpacePosture(PANDA_READY, 10.0, 5.0))
+    res = simulate(franka, env, c, Setpoint(x_d), q0=PANDA_READY, duration=3.0, substeps=1)
+    x_e = _euler_pose(franka, res.q[-1])
+    h = res.wrench[-1]
+    h_A = np.concatenate([h[:3], euler_xyz_T(x_e[3:]).T @ h[3:]])
+    x_t = x_d - x_e
+    x_t[3:] = np.angle(np.exp(1j * x_t[3:]))  # angles differ by 2π across ±π (the hand points down: φ₁ ≈ π)
+    np.testing.assert_allclose(K_P @ x_t, h_A, atol=0.01 * np.abs(h_A).max())
+    assert np.abs(res.qd[-1]).max() < 1e-3
+
+
+def test_base_frame_impedance_refuses_a_rotation_vector_error(franka):
+    with pytest.raises(ParameterError, match="frame='base' is the chapter's"):
+        SpatialImpedanceController(franka, 1.0, 10.0, 100.0, frame="base", orientation="rotvec")
+    with pytest.raises(ParameterError, match="frame must be 'desired'"):
+        SpatialImpedanceController(franka, 1.0, 10.0, 100.0, frame="tool")
+
+
 def test_hybrid_rejects_bad_force_directions(franka):
     """Force directions that are not (6, k) or are linearly dependent raise ParameterError."""
     from forcecontrol.controllers.spatial import SpatialHybridController

@@ -234,23 +234,35 @@ class SpatialImpedanceController(_SpatialBase):
             measurement must carry.
     """
 
-    GAINS = ("inertia", "damping", "stiffness", "orientation")
+    GAINS = ("inertia", "damping", "stiffness", "orientation", "frame")
 
     def __init__(
         self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, *,
         orientation: Orientation = "euler", posture: Any = None, singularity: SingularityHandling | None = None,
         sample_time: float = 1e-3, base_frame: str = "world", ee_frame: str | None = None,
+        frame: Literal["desired", "base"] = "desired",
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, base_frame, ee_frame)
+        if frame not in ("desired", "base"):
+            raise ParameterError(f"frame must be 'desired' (9.35) or 'base' (9.28)-(9.31); got {frame!r}")
+        if frame == "base" and orientation != "euler":
+            raise ParameterError(
+                "frame='base' is the chapter's (9.28)-(9.31) with XYZ Euler angles of R_e and T_A; "
+                f"got orientation={orientation!r} (use frame='desired' for a rotation-vector error)"
+            )
+        self.frame = frame
+        self.compiled = self.compiled and frame == "desired"
         self.inertia = as_gain_matrix("inertia", inertia, 6)
         self.damping = as_gain_matrix("damping", damping, 6)
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
         self._Md_inv = np.linalg.inv(self.inertia)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques of (9.30), (9.35) for this sample."""
+        """Torques of (9.30), (9.35) (or (9.30)-(9.31) in the base frame) for this sample."""
         q, qd = measurement.q, measurement.qd
         h = self._wrench(measurement.wrench)
+        if self.frame == "base":
+            return self._check_output(t, self._base_frame_torque(t, q, qd, h, reference), measurement)
         if self.compiled:
             u = self._compiled_torque(t, q, qd, h, reference, self._Md_inv, self.damping, self.stiffness, True)
             return self._check_output(t, u, measurement)
@@ -263,6 +275,41 @@ class SpatialImpedanceController(_SpatialBase):
         u = self._redundant_torque(err.JAd, r, q, qd, B, nv, J, h)
         return self._check_output(t, u, measurement)
 
+    def _base_frame_torque(self, t: float, q: Any, qd: Any, h: np.ndarray, reference: Reference) -> np.ndarray:
+        """(9.30)-(9.31) with the operational space of (2.70): x_e = [o_e; φ_e], φ_e the XYZ Euler
+        angles of R_e, J_A = T_A⁻¹(φ_e) J (3.66) and h_A = T_Aᵀ h_e (the wrench doing work on ẋ_e).
+
+        ``J_A y = ẍ_d − J̇_A q̇ + M_d⁻¹ (K_D x̃̇ + K_P x̃ − h_A)`` (:func:`forcecontrol.laws.impedance_core`),
+        ``u = B y + n + Jᵀ h_e``; closed loop (9.32) ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A`` in the
+        coordinates x_e, whose orientation part depends on the configuration (the point of
+        Sect. 9.3's impedance on the desired frame). The reference's angular velocity and
+        acceleration ω_d, ω̇_d become φ̇_d = T⁻¹(φ_d) ω_d and φ̈_d = T⁻¹ (ω̇_d − Ṫ φ̇_d).
+        """
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
+        c2 = math.hypot(R_e[0, 0], R_e[0, 1])
+        if c2 < 1e-3:
+            raise SingularityError(
+                f"at t = {t:.6g} s the end-effector orientation is at a representation singularity of XYZ Euler "
+                f"angles (cos(phi_2) = {c2:.3g}); frame='base' cannot be used there (use frame='desired')"
+            )
+        phi_e = rotation_to_euler_xyz(R_e)
+        Tinv_e = euler_xyz_T_inv(phi_e)
+        v = J @ qd
+        phid_e = Tinv_e @ v[3:]
+        JA = np.vstack([J[:3], Tinv_e @ J[3:]])
+        JAdq = np.concatenate([Jdq[:3], Tinv_e @ (Jdq[3:] - euler_xyz_T_dot(phi_e, phid_e) @ phid_e)])  # J̇_A q̇
+        phi_d = reference.position[3:]
+        Tinv_d = euler_xyz_T_inv(phi_d)
+        phid_d = Tinv_d @ reference.velocity[3:]
+        phidd_d = Tinv_d @ (reference.acceleration[3:] - euler_xyz_T_dot(phi_d, phid_d) @ phid_d)
+        x = np.concatenate([reference.position[:3] - o_e, np.angle(np.exp(1j * (phi_d - phi_e)))])  # wrapped
+        xd = np.concatenate([reference.velocity[:3] - v[:3], phid_d - phid_e])
+        c = np.concatenate([reference.acceleration[:3], phidd_d]) - JAdq
+        h_A = np.concatenate([h[:3], euler_xyz_T(phi_e).T @ h[3:]])
+        r = np.empty(6)
+        G = np.concatenate([self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel()])
+        impedance_core(G, x, xd, c, h_A, True, np.empty(6), r)
+        return self._redundant_torque(JA, r, q, qd, B, nv, J, h)
 
 
 class SpatialComplianceController(_SpatialBase):

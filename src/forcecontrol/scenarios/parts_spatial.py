@@ -171,7 +171,7 @@ def _impedance(p: dict[str, Any], ctx: dict[str, Any]):
 
     return SpatialImpedanceController(
         ctx["robot"], p["inertia"], p["damping"], p["stiffness"], orientation=p["orientation"],
-        posture=_posture(p, ctx), sample_time=ctx["sample_time"],
+        posture=_posture(p, ctx), sample_time=ctx["sample_time"], frame=p["frame"],
     )
 
 
@@ -181,10 +181,13 @@ register_controller(
         "inertia": Field("gain", True, doc="M_d (6, 6) [kg, kg m²]"),
         "damping": Field("gain", True, doc="K_D (6, 6)"),
         "stiffness": Field("gain", True, doc="K_P (6, 6)"),
+        "frame": Field("str", default="desired", choices=("desired", "base"),
+                       doc="'desired': error on the desired frame (9.35); "
+                           "'base': x = [o_e; XYZ angles of R_e], J_A, T_A (9.28)-(9.31)"),
         **_POSTURE_FIELDS,
     },
     _impedance,
-    "impedance on the desired frame (9.30), (9.35): configuration-independent (9.36)",
+    "impedance on the desired frame (9.30), (9.35): configuration-independent (9.36); or in the base frame (9.31)",
 )
 
 
