@@ -57,6 +57,9 @@ GEOMETRIES = {
     "impedance, anisotropic, desired frame turned 30 deg, tilted table": (
         IMPEDANCE.format(d=300, kx=800, ky=1500, kz=1000), TABLE.format(n=f"0.0, {S20}, {C20}", k=8000),
         "[0.0, 0.01, -0.02]", "[0.0, 0.0, 30.0]"),
+    "impedance in the base frame (9.31), anisotropic, desired frame turned 30 deg, tilted table": (
+        IMPEDANCE.format(d=300, kx=800, ky=1500, kz=1000) + 'frame = "base"\n', TABLE.format(n=f"0.0, {S20}, {C20}", k=8000),
+        "[0.0, 0.01, -0.02]", "[0.0, 0.0, 30.0]"),
     "admittance, table tilted 20 deg": (ADMITTANCE.format(d=200, kx=1000, ky=1000, kz=1000),
                                         TABLE.format(n=f"{S20}, 0.0, {C20}", k=5000), "[0.0, 0.0, -0.02]", "[0.0, 0.0, 0.0]"),
     "impedance, spring rotated 45 deg": (IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000),

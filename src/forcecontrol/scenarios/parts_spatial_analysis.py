@@ -48,6 +48,7 @@ def _spatial_impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     must not couple translation and rotation; the environment must exert no moment). The
     equilibrium is reported in the base frame (``steady_x/y/z``, ``steady_fx/fy/fz``, force
     exerted on the environment), the modes along the desired frame's axes when they decouple.
+    Impedance in the base frame (``frame="base"``, (9.31)): the same with R_d = I.
     """
     from ..analysis import impedance_modes
     from ..spatial import euler_xyz_to_rotation
@@ -55,6 +56,8 @@ def _spatial_impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
     pose = np.asarray(ref.position, dtype=float)
     o_d, R_d = pose[:3], euler_xyz_to_rotation(pose[3:])
+    if getattr(ctl, "frame", "desired") == "base":  # (9.31): the translational error in base-frame axes
+        R_d = np.eye(3)
     K = np.asarray(env.stiffness_matrix(), dtype=float)[:3, :3]
     Kd = R_d.T @ K @ R_d
     Kd = 0.5 * (Kd + Kd.T)
