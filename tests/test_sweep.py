@@ -491,3 +491,17 @@ def test_map_figure_is_written_with_the_boundary(tmp_path):
     res = run_sweep(prepare_sweep(_scenario(duration=0.5), d), tmp_path / "f.parquet")
     png = plot_sweep_map(res, "environment.stiffness", "controller.force_gain[0]", tmp_path / "f.png", resolution=6)
     assert png.exists() and png.stat().st_size > 10_000
+
+
+def test_reference_keys_are_the_hash_of_each_cases_samples():
+    """Sweep preparation hashes a described reference's samples once per description; every job's key
+    is still the SHA-256 of its own samples (here Problem 9.10's path with the sample time swept)."""
+    import hashlib
+
+    d = SweepDefinition.from_options(["sample_time=0.001,0.002", "controller.force_gain=100,200"], cases=["1"])
+    prep = prepare_sweep("problem-9.10", d)
+    assert prep.n_cases == 4
+    for j in prep.jobs:
+        samples = np.ascontiguousarray(j.reference.sample(np.arange(j.N + 1) * j.Ts), dtype=np.float64)
+        assert j.ref_key == hashlib.sha256(samples.tobytes()).hexdigest()
+    assert len({j.ref_key for j in prep.jobs}) == 2  # one per sample time

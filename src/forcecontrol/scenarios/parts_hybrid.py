@@ -15,7 +15,7 @@ outward normal), built from the plane's ``angle``, or any reciprocal ``force_sel
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -69,6 +69,8 @@ class TaskPath(LinearPath):
     ``−s̈_c (p_f − p_i)``, which leaves a hybrid run 0.7 mm short and an impedance run
     ``M_d s̈_c |p_f − p_i| / K_P`` (7 cm for Problem 9.3's gains) off the end point.
     """
+
+    describe_complete: ClassVar[bool] = True  # see LinearPath
 
     def __init__(self, start: Any, end: Any, duration: float, accel_time: float | None = None,
                  start_time: float = 0.0, angle: float = 45.0, normal_force: float = 0.0) -> None:

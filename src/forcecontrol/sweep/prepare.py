@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import json
 import sys
 import warnings
 from collections.abc import Callable
@@ -234,7 +235,27 @@ def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, f
     return d, 0.0
 
 
-def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any]) -> CaseJob:
+def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, str] | None) -> str:
+    """The hash of a reference's samples over the run (cases with equal samples share them in a block).
+
+    A reference whose class declares ``describe_complete`` (its ``describe()`` says all that
+    shapes the samples: set-points and trapezoidal paths) is sampled and hashed once per distinct
+    description in a sweep (``cache``); any other is sampled for every case.
+    """
+    key = None
+    if cache is not None and vars(type(ref)).get("describe_complete", False):
+        key = (type(ref).__qualname__, json.dumps(ref.describe(), sort_keys=True, default=str), N, Ts)
+        if key in cache:
+            return cache[key]
+    samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
+    digest = hashlib.sha256(samples.tobytes()).hexdigest()
+    if key is not None:
+        cache[key] = digest
+    return digest
+
+
+def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any],
+              ref_keys: dict[Any, str] | None = None) -> CaseJob:
     from ..controllers.base import Measurement
     from ..errors import ParameterError
     from ..limits import check_run_size, check_substeps
@@ -266,11 +287,8 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
         check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if fast else "python")
     except ParameterError as exc:
         raise SweepError(f"case {label!r}: {exc}") from exc
-    samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
-    job = CaseJob(
-        case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
-        hashlib.sha256(samples.tobytes()).hexdigest(),
-    )
+    job = CaseJob(case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
+                  _reference_key(ref, N, Ts, ref_keys))
     if not fast:
         job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0", "actuator")}
         return job
@@ -387,6 +405,7 @@ def prepare_sweep(
     assignments = definition.assignments()
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     jobs: list[CaseJob] = []
+    ref_keys: dict[Any, str] = {}
     cid = 0
     total = len(selected) * len(assignments)
     for _, case in selected:
@@ -399,7 +418,7 @@ def prepare_sweep(
             where = f"sweep case {cid} ('{case.label}', {shown})"
             try:
                 parts = build_case(CaseSpec(case.label, cfg, {}), where=where)
-                job = _make_job(cid, case.label, values, parts)
+                job = _make_job(cid, case.label, values, parts, ref_keys)
                 job.row_label = row_label
                 jobs.append(job)
             except SweepError:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -83,6 +83,9 @@ class Setpoint(ReferenceSignal):
         force_shape: ``"linear"`` or ``"smooth"`` (quintic: f_d, ḟ_d, f̈_d continuous); see
             :func:`force_profile`.
     """
+
+    #: describe() says everything that shapes the samples (a sweep may reuse them; not inherited).
+    describe_complete: ClassVar[bool] = True
 
     def __init__(
         self, position: Any, force: Any = None, *, force_start: float = 0.0, force_ramp: float = 0.0,
@@ -215,6 +218,9 @@ class LinearPath(ReferenceSignal):
         start_time: when the motion starts [s].
         force: constant f_d, (m,) [N].
     """
+
+    #: describe() says everything that shapes the samples (a sweep may reuse them; not inherited).
+    describe_complete: ClassVar[bool] = True
 
     def __init__(
         self,
