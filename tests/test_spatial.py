@@ -440,7 +440,7 @@ def test_compiled_law_equals_the_readable_functions(franka):
 
 def test_hybrid_presses_20_newtons_on_a_table_while_tracing_a_line(franka):
     """6-D hybrid (9.77)–(9.84): λ follows λ̈ + K_Dλ λ̇ + K_Pλ (λ − λ_d) = 0 within 3%, then holds 20 N along a line."""
-    from forcecontrol.controllers.spatial import SpatialHybridController
+    from forcecontrol.controllers.spatial_hybrid import SpatialHybridController
     from forcecontrol.trajectories import LinearPath
 
     R, p = franka.frame_pose(PANDA_READY)
@@ -501,7 +501,7 @@ def test_hybrid_6d_step_requests_the_hybrid_acceleration(franka):
     so that J_Ad q̈ = c − x̃̈* with x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ and
     f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ), λ̇ = −C⁻¹ S_fᵀ x̃̇ (written out here; gains diagonal
     in the desired frame, two force directions, a moving desired frame and force references)."""
-    from forcecontrol.controllers.spatial import SpatialHybridController
+    from forcecontrol.controllers.spatial_hybrid import SpatialHybridController
 
     S_f = np.zeros((6, 2))
     S_f[2, 0] = S_f[3, 1] = 1.0
@@ -589,9 +589,72 @@ def test_base_frame_impedance_refuses_a_rotation_vector_error(franka):
         SpatialImpedanceController(franka, 1.0, 10.0, 100.0, frame="tool")
 
 
+def test_rigid_hybrid_6d_step_is_9_91_written_out(franka):
+    """SpatialHybridRigidController.step (the planar rigid law on the desired frame): with the commanded
+    wrench h_c = blockdiag(R_d, R_d) S_f λ_d (feedforward law (9.92)) the arm's acceleration gives
+    J_Ad q̈ = c + S_v (K_Dr S_vᵀ x̃̇ + K_Pr S_vᵀ x̃), K_r = S_vᵀ K S_v (9.95) — written out here."""
+    from forcecontrol.controllers import SpatialHybridRigidController
+
+    S_f = np.zeros((6, 2))
+    S_f[2, 0] = S_f[4, 1] = 1.0
+    K_P, K_D = np.diag([400.0, 300.0, 200.0, 100.0, 90.0, 80.0]), np.diag([40.0, 35.0, 30.0, 20.0, 19.0, 18.0])
+    c = SpatialHybridRigidController(franka, S_f, K_P, K_D)
+    q, qd, h, meas = _step_state(franka, 9)
+    base = _moving_desired(0.2)
+    fd = np.array([1.0, -2.0, -15.0, 0.5, 0.7, 0.1])
+    ref = Reference(base.position, base.velocity, base.acceleration, fd, np.zeros(6), np.zeros(6))
+    u = c.step(0.2, meas, ref)
+    R_e, o_e, J, Jdq, B, nv, _g = franka.spatial_terms(q, qd)
+    err = desired_frame_error(R_e, o_e, J, Jdq, qd, ref)
+    X = np.zeros((6, 6))
+    X[:3, :3] = X[3:, 3:] = err.R_d
+    h_c = X @ (S_f @ (S_f.T @ (X.T @ fd)))
+    S_v = np.eye(6)[:, [0, 1, 3, 5]]
+    a = S_v @ ((S_v.T @ K_D @ S_v) @ (S_v.T @ err.xd) + (S_v.T @ K_P @ S_v) @ (S_v.T @ err.x))
+    qdd = np.linalg.solve(B, u - nv - J.T @ h_c)
+    np.testing.assert_allclose(err.JAd @ qdd, err.c + a, rtol=1e-7, atol=1e-6)
+
+
+def test_rigid_hybrid_6d_presses_20_newtons_on_a_rigid_table_while_tracing_a_line(franka):
+    """(9.91)-(9.95) in 6-D on a rigid table (constrained dynamics): λ = λ_d = 20 N (9.93) within 1 % after
+    the first 50 ms, the line tracked within 0.1 mm in x, y, the constraint kept within 1e-9 m."""
+    from forcecontrol.controllers import SpatialHybridRigidController
+    from forcecontrol.environments.rigid import PlaneConstraint, RigidEnvironment
+    from forcecontrol.trajectories import LinearPath
+
+    R, p = franka.frame_pose(PANDA_READY)
+    x0 = np.concatenate([p, rotation_to_euler_xyz(R)])
+    table = RigidEnvironment(PlaneConstraint(np.concatenate([p, np.zeros(3)]), [0, 0, 1, 0, 0, 0]), unilateral=True)
+    c = SpatialHybridRigidController(franka, [0, 0, 1, 0, 0, 0], 400.0, 40.0, force_law="integral",
+                                     force_integral_gain=50.0, posture=PANDA_READY)
+    x1 = x0 + np.array([0.1, 0.1, 0, 0, 0, 0])
+    ref = LinearPath(x0, x1, duration=0.6, start_time=0.2, force=[0, 0, -20.0, 0, 0, 0])
+    res = simulate(franka, table, c, ref, q0=PANDA_READY, duration=1.0, substeps=2)
+    late = res.t >= 0.05
+    np.testing.assert_allclose(res.wrench[late, 2], -20.0, atol=0.2)
+    np.testing.assert_allclose(res.wrench[:, [0, 1, 3, 4, 5]], 0.0, atol=1e-9)
+    assert np.max(np.abs(res.x[:, :2] - res.reference_block("position")[:, :2])) < 1e-4
+    assert np.allclose(res.x[-1, :2], x1[:2], atol=1e-5)
+    assert max(abs(float(table.violation(franka, q)[0])) for q in res.q[::50]) < 1e-9
+
+
+def test_rigid_table_reaction_on_a_redundant_arm_is_g_transpose_lambda(franka):
+    """An operational constraint on the 7-joint arm: h_e = Gᵀ λ (9.52)-(9.53 with J_φ = G J; J is not square)
+    and Jᵀ h_e equals the joint reaction J_φᵀ λ."""
+    from forcecontrol.environments.rigid import PlaneConstraint, RigidEnvironment
+
+    R, p = franka.frame_pose(PANDA_READY)
+    table = RigidEnvironment(PlaneConstraint(np.concatenate([p, np.zeros(3)]), [0, 0, 1, 0, 0, 0]))
+    u = RNG.normal(0, 5.0, 7)
+    qdd, lam, h, T = table.solve(franka, PANDA_READY, np.zeros(7), u)
+    np.testing.assert_allclose(h, [0, 0, lam[0], 0, 0, 0], atol=1e-12)
+    _phi, Jphi, _ = table.constraint.terms(franka, PANDA_READY, np.zeros(7), T)
+    np.testing.assert_allclose(T.J.T @ h, Jphi.T @ lam, atol=1e-9)
+
+
 def test_hybrid_rejects_bad_force_directions(franka):
     """Force directions that are not (6, k) or are linearly dependent raise ParameterError."""
-    from forcecontrol.controllers.spatial import SpatialHybridController
+    from forcecontrol.controllers.spatial_hybrid import SpatialHybridController
 
     with pytest.raises(ParameterError, match=r"force_directions must be a \(6, k\) matrix"):
         SpatialHybridController(franka, np.ones((3, 1)), 1e-4, 1.0, 1.0, 1.0, 1.0)

@@ -12,7 +12,8 @@ from .force import (
 from .hybrid import HybridCompliantController, HybridRigidController
 from .impedance import ImpedanceController
 from .redundant import NullSpacePosture, SingularityHandling
-from .spatial import SpatialComplianceController, SpatialHybridController, SpatialImpedanceController
+from .spatial import SpatialComplianceController, SpatialImpedanceController
+from .spatial_hybrid import SpatialHybridController, SpatialHybridRigidController
 from .variable import (
     DirectionalStiffness,
     EnergyTank,
@@ -37,6 +38,7 @@ __all__ = [
     "SpatialImpedanceController",
     "SpatialComplianceController",
     "SpatialHybridController",
+    "SpatialHybridRigidController",
     "AdmittanceController",
     "NullSpacePosture",
     "SingularityHandling",

@@ -247,9 +247,9 @@ class Controller(ABC):
         if self.position_task_only and getattr(robot, "task", None) == "pose":
             raise ParameterError(
                 f"{type(self).__name__} works in a position task space (x_e = o_e, J = J_P); the robot's task is "
-                "'pose' (position and orientation). Use the 6-D controllers of forcecontrol.controllers.spatial "
-                "(SpatialImpedanceController (9.35), AdmittanceController (9.37), SpatialHybridController) or "
-                "build the robot with task='position'"
+                "'pose' (position and orientation). Use the 6-D controllers of forcecontrol.controllers "
+                "(SpatialImpedanceController (9.35), AdmittanceController (9.37), SpatialHybridController, "
+                "SpatialHybridRigidController) or build the robot with task='position'"
             )
         self.robot = robot
         self.sample_time = positive_scalar("sample_time", sample_time)

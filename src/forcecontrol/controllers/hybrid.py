@@ -146,6 +146,25 @@ class HybridCompliantController(Controller):
 ForceLaw = Literal["feedforward", "proportional", "integral"]
 
 
+def _force_law_gains(force_law: str, force_gain: Any, force_integral_gain: Any, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(K_Pλ, K_Iλ) of the rigid hybrid's force law: (9.92) feedforward, (9.93) proportional or
+    (9.94) integral; the gain the law does not use is zero, and giving it is refused."""
+    if force_law not in ("feedforward", "proportional", "integral"):
+        raise ParameterError(f"force_law must be 'feedforward', 'proportional' or 'integral'; got {force_law!r}")
+    out = []
+    for name, value, law, eq in (("force_gain", force_gain, "proportional", "K_Pλ of (9.93)"),
+                                 ("force_integral_gain", force_integral_gain, "integral", "K_Iλ of (9.94)")):
+        if force_law == law:
+            if value is None:
+                raise ParameterError(f"{name} must be given for force_law={law!r} ({eq}); got None")
+            out.append(as_gain_matrix(name, value, k))
+        elif value is not None:
+            raise ParameterError(f"{name} applies to force_law={law!r} only; got a value with force_law={force_law!r}")
+        else:
+            out.append(np.zeros((k, k)))
+    return out[0], out[1]
+
+
 def _motion_gain(motion: str, name: str, value: Any, what: str, other: str, other_value: Any, size: int) -> np.ndarray:
     """The gain the motion law ``motion`` needs (``name``, required), refusing the other law's (``other``)."""
     if value is None:
@@ -226,8 +245,6 @@ class HybridRigidController(Controller):
         l = d - k
         if motion not in ("velocity", "position"):
             raise ParameterError(f"motion must be 'velocity' or 'position'; got {motion!r}")
-        if force_law not in ("feedforward", "proportional", "integral"):
-            raise ParameterError(f"force_law must be 'feedforward', 'proportional' or 'integral'; got {force_law!r}")
         self.motion = motion
         self.force_law = force_law
         self.velocity_gain = as_gain_matrix("velocity_gain", velocity_gain, l)
@@ -237,23 +254,7 @@ class HybridRigidController(Controller):
         else:
             self.second_gain = _motion_gain(motion, "position_gain", position_gain, "K_Pr of (9.95)",
                                             "velocity_integral_gain", velocity_integral_gain, l)
-        zero = np.zeros((k, k))
-        self.force_gain = zero
-        self.force_integral_gain = zero
-        if force_law == "proportional":
-            if force_gain is None:
-                raise ParameterError("force_gain must be given for force_law='proportional' (K_Pλ of (9.93)); got None")
-            self.force_gain = as_gain_matrix("force_gain", force_gain, k)
-        elif force_gain is not None:
-            raise ParameterError(f"force_gain applies to force_law='proportional' only; got a value with force_law={force_law!r}")
-        if force_law == "integral":
-            if force_integral_gain is None:
-                raise ParameterError("force_integral_gain must be given for force_law='integral' (K_Iλ of (9.94)); got None")
-            self.force_integral_gain = as_gain_matrix("force_integral_gain", force_integral_gain, k)
-        elif force_integral_gain is not None:
-            raise ParameterError(
-                f"force_integral_gain applies to force_law='integral' only; got a value with force_law={force_law!r}"
-            )
+        self.force_gain, self.force_integral_gain = _force_law_gains(force_law, force_gain, force_integral_gain, k)
         self._S_v = np.ascontiguousarray(sel.velocity_selection)
         self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
         self._S_f = np.ascontiguousarray(sel.force_selection)

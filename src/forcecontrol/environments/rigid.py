@@ -340,8 +340,14 @@ class RigidEnvironment(Environment):
                 break
             active &= ~pulling
         qdd = Binv_free - Binv_JT @ lam
-        # h_e = J⁻ᵀ J_φᵀ λ (9.52)-(9.53)
-        h = np.linalg.solve(T.J.T, Jphi.T @ lam)
+        if isinstance(self.constraint, OperationalConstraint):
+            # J_φ = G J, so Jᵀ h_e = J_φᵀ λ = Jᵀ Gᵀ λ: h_e = Gᵀ λ (9.52)-(9.53), for any arm (also redundant)
+            h = self.constraint.gradient(T.x).T @ lam
+        elif T.J.shape[0] == T.J.shape[1]:
+            h = np.linalg.solve(T.J.T, Jphi.T @ lam)  # h_e = J⁻ᵀ J_φᵀ λ (9.52)-(9.53)
+        else:
+            # a joint-space constraint on a redundant arm: the wrench whose joint torques are closest to J_φᵀ λ
+            h = np.linalg.lstsq(T.J.T, Jphi.T @ lam, rcond=None)[0]
         return qdd, lam, h, T
 
     def acceleration(self, robot, q, qd, u):

@@ -235,7 +235,7 @@ register_controller(
 
 
 def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
-    from ..controllers.spatial import SpatialHybridController
+    from ..controllers.spatial_hybrid import SpatialHybridController
 
     if (p["task"] is None) == (p["force_directions"] is None):
         raise ScenarioError("spatial-hybrid needs exactly one of 'task' (a named task) and 'force_directions'")

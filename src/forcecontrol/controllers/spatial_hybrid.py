@@ -1,0 +1,219 @@
+"""Hybrid force/motion control on the desired frame, 6-D: compliant (Sect. 9.7.1) and rigid (Sect. 9.7.2) environments.
+
+Both run the planar laws of :mod:`forcecontrol.laws.hybrid` in the coordinates of the desired
+frame (pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) on ``r = S_vᵀ (−x̃)``), then the
+inverse-dynamics inner loop (9.30) on ``J_Ad`` (``J_Ad q̈ = c + a``, redundant arms with a
+null-space posture).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import laws
+from .._validate import as_gain_matrix
+from ..errors import ParameterError
+from ..robots.base import RobotModel
+from .base import Measurement, Reference
+from .hybrid import ForceLaw, _force_law_gains
+from .redundant import SingularityHandling
+from .spatial import Orientation, _SpatialBase, desired_frame_error
+
+__all__ = ["SpatialHybridController", "SpatialHybridRigidController"]
+
+
+def _directions(force_directions: Any) -> tuple[np.ndarray, np.ndarray]:
+    """S_f (6, k), orthonormalised, and S_v (6, 6 − k), an orthonormal basis of its complement, from
+    desired-frame directions, a :class:`~forcecontrol.task.Task` or :class:`~forcecontrol.task.SelectionMatrices`."""
+    if hasattr(force_directions, "selection"):  # a forcecontrol.task.Task (Tables 9.1-9.3)
+        force_directions = force_directions.selection()
+    if hasattr(force_directions, "force_selection"):  # forcecontrol.task.SelectionMatrices
+        force_directions = force_directions.force_selection
+    S = np.array(force_directions, dtype=np.float64)
+    if S.ndim == 1:
+        S = S.reshape(-1, 1)
+    if S.ndim != 2 or S.shape[0] != 6 or not 1 <= S.shape[1] <= 6 or not np.all(np.isfinite(S)):
+        raise ParameterError(f"force_directions must be a (6, k) matrix with 1 <= k <= 6; got shape {S.shape}")
+    Q, Rq = np.linalg.qr(S)
+    if np.min(np.abs(np.diag(Rq))) < 1e-9:
+        raise ParameterError("force_directions must have linearly independent columns")
+    k = Q.shape[1]
+    return Q, np.ascontiguousarray(np.linalg.svd(Q, full_matrices=True)[0][:, k:])
+
+
+def _desired_frame(err: Any, reference: Reference, h: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """The measured wrench on the desired frame, h_e^d (6,); fills the force blocks of the packed
+    reference row ``ref`` (6 × 6) with h_d, ḣ_d, ḧ_d on the desired frame (pose blocks stay zero:
+    the desired frame in its own coordinates)."""
+    RdT = err.R_d.T
+    for i, w in enumerate((reference.force, reference.force_rate, reference.force_accel)):
+        ref[18 + 6 * i : 21 + 6 * i] = RdT @ w[:3]
+        ref[21 + 6 * i : 24 + 6 * i] = RdT @ w[3:]
+    return np.concatenate([RdT @ h[:3], RdT @ h[3:]])
+
+
+class SpatialHybridController(_SpatialBase):
+    """Hybrid force/motion control on the desired frame, for a compliant environment (Sect. 9.7.1 in 6-D).
+
+    The 6-D form of (9.77)–(9.84) with a 6×k force selection ``S_f`` (orthonormal columns,
+    desired-frame coordinates) and ``S_v`` its orthogonal complement. Along ``S_v`` the pose error
+    on the desired frame (9.9) is servoed; along ``S_f`` the contact force is::
+
+        x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ,    P_v = I − S_f S_fᵀ
+        f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)                       (9.82)
+        J_Ad y = c − x̃̈*,   u = B y + n + Jᵀ h_e                              (9.30)
+
+    with ``λ = S_fᵀ h_e^d`` the measured force components, ``λ̇ = −C⁻¹ S_fᵀ x̃̇`` (the environment
+    of compliance C along S_f: ``λ = −C⁻¹ S_fᵀ x̃_P + const``), and the references
+    ``λ_d = S_fᵀ h_d^d`` from ``reference.force`` (base frame, rotated to the desired frame).
+    With the exact model and C: ``λ̈ + K_Dλ (λ̇ − λ̇_d) + K_Pλ (λ − λ_d) = λ̈_d`` (9.84) and the
+    motion error obeys ``x̃̈ + K_D x̃̇ + K_P x̃ = 0`` along S_v; at rest ``λ = λ_d`` even with an
+    inexact C.
+
+    Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` (6,) base frame about the
+    end-effector origin; ``reference`` with m = 6 (the pose components along S_f are ignored,
+    ``force`` gives h_d). Output: torques (n,) [N m].
+
+    Args:
+        robot: a 6-D robot with ``spatial_terms``.
+        force_directions: S_f, (6, k) desired-frame directions (orthonormalised), a (6,) vector, or a
+            :class:`~forcecontrol.task.Task` / :class:`~forcecontrol.task.SelectionMatrices` whose
+            constraint frame is the desired frame (e.g. ``task.peg_in_hole()``, Table 9.2).
+        compliance: C, the environment's compliance along S_f (k, k) SPD [m/N] (scalar allowed).
+        stiffness, damping: K_P, K_D of the motion loop (6, 6) SPD [1/s², 1/s].
+        force_stiffness, force_damping: K_Pλ, K_Dλ (k, k) SPD [1/s², 1/s].
+        orientation, posture, singularity, sample_time: as for :class:`SpatialImpedanceController`.
+    """
+
+    def __init__(
+        self, robot: RobotModel, force_directions: Any, compliance: Any, stiffness: Any, damping: Any,
+        force_stiffness: Any, force_damping: Any, *, orientation: Orientation = "euler", posture: Any = None,
+        singularity: SingularityHandling | None = None, sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        Q, S_v = _directions(force_directions)
+        self.force_selection = Q
+        k = Q.shape[1]
+        self.compliance = as_gain_matrix("compliance", compliance, k)
+        self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
+        self.damping = as_gain_matrix("damping", damping, 6)
+        self.force_stiffness = as_gain_matrix("force_stiffness", force_stiffness, k)
+        self.force_damping = as_gain_matrix("force_damping", force_damping, k)
+        # the planar hybrid law (9.77)-(9.82), laws.hybrid_compliant_acceleration, on the desired frame:
+        # pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) with r = S_vᵀ(−x̃) and gains
+        # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement)
+        l = 6 - k
+        self._params = np.concatenate([
+            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.T.ravel(), (Q @ self.compliance).ravel(),
+            np.linalg.solve(self.compliance, Q.T).ravel(), (S_v.T @ self.damping @ S_v).ravel(),
+            (S_v.T @ self.stiffness @ S_v).ravel(), self.force_damping.ravel(), self.force_stiffness.ravel(),
+        ])
+        self._integral = np.zeros(l)  # ∫(ν_d − ν) of (9.80): unused by the pose servo
+        self._ws = np.zeros(9 * 6)
+        self._ref = np.zeros(36)
+        self._hc = np.zeros(6)
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of the 6-D hybrid law for this sample: (9.77)-(9.82) on the desired frame, then (9.30)."""
+        q, qd = measurement.q, measurement.qd
+        h = self._wrench(measurement.wrench)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        h_d = _desired_frame(err, reference, h, self._ref)
+        a = np.empty(6)
+        laws.hybrid_compliant_acceleration(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params,
+                                           self._integral, self._ws, a, self._hc)
+        u = self._redundant_torque(err.JAd, err.c + a, q, qd, B, nv, J, h)  # x̃̈ = −J_Ad q̈ + c = −a
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        return {
+            "force_directions": self.force_selection.tolist(),
+            "compliance": self.compliance.tolist(),
+            "stiffness": self.stiffness.tolist(),
+            "damping": self.damping.tolist(),
+            "force_stiffness": self.force_stiffness.tolist(),
+            "force_damping": self.force_damping.tolist(),
+        }
+
+
+class SpatialHybridRigidController(_SpatialBase):
+    """Hybrid force/motion control on the desired frame, for a rigid environment (Sect. 9.7.2 in 6-D).
+
+    The 6-D form of (9.91)–(9.95): the planar law :func:`forcecontrol.laws.hybrid_rigid_acceleration`
+    in the desired frame's coordinates with the pose servo (9.95) along ``S_v`` (the complement of
+    ``S_f``) and the force law along ``S_f``::
+
+        a = S_v α_ν,   α_ν = r̈_d + K_Dr (ṙ_d − ν) + K_Pr (r_d − r) = K_Dr S_vᵀ x̃̇ + K_Pr S_vᵀ x̃   (9.95)
+        f_λ = λ_d [+ K_Pλ (λ_d − λ)] [+ K_Iλ ∫(λ_d − λ)]          (9.92)-(9.94), λ = S_fᵀ h_e^d
+        J_Ad y = c + a,   u = B y + n + Jᵀ h_c,   h_c = blockdiag(R_d, R_d) S_f f_λ     (9.91), (9.30)
+
+    On a rigid environment whose constraint directions are S_f, the reaction equals the commanded
+    h_c (λ = f_λ, (9.93)), and the motion along S_v obeys ``r̈ + K_Dr ṙ + K_Pr r = 0``; the pose
+    components along S_f are not servoed (the environment holds them). ``K_Dr = S_vᵀ K_D S_v``,
+    ``K_Pr = S_vᵀ K_P S_v``.
+
+    Args:
+        robot: a 6-D robot with ``spatial_terms``.
+        force_directions: S_f (6, k) desired-frame directions (orthonormalised), or a
+            :class:`~forcecontrol.task.Task` / :class:`~forcecontrol.task.SelectionMatrices`.
+        stiffness, damping: K_P, K_D of the pose servo (6, 6) SPD [1/s², 1/s].
+        force_law: ``"feedforward"`` (9.92), ``"proportional"`` (9.93) or ``"integral"`` (9.94).
+        force_gain: K_Pλ (k, k) (proportional law only); force_integral_gain: K_Iλ (k, k) [1/s]
+            (integral law only).
+        orientation, posture, singularity, sample_time: as for :class:`SpatialImpedanceController`.
+    """
+
+    def __init__(
+        self, robot: RobotModel, force_directions: Any, stiffness: Any, damping: Any, *,
+        force_law: ForceLaw = "feedforward", force_gain: Any = None, force_integral_gain: Any = None,
+        orientation: Orientation = "euler", posture: Any = None, singularity: SingularityHandling | None = None,
+        sample_time: float = 1e-3,
+    ) -> None:
+        super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        Q, S_v = _directions(force_directions)
+        self.force_selection = Q
+        k = Q.shape[1]
+        l = 6 - k
+        self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
+        self.damping = as_gain_matrix("damping", damping, 6)
+        self.force_law = force_law
+        self.force_gain, self.force_integral_gain = _force_law_gains(force_law, force_gain, force_integral_gain, k)
+        self._params = np.concatenate([
+            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.ravel(), Q.T.ravel(),
+            (S_v.T @ self.damping @ S_v).ravel(), (S_v.T @ self.stiffness @ S_v).ravel(),
+            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.zeros(6 * l),
+        ])
+        self.state = np.zeros(l + k)  # [∫(ν_d − ν) (unused by the pose servo), ∫(λ_d − λ)]
+        self._ws = np.zeros(9 * 6)
+        self._ref = np.zeros(36)
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """The force integral back to zero."""
+        self.state[:] = 0.0
+
+    def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        """Torques of (9.91) on the desired frame for this sample; advances ∫(λ_d − λ)."""
+        q, qd = measurement.q, measurement.qd
+        h = self._wrench(measurement.wrench)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        h_d = _desired_frame(err, reference, h, self._ref)
+        a, h_c = np.empty(6), np.empty(6)
+        laws.hybrid_rigid_acceleration(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params,
+                                       self.state, self._ws, a, h_c)
+        R_d = err.R_d
+        h_c_base = np.concatenate([R_d @ h_c[:3], R_d @ h_c[3:]])
+        u = self._redundant_torque(err.JAd, err.c + a, q, qd, B, nv, J, h_c_base)
+        return self._check_output(t, u, measurement)
+
+    def gains(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"force_directions": self.force_selection.tolist(), "stiffness": self.stiffness.tolist(),
+                               "damping": self.damping.tolist(), "force_law": self.force_law}
+        if self.force_law == "proportional":
+            out["force_gain"] = self.force_gain.tolist()
+        if self.force_law == "integral":
+            out["force_integral_gain"] = self.force_integral_gain.tolist()
+        return out
