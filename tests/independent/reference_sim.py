@@ -27,7 +27,8 @@ Control laws, all on the inverse-dynamics inner loop (9.30) ``u = B y + n + Jᵀ
 3. force control with inner velocity loop (9.45) (J̇ q̇, misprint 1) and (9.46):
    ``a = M_d⁻¹ (−K_D ẋ_e + K_P K_F (f_d − f_e))``;
 4. parallel force/position control (9.48): ``a = M_d⁻¹ (−K_D ẋ_e + K_P (x_d − x_e + x_F))``
-   with x_F as in 2.
+   with x_F as in 2;
+5. hybrid force/velocity control on a compliant plane (9.77), (9.80)-(9.82) (``HybridCompliant``).
 
 For 2 and 4, C_F (K_F, K_I diagonal) may be diagonal in a task frame with rotation R (columns:
 its axes in the base frame): ``x_F = R (K_F Rᵀ (f_d − f_e) + ξ)`` with ξ in task coordinates.
@@ -60,6 +61,10 @@ __all__ = [
     "InnerPosition",
     "InnerVelocity",
     "Parallel",
+    "HybridCompliant",
+    "Reference",
+    "SetpointRef",
+    "PathRef",
     "Run",
     "run",
     "plane_at_angle",
@@ -249,20 +254,88 @@ class Spring(Environment):
 # --------------------------------------------------------------------------- references
 
 
-@dataclass
-class SetpointRef:
-    """Constant x_d stepped at t = 0; f_d stepped at ``force_start`` (a sample at it sees the step)."""
+_BREAK = 1e-9  # a sample within 1e-9 (relative) of a breakpoint counts as on it
 
-    position: np.ndarray
-    force: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    force_start: float = 0.0
+
+class Reference:
+    """x_d(t), ẋ_d(t), ẍ_d(t) and f_d(t), ḟ_d(t), f̈_d(t) in the base frame."""
+
+    def motion(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        raise NotImplementedError
+
+    def force(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        raise NotImplementedError
 
     def x_d(self, t: float) -> np.ndarray:
-        return np.asarray(self.position, dtype=float)
+        return self.motion(t)[0]
 
     def f_d(self, t: float) -> np.ndarray:
-        on = t >= self.force_start - 1e-9 * max(1.0, self.force_start)
-        return np.asarray(self.force, dtype=float) * (1.0 if on else 0.0)
+        return self.force(t)[0]
+
+
+@dataclass
+class SetpointRef(Reference):
+    """Constant x_d stepped at t = 0; f_d stepped at ``force_start`` (a sample at it sees the step),
+    or, with ``force_ramp`` > 0, raised from there by the quintic ``10τ³ − 15τ⁴ + 6τ⁵`` over ``force_ramp``."""
+
+    position: np.ndarray
+    force_value: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    force_start: float = 0.0
+    force_ramp: float = 0.0
+
+    def motion(self, t):
+        z = np.zeros(2)
+        return np.asarray(self.position, dtype=float), z, z
+
+    def force(self, t):
+        f = np.asarray(self.force_value, dtype=float)
+        t0, T = self.force_start, self.force_ramp
+        eps = _BREAK * max(1.0, t0 + T)
+        if t < t0 - eps:
+            return 0.0 * f, 0.0 * f, 0.0 * f
+        if T <= 0.0 or t >= t0 + T - eps:
+            return f.copy(), 0.0 * f, 0.0 * f
+        tau = (t - t0) / T
+        s = tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+        sd = 30.0 * tau**2 * (1.0 - tau) ** 2 / T
+        sdd = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / T**2
+        return s * f, sd * f, sdd * f
+
+
+@dataclass
+class PathRef(Reference):
+    """Straight segment p_i → p_f with the trapezoidal velocity profile of Sect. 4.2.1 (t_f, t_c), constant f_d.
+
+    s̈_c = 1 / (t_c (t_f − t_c)); a sample on a breakpoint takes the segment that starts there.
+    """
+
+    p_i: np.ndarray
+    p_f: np.ndarray
+    t_f: float
+    t_c: float
+    force_value: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    def motion(self, t):
+        tf, tc = self.t_f, self.t_c
+        a = 1.0 / (tc * (tf - tc))
+        eps = _BREAK * tf
+        if t < -eps:
+            s, sd, sdd = 0.0, 0.0, 0.0
+        elif t >= tf - eps:
+            s, sd, sdd = 1.0, 0.0, 0.0
+        elif t < tc - eps:
+            s, sd, sdd = 0.5 * a * t * t, a * t, a
+        elif t < tf - tc - eps:
+            s, sd, sdd = a * tc * (t - 0.5 * tc), a * tc, 0.0
+        else:
+            r = tf - t
+            s, sd, sdd = 1.0 - 0.5 * a * r * r, a * r, -a
+        d = np.asarray(self.p_f, dtype=float) - np.asarray(self.p_i, dtype=float)
+        return np.asarray(self.p_i, dtype=float) + s * d, sd * d, sdd * d
+
+    def force(self, t):
+        z = np.zeros(2)
+        return np.asarray(self.force_value, dtype=float), z, z
 
 
 # --------------------------------------------------------------------------- control laws
@@ -284,13 +357,13 @@ class Law:
         self.Md, self.KD, self.KP = _diag(Md), _diag(KD), _diag(KP)
         self.Md_inv = np.linalg.inv(self.Md)
 
-    def start(self, arm: Arm, q, qd, h, ref: SetpointRef) -> None:
+    def start(self, arm: Arm, q, qd, h, ref: Reference) -> None:
         pass
 
-    def accel(self, t, x, xd, h, ref: SetpointRef, Ts: float) -> np.ndarray:  # pragma: no cover
+    def accel(self, t, x, xd, h, ref: Reference, Ts: float) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
-    def torque(self, arm: Arm, t, q, qd, h, ref: SetpointRef, Ts: float) -> np.ndarray:
+    def torque(self, arm: Arm, t, q, qd, h, ref: Reference, Ts: float) -> np.ndarray:
         J = arm.jacobian(q)
         x = arm.tip(q)
         xd = J @ qd
@@ -303,9 +376,8 @@ class Impedance(Law):
     """(9.30)-(9.31), corrected: a = ẍ_d + M_d⁻¹(K_D x̃̇ + K_P x̃ − h_e), x̃ = x_d − x_e."""
 
     def accel(self, t, x, xd, h, ref, Ts):
-        e = ref.x_d(t) - x
-        ed = -xd  # ẋ_d = 0 and ẍ_d = 0 for a set-point
-        return self.Md_inv @ (self.KD @ ed + self.KP @ e - h)
+        x_d, v_d, a_d = ref.motion(t)
+        return a_d + self.Md_inv @ (self.KD @ (v_d - xd) + self.KP @ (x_d - x) - h)
 
 
 class _PIForce(Law):
@@ -368,6 +440,44 @@ class InnerVelocity(Law):
         return self.Md_inv @ (-self.KD @ xd + self.KP @ (self.KF @ (ref.f_d(t) - h)))
 
 
+class HybridCompliant(Law):
+    """Hybrid force/velocity control on a compliant plane (9.77), (9.80), (9.81), λ̇ from (9.82).
+
+    The plane's constraint frame: x_c = [cos a, sin a] along it, y_c = [−sin a, cos a] out of the
+    environment; S_v = x_c, S_f = y_c (both unit vectors, so S† = Sᵀ); ν = x_cᵀ ẋ_e (9.60),
+    λ = y_cᵀ h_e (9.54), ν_d = x_cᵀ ẋ_d, ν̇_d = x_cᵀ ẍ_d, λ_d = y_cᵀ f_d (and its derivatives).
+    With Ĉ the compliance the controller assumes (2 × 2, base frame):
+    ``Ĉ′ = (I − P_v) Ĉ`` (9.72), ``λ̇ = (y_cᵀ Ĉ y_c)⁻¹ y_cᵀ J q̇`` (9.82 with the estimate),
+    ``α_ν = ν̇_d + K_Pν (ν_d − ν) + K_Iν ∫(ν_d − ν)`` (left rectangle sum over the samples),
+    ``f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)``, ``α = S_v α_ν + Ĉ′ S_f f_λ`` (9.77) and the
+    inverse dynamics ``γ_e = B_e α + n_e + h_e``, i.e. ``u = B J⁻¹ (α − J̇ q̇) + n + Jᵀ h_e``.
+    """
+
+    def __init__(self, angle_deg: float, C_hat, KPv: float, KIv: float, KPl: float, KDl: float) -> None:
+        a = math.radians(angle_deg)
+        self.xc = np.array([math.cos(a), math.sin(a)])
+        self.yc = np.array([-math.sin(a), math.cos(a)])
+        C = _diag(C_hat)
+        self.Cp_yc = (np.eye(2) - np.outer(self.xc, self.xc)) @ C @ self.yc
+        self.lam_rate_gain = 1.0 / float(self.yc @ C @ self.yc)
+        self.KPv, self.KIv, self.KPl, self.KDl = float(KPv), float(KIv), float(KPl), float(KDl)
+        self.integral = 0.0
+
+    def start(self, arm, q, qd, h, ref):
+        self.integral = 0.0
+
+    def accel(self, t, x, xd, h, ref, Ts):
+        _, v_d, a_d = ref.motion(t)
+        f_d, fd_d, fdd_d = ref.force(t)
+        nu, nu_d, nud_d = self.xc @ xd, self.xc @ v_d, self.xc @ a_d
+        lam, lam_d, lamd_d, lamdd_d = self.yc @ h, self.yc @ f_d, self.yc @ fd_d, self.yc @ fdd_d
+        lam_rate = self.lam_rate_gain * (self.yc @ xd)
+        alpha_nu = nud_d + self.KPv * (nu_d - nu) + self.KIv * self.integral
+        f_lam = lamdd_d + self.KDl * (lamd_d - lam_rate) + self.KPl * (lam_d - lam)
+        self.integral += Ts * (nu_d - nu)  # used from the next sample on
+        return self.xc * alpha_nu + self.Cp_yc * f_lam
+
+
 # --------------------------------------------------------------------------- the sampled loop
 
 
@@ -418,7 +528,7 @@ def _ivp_interval(arm: Arm, env: Environment, s: list[float], u1: float, u2: flo
 def run(
     law: Law,
     env: Environment,
-    ref: SetpointRef,
+    ref: Reference,
     q0,
     duration: float,
     Ts: float = 1e-3,

@@ -28,6 +28,8 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
+from forcecontrol.controllers.hybrid import HybridCompliantController
+from forcecontrol.task import inclined_plane
 
 try:
     from . import reference_sim as ref
@@ -65,6 +67,9 @@ class Case:
     x_d: np.ndarray
     f_d: np.ndarray = field(default_factory=lambda: np.zeros(2))
     force_start: float = 0.0
+    force_ramp: float = 0.0  # > 0: the smooth (quintic) ramp of f_d from force_start
+    path: tuple | None = None  # (p_i, p_f, t_f, t_c): trapezoidal straight path instead of the set-point x_d
+    tip_velocity0: np.ndarray | None = None  # the tip's velocity at t = 0 (q̇0 = J⁻¹ v0); rest by default
     duration: float = 2.0
     Ts: float = 1e-3
     extra_times: tuple[float, ...] = ()
@@ -141,6 +146,29 @@ def _cases() -> list[Case]:
                   ("par", 100, 500, 2500, [2e-4, 0.0], [5e-4, 0.0], "tip", None),
                   start=np.array(th), x_d=np.array([1.105, 0.0]), f_d=np.array([30.0, 0.0]),
                   force_start=0.5, Ts=5e-4, duration=2.0, extra_times=(0.5, 0.55, 0.6, 0.75)))
+    # --- impedance tracking a trapezoidal path along a plane (ẋ_d, ẍ_d feedforward of (9.31))
+    th = [1.0, 0.2]
+    p_i = _on_plane(60, th, 0.0, -0.03)
+    c.append(Case("impedance-plane-60deg-k1e4-sliding-trapezoidal-path", _plane(60, th, 1e4), ("imp", 50, 400, 3000),
+                  start=np.array(th), x_d=p_i, path=(p_i, p_i + 0.2 * _rot(60)[:, 0], 1.0, 0.2), duration=1.5))
+    # --- hybrid force/velocity control on a compliant plane (9.77), (9.80)-(9.82)
+    th = [1.0, 0.1]
+    y_c = _rot(30)[:, 1]
+    c.append(Case("hybrid-plane-30deg-k8e3-trapezoidal-path", _plane(30, th, 8e3),
+                  ("hyb", 30, 1 / 8e3, 60, 900, 1600, 80),
+                  start=np.array(th), x_d=np.array(th), f_d=-40.0 * y_c,
+                  path=(np.array(th), _on_plane(30, th, 0.2), 1.2, 0.3), duration=2.0))
+    th = [1.1, 0.3]
+    y_c = _rot(60)[:, 1]
+    c.append(Case("hybrid-plane-60deg-k2e4-compliance-underestimated", _plane(60, th, 2e4),
+                  ("hyb", 60, 1 / (1.5 * 2e4), 80, 1600, 2500, 100),
+                  start=np.array(th), x_d=np.array(th), f_d=-25.0 * y_c,
+                  path=(np.array(th), _on_plane(60, th, -0.15), 1.0, 0.25), duration=2.0))
+    th = [1.2, 0.4]
+    c.append(Case("hybrid-plane-0deg-k5e3-smooth-force-ramp-moving-start", _plane(0, th, 5e3),
+                  ("hyb", 0, 1 / 5e3, 50, 600, 900, 60),
+                  start=np.array(th), x_d=np.array(th), f_d=np.array([0.0, -30.0]), force_start=0.2, force_ramp=0.5,
+                  tip_velocity0=np.array([0.1, 0.0]), duration=1.5, extra_times=(0.3, 0.45, 0.7)))
     return c
 
 
@@ -165,15 +193,23 @@ def _library(case: Case) -> fc.SimulationResult:
                                               integrator_start=p[5], sample_time=Ts)
     elif name == "ivel":
         ctl = fc.InnerVelocityForceController(ARM, p[0], p[1], p[2], force_gain=p[3], sample_time=Ts)
-    else:
+    elif name == "par":
         ctl = fc.ParallelForcePositionController(ARM, p[0], p[1], p[2], force_gain=p[3], integral_gain=p[4],
                                                  integrator_start=p[5], task_frame=p[6], sample_time=Ts)
-    setpoint = fc.Setpoint(case.x_d, case.f_d, force_start=case.force_start)
-    q0 = ref.ik_elbow_up(case.start)
-    return fc.simulate(ARM, env, ctl, setpoint, q0=q0, duration=case.duration)
+    else:
+        task = inclined_plane(math.radians(p[0]), tuple(case.env[1]))
+        ctl = HybridCompliantController(ARM, task, p[1], p[2], p[3], p[4], p[5], sample_time=Ts)
+    signal: fc.Setpoint | fc.LinearPath
+    if case.path is None:
+        signal = fc.Setpoint(case.x_d, case.f_d, force_start=case.force_start, force_ramp=case.force_ramp,
+                             force_shape="smooth")
+    else:
+        signal = fc.LinearPath(case.path[0], case.path[1], case.path[2], accel_time=case.path[3], force=case.f_d)
+    q0, qd0 = _initial_state(case)
+    return fc.simulate(ARM, env, ctl, signal, q0=q0, qd0=qd0, duration=case.duration)
 
 
-def _reference(case: Case, integrator: str = "rk4", duration: float | None = None) -> ref.Run:
+def _reference(case: Case, integrator: str = "rk4", duration: float | None = None, step: float = 5e-5) -> ref.Run:
     kind = case.env[0]
     if kind == "plane":
         env: ref.Environment = ref.Plane(case.env[1], case.env[2], case.env[3])
@@ -187,12 +223,26 @@ def _reference(case: Case, integrator: str = "rk4", duration: float | None = Non
         law = ref.InnerPosition(p[0], p[1], p[2], KF=p[3], KI=p[4], start=p[5])
     elif name == "ivel":
         law = ref.InnerVelocity(p[0], p[1], p[2], KF=p[3])
-    else:
+    elif name == "par":
         law = ref.Parallel(p[0], p[1], p[2], KF=p[3], KI=p[4], start=p[5], R=p[6])
-    sp = ref.SetpointRef(case.x_d, case.f_d, case.force_start)
+    else:
+        law = ref.HybridCompliant(p[0], p[1], p[2], p[3], p[4], p[5])
+    sig: ref.Reference
+    if case.path is None:
+        sig = ref.SetpointRef(case.x_d, case.f_d, case.force_start, case.force_ramp)
+    else:
+        sig = ref.PathRef(case.path[0], case.path[1], case.path[2], case.path[3], case.f_d)
+    q0, qd0 = _initial_state(case)
+    return ref.run(law, env, sig, q0, case.duration if duration is None else duration, Ts=case.Ts, qd0=qd0,
+                   integrator=integrator, step=step)
+
+
+def _initial_state(case: Case) -> tuple[np.ndarray, np.ndarray]:
+    """q0 (elbow up, the reference's own inverse kinematics) and q̇0 = J⁻¹ v0."""
     q0 = ref.ik_elbow_up(case.start)
-    return ref.run(law, env, sp, q0, case.duration if duration is None else duration, Ts=case.Ts,
-                   integrator=integrator)
+    if case.tip_velocity0 is None:
+        return q0, np.zeros(2)
+    return q0, np.linalg.solve(ref.Arm().jacobian(q0), case.tip_velocity0)
 
 
 @functools.cache
@@ -252,6 +302,59 @@ def test_rk4_reference_matches_solve_ivp_reference():
     assert np.linalg.norm(a.f, axis=1).max() > 10.0  # contact happened within the window
     np.testing.assert_allclose(a.f, b.f, atol=1e-6 * np.abs(b.f).max())
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+
+
+def _chapter_equilibrium(case: Case) -> tuple[np.ndarray, np.ndarray]:
+    """Contact force and tip position at the chapter's equilibrium (NaN where it leaves one free).
+
+    * impedance (9.32) with a set-point: ``K_P (x_d − x) = h_e = K (x − x_r)``, K = k ν νᵀ for a
+      plane (in contact), so ``x = (K_P + K)⁻¹ (K_P x_d + K x_r)``;
+    * the direct force schemes with PI (inner position, parallel) and the inner velocity loop:
+      ``f_e = f_d`` and (9.44) ``K x = K x_r + f_d`` along the normal; along the free direction
+      the inner position loop takes the (base) coordinate to 0 (x_F = 0 there, remark after
+      (9.47)), the parallel one to x_d (9.49), the inner velocity loop leaves it free;
+    * hybrid: λ = λ_d, and with the velocity integral the tangential coordinate of the path's end.
+    """
+    kind, *e = case.env
+    name, *p = case.law
+    x_d = case.path[1] if case.path is not None else case.x_d
+    if kind == "plane":
+        x_r, nu, k = e
+        K = k * np.outer(nu, nu)
+    else:
+        K, x_r = e
+    if name == "imp":
+        KP = ref._diag(p[2])
+        x = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
+        return K @ (x - x_r), x
+    f = case.f_d
+    normal = nu @ x_r + (nu @ f) / k  # ν·x at f_e = f_d (f_e = −k δ ν)
+    tangent = np.array([-nu[1], nu[0]])
+    if name == "ipos":
+        assert abs(nu[1]) < 1e-12, "cases of the inner position loop use walls x = x_r"
+        return f, np.array([normal / nu[0], 0.0])
+    if name == "ivel" or case.tip_velocity0 is not None:
+        return f, np.full(2, np.nan)
+    return f, normal * nu + (tangent @ x_d) * tangent
+
+
+SETTLE = 5.0  # [s]
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id) for c in CASES])
+def test_reference_settles_at_the_chapters_equilibrium(case: Case):
+    """The reference alone, run to 5 s: force and position at the chapter's closed-form equilibrium within 0.5 %.
+
+    This checks the reference's sign conventions (h_e, ν, λ, ξ₀) against the chapter, not
+    against the library. A coarser RK4 step (0.25 ms) suffices here.
+    """
+    r = _reference(case, duration=max(SETTLE, case.duration), step=2.5e-4)
+    f, x = _chapter_equilibrium(case)
+    f_scale = float(np.linalg.norm(r.f, axis=1).max())
+    p_scale = max(float(np.linalg.norm(r.x - r.x[0], axis=1).max()), POSITION_SCALE_FLOOR)
+    assert np.abs(r.f[-1] - f).max() < 5e-3 * f_scale
+    known = ~np.isnan(x)
+    assert np.all(np.abs(r.x[-1][known] - x[known]) < 5e-3 * p_scale)
 
 
 # --------------------------------------------------------------------------- the reference's model
