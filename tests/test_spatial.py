@@ -845,3 +845,40 @@ def test_spatial_package_keeps_its_public_names():
     assert {"Transform", "Wrench", "Twist", "pose_error", "rotation_vector", "EULER_SINGULARITY_TOL"} <= set(sp.__all__)
     for f in Path(sp.__file__).parent.glob("*.py"):
         assert len(f.read_text().splitlines()) < 450, f
+
+
+RIGID_TABLE_LINE = """
+name = "panda-rigid-table-line"
+duration = 1.0
+sample_time = 0.001
+substeps = 2
+[robot]
+model = "panda"
+q0 = [0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398]
+[environment]
+type = "rigid-table"
+[controller]
+type = "spatial-hybrid-rigid"
+force_directions = [[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]
+stiffness = 400.0
+damping = 40.0
+force_law = "integral"
+force_integral_gain = 50.0
+[reference]
+type = "pose-line"
+end_offset = [0.1, 0.1, 0.0]
+duration = 0.6
+start_time = 0.2
+force = [0.0, 0.0, -20.0, 0.0, 0.0, 0.0]
+"""
+
+
+def test_rigid_hybrid_6d_runs_from_a_scenario_file(tmp_path):
+    """[environment] rigid-table with [controller] spatial-hybrid-rigid: the scenario runs and holds 20 N."""
+    from forcecontrol.scenarios import load_scenario
+
+    path = tmp_path / "rigid.toml"
+    path.write_text(RIGID_TABLE_LINE)
+    res = load_scenario(path).run().cases[0].result
+    np.testing.assert_allclose(res.wrench[res.t >= 0.05, 2], -20.0, atol=0.2)
+    assert np.allclose(res.x[-1, :2] - res.x[0, :2], [0.1, 0.1], atol=1e-5)

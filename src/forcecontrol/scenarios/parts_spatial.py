@@ -144,6 +144,29 @@ register_environment(
 )
 
 
+def _rigid_table(p: dict[str, Any], ctx: dict[str, Any]):
+    from ..environments.rigid import PlaneConstraint, RigidEnvironment
+
+    _R0, p0 = _start(ctx)
+    point = p0 + _offset("offset", p["offset"])
+    normal = as_vector("normal", p["normal"], 3)
+    # the constraint on the 6-D pose x = [o_e; φ_e] acts on the position only
+    plane = PlaneConstraint(np.concatenate([point, np.zeros(3)]), np.concatenate([normal, np.zeros(3)]))
+    return RigidEnvironment(plane, unilateral=p["unilateral"])
+
+
+register_environment(
+    "rigid-table",
+    {
+        "offset": Field("vector", doc="a surface point − o_e(q0), base frame [m] (default: the start tip)"),
+        "normal": Field("vector", default=[0.0, 0.0, 1.0], doc="outward normal"),
+        "unilateral": Field("bool", default=True, doc="the table only pushes (contact can be lost)"),
+    },
+    _rigid_table,
+    "rigid frictionless table, constrained dynamics (9.87)-(9.88), point contact at the end-effector (6-D robots)",
+)
+
+
 def _spring(p: dict[str, Any], ctx: dict[str, Any]):
     from ..environments.spatial import SpatialSpring
 
@@ -234,23 +257,33 @@ register_controller(
 )
 
 
-def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
-    from ..controllers.spatial_hybrid import SpatialHybridController
-
+def _force_directions(p: dict[str, Any]) -> Any:
+    """S_f (6, k) from a 6-D hybrid table's ``task`` or ``force_directions`` (exactly one)."""
     if (p["task"] is None) == (p["force_directions"] is None):
-        raise ScenarioError("spatial-hybrid needs exactly one of 'task' (a named task) and 'force_directions'")
+        raise ScenarioError("a 6-D hybrid controller needs exactly one of 'task' (a named task) and 'force_directions'")
     if p["task"] is not None:
         from ..task import named_task
 
-        sel = named_task(p["task"]).selection().force_selection
-    else:
-        given = p["force_directions"]
-        rows = as_matrix("force_directions", given if isinstance(given, list) and isinstance(given[0], list) else [given])
-        if rows.shape[1] != 6 or not 1 <= rows.shape[0] <= 6:
-            raise DimensionError(
-                f"key 'force_directions' must be 1 to 6 rows of 6 numbers (columns of S_f); got shape {rows.shape}"
-            )
-        sel = rows.T
+        return named_task(p["task"]).selection().force_selection
+    given = p["force_directions"]
+    rows = as_matrix("force_directions", given if isinstance(given, list) and isinstance(given[0], list) else [given])
+    if rows.shape[1] != 6 or not 1 <= rows.shape[0] <= 6:
+        raise DimensionError(
+            f"key 'force_directions' must be 1 to 6 rows of 6 numbers (columns of S_f); got shape {rows.shape}"
+        )
+    return rows.T
+
+
+_DIRECTION_FIELDS = {
+    "task": Field("str", doc="a named task of forcecontrol.task (e.g. 'peg-in-hole', Table 9.2)"),
+    "force_directions": Field("gain", doc="S_f columns given as rows of 6 numbers (desired frame)"),
+}
+
+
+def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
+    from ..controllers.spatial_hybrid import SpatialHybridController
+
+    sel = _force_directions(p)
     return SpatialHybridController(
         ctx["robot"], sel, p["compliance"], p["stiffness"], p["damping"], p["force_stiffness"], p["force_damping"],
         orientation=p["orientation"], posture=_posture(p, ctx), sample_time=ctx["sample_time"],
@@ -260,8 +293,7 @@ def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
 register_controller(
     "spatial-hybrid",
     {
-        "task": Field("str", doc="a named task of forcecontrol.task (e.g. 'peg-in-hole', Table 9.2)"),
-        "force_directions": Field("gain", doc="S_f columns given as rows of 6 numbers (desired frame)"),
+        **_DIRECTION_FIELDS,
         "compliance": Field("gain", True, doc="C along S_f [m/N, rad/(N m)]"),
         "stiffness": Field("gain", True, doc="K_P of the motion loop (6, 6) [1/s²]"),
         "damping": Field("gain", True, doc="K_D of the motion loop (6, 6) [1/s]"),
@@ -271,4 +303,31 @@ register_controller(
     },
     _hybrid,
     "hybrid force/motion control on the desired frame, compliant environment ((9.77)-(9.84) in 6-D)",
+)
+
+
+def _hybrid_rigid(p: dict[str, Any], ctx: dict[str, Any]):
+    from ..controllers.spatial_hybrid import SpatialHybridRigidController
+
+    return SpatialHybridRigidController(
+        ctx["robot"], _force_directions(p), p["stiffness"], p["damping"], force_law=p["force_law"],
+        force_gain=p["force_gain"], force_integral_gain=p["force_integral_gain"], orientation=p["orientation"],
+        posture=_posture(p, ctx), sample_time=ctx["sample_time"],
+    )
+
+
+register_controller(
+    "spatial-hybrid-rigid",
+    {
+        **_DIRECTION_FIELDS,
+        "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) (6, 6) [1/s²]"),
+        "damping": Field("gain", True, doc="K_D of the pose servo (9.95) (6, 6) [1/s]"),
+        "force_law": Field("str", default="feedforward", choices=("feedforward", "proportional", "integral"),
+                           doc="(9.92), (9.93) or (9.94)"),
+        "force_gain": Field("gain", doc="K_Pλ (proportional law)"),
+        "force_integral_gain": Field("gain", doc="K_Iλ [1/s] (integral law)"),
+        **_POSTURE_FIELDS,
+    },
+    _hybrid_rigid,
+    "hybrid force/motion control on the desired frame, rigid environment ((9.91)-(9.95) in 6-D)",
 )
