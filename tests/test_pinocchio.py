@@ -7,7 +7,7 @@ import pytest
 
 pin = pytest.importorskip("pinocchio")
 
-from forcecontrol.errors import DimensionError, ParameterError  # noqa: E402
+from forcecontrol.errors import DimensionError, ParameterError, ScenarioError  # noqa: E402
 from forcecontrol.robots import CHAPTER_ARM  # noqa: E402
 from forcecontrol.robots.base import RobotModel  # noqa: E402
 from forcecontrol.robots.pinocchio import PinocchioRobot, chapter_arm, model_path, panda, ur5  # noqa: E402
@@ -126,6 +126,33 @@ def test_missing_urdf_and_unknown_locked_joint_are_errors(tmp_path):
         PinocchioRobot.from_urdf(tmp_path / "none.urdf", "tip")
     with pytest.raises(ParameterError, match="locked joint 'elbow'"):
         PinocchioRobot.from_urdf(model_path("chapter_arm"), "tip", locked_joints=("elbow",))
+
+
+AMBIGUOUS_URDF = """<robot name="r">
+<link name="base"/>
+<link name="tip"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="tip" type="revolute"><parent link="base"/><child link="tip"/><axis xyz="0 0 1"/>
+<limit lower="-3" upper="3" effort="10" velocity="1"/></joint>
+</robot>"""
+
+
+def test_a_frame_name_shared_by_a_link_and_a_joint_is_refused_unless_its_type_is_given(tmp_path):
+    """A URDF link and joint both named 'tip': ParameterError naming both types (not Pinocchio's raw ValueError);
+    frame_type='BODY' picks the link, in Python and in a scenario's [robot] table."""
+    path = tmp_path / "ambiguous.urdf"
+    path.write_text(AMBIGUOUS_URDF)
+    with pytest.raises(ParameterError, match=r"frame 'tip' names 2 frames of the model \(types \['JOINT', 'BODY'\]\)"):
+        PinocchioRobot.from_urdf(path, "tip", task="planar")
+    robot = PinocchioRobot.from_urdf(path, "tip", task="planar", frame_type="BODY")
+    assert str(robot.model.frames[robot.frame_id].type).endswith("BODY")
+    with pytest.raises(ParameterError, match="frame_type must be one of"):
+        PinocchioRobot.from_urdf(path, "tip", task="planar", frame_type="LINK")
+    from forcecontrol.scenarios.parts_spatial import pinocchio_robot
+
+    rt = {"model": "urdf", "urdf": str(path), "frame": "tip", "locked_joints": None, "frame_type": None}
+    with pytest.raises(ScenarioError, match=r"\[robot\]: frame 'tip' names 2 frames"):
+        pinocchio_robot("s.toml", rt)
+    assert pinocchio_robot("s.toml", {**rt, "frame_type": "BODY"}).frame_id == robot.frame_id
 
 
 def test_wrong_state_shape_is_dimension_error(franka):

@@ -70,6 +70,25 @@ def example_robot_data_dir() -> Path:
     raise ImportError("example-robot-data is installed but its robots folder was not found")  # pragma: no cover
 
 
+def _frame_id(pin: Any, model: Any, frame: str, frame_type: str | None) -> int:
+    """The id of the frame named ``frame`` (of type ``frame_type`` when given), or ParameterError."""
+    matches = [(i, str(f.type).rsplit(".", 1)[-1]) for i, f in enumerate(model.frames) if f.name == frame]
+    if frame_type is not None:
+        types = ("BODY", "JOINT", "FIXED_JOINT", "OP_FRAME", "SENSOR")
+        if frame_type not in types:
+            raise ParameterError(f"frame_type must be one of {list(types)}; got {frame_type!r}")
+        matches = [(i, t) for i, t in matches if t == frame_type]
+    if len(matches) != 1:
+        found = [t for _, t in matches] or "none"
+        raise ParameterError(
+            f"frame {frame!r} names {len(matches)} frames of the model (types {found}); "
+            "give frame_type='BODY' (the link) or 'JOINT' to pick one"
+            if matches else f"no frame {frame!r} of type {frame_type!r}; its types are "
+            f"{[str(f.type).rsplit('.', 1)[-1] for f in model.frames if f.name == frame]}"
+        )
+    return int(matches[0][0])
+
+
 class PinocchioRobot:
     """A :class:`~forcecontrol.robots.base.RobotModel` computed by Pinocchio.
 
@@ -85,10 +104,14 @@ class PinocchioRobot:
         rotor_coupling: constant (n, n) symmetric matrix added to B (rotor couplings a URDF cannot
             express); default none.
         gravity: gravity acceleration vector in the base frame [m/s²], (3,); default the model's.
+        frame_type: which of several frames named ``frame`` (a URDF link and joint may share a
+            name): ``"BODY"``, ``"JOINT"``, ``"FIXED_JOINT"`` or ``"OP_FRAME"``; None when the name
+            is unique.
         name: a label.
 
     Raises:
-        ParameterError: the frame does not exist (the message lists the frames).
+        ParameterError: the frame does not exist (the message lists the frames), or the name is
+            ambiguous without ``frame_type``.
     """
 
     def __init__(
@@ -102,6 +125,7 @@ class PinocchioRobot:
         rotor_coupling: Any = None,
         gravity: Any = None,
         name: str = "",
+        frame_type: str | None = None,
     ) -> None:
         pin = _pin()
         self._pin = pin
@@ -119,7 +143,7 @@ class PinocchioRobot:
         self.task_dim = {"pose": 6, "position": 3, "planar": 2}[task]
         self._rows = _ROWS[task]
         self.frame = frame
-        self.frame_id = int(self.model.getFrameId(frame))
+        self.frame_id = _frame_id(pin, self.model, frame, frame_type)
         self.name = name or str(self.model.name)
         if armature is not None:
             self.model.armature = np.array(as_vector("armature", armature, n))

@@ -57,6 +57,8 @@ ROBOT_FIELDS: dict[str, Field] = {
     "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "urdf")),
     "urdf": Field("str", doc="model = 'urdf': path of the URDF file"),
     "frame": Field("str", doc="panda/ur5/urdf: the controlled frame (default panda_hand_tcp / tool0)"),
+    "frame_type": Field("str", choices=("BODY", "JOINT", "FIXED_JOINT", "OP_FRAME"),
+                        doc="urdf: which frame when a link and a joint share the name"),
     "locked_joints": Field("strlist", doc="model = 'urdf': joints fixed at zero"),
     "q0": Field("vector", doc="initial joint positions [rad]"),
     "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),

@@ -38,7 +38,8 @@ def pinocchio_robot(where: str, rt: dict[str, Any]):
             return pm.ur5(rt["frame"] or "tool0")
         if not rt["urdf"] or not rt["frame"]:
             raise ScenarioError(f"{where}: [robot]: model 'urdf' needs keys 'urdf' and 'frame'")
-        return pm.PinocchioRobot.from_urdf(Path(rt["urdf"]), rt["frame"], locked_joints=tuple(rt["locked_joints"] or ()))
+        return pm.PinocchioRobot.from_urdf(Path(rt["urdf"]), rt["frame"], locked_joints=tuple(rt["locked_joints"] or ()),
+                                           frame_type=rt.get("frame_type"))
     except ForceControlError as exc:
         if isinstance(exc, ScenarioError):
             raise
