@@ -150,3 +150,29 @@ def test_force_profile_is_refused_when_malformed():
         fc.Setpoint([1.0, 0.0], [1.0, 0.0], force_start=-1.0)
     with pytest.raises(ParameterError, match="force_shape must be one of linear, smooth; got 'cubic'"):
         fc.Setpoint([1.0, 0.0], [1.0, 0.0], force_ramp=1.0, force_shape="cubic")
+
+
+def test_a_scenario_path_can_be_given_by_its_top_speed():
+    """[reference] speed = v instead of duration: Problem 9.10's path at v = 1.25 L / t_f is the same path
+    (t_f = L/v + t_c, t_c = t_f/5); neither or both is refused naming the two keys."""
+    import copy
+    import math
+
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    scn = load_scenario("problem-9.10")
+    case = scn.cases[0]
+    ref = case.config["reference"]
+    L = math.dist(ref["start"], ref["end"])
+    by_speed = copy.deepcopy(case)
+    by_speed.config["reference"].pop("duration")
+    by_speed.config["reference"]["speed"] = 1.25 * L / ref["duration"]
+    t = np.linspace(0.0, 1.5, 1501)
+    a = build_case(case)["reference"].sample(t)
+    b = build_case(by_speed)["reference"].sample(t)
+    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    neither = copy.deepcopy(by_speed)
+    neither.config["reference"].pop("speed")
+    with pytest.raises(ScenarioError, match="give exactly one of duration and speed"):
+        build_case(neither)

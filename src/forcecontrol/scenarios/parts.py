@@ -126,7 +126,8 @@ register_reference(
         **TRAPEZOID_FIELDS,
         "force": Field("vector", doc="constant f_d [N]"),
     },
-    lambda p, ctx: LinearPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"], p["force"]),
+    lambda p, ctx: LinearPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"], p["force"],
+                              speed=p["speed"]),
     "straight segment with a trapezoidal velocity profile",
 )
 

@@ -72,13 +72,14 @@ class TaskPath(LinearPath):
 
     describe_complete: ClassVar[bool] = True  # see LinearPath
 
-    def __init__(self, start: Any, end: Any, duration: float, accel_time: float | None = None,
-                 start_time: float = 0.0, angle: float = 45.0, normal_force: float = 0.0) -> None:
+    def __init__(self, start: Any, end: Any, duration: float | None, accel_time: float | None = None,
+                 start_time: float = 0.0, angle: float = 45.0, normal_force: float = 0.0, *,
+                 speed: float | None = None) -> None:
         a = math.radians(angle)
         self.normal = np.array([-math.sin(a), math.cos(a)])
         self.normal_force = float(normal_force)
         self.angle = float(angle)
-        super().__init__(start, end, duration, accel_time, start_time, self.normal_force * self.normal)
+        super().__init__(start, end, duration, accel_time, start_time, self.normal_force * self.normal, speed=speed)
 
     def sample(self, times: np.ndarray) -> np.ndarray:
         out = super().sample(times)
@@ -193,7 +194,7 @@ register_reference(
         "normal_force": Field("number", default=0.0, doc="λ_d along y_c [N] (negative: into the plane)"),
     },
     lambda p, ctx: TaskPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"],
-                            p["angle"], p["normal_force"]),
+                            p["angle"], p["normal_force"], speed=p["speed"]),
     "trapezoidal segment with h_d = λ_d y_c (Problems 9.3, 9.10)",
 )
 

@@ -105,7 +105,7 @@ def _pose_line(p: dict[str, Any], ctx: dict[str, Any]):
 
     start = _pose(ctx, p["start_offset"], p["rotation"], ("start_offset", "rotation"))
     end = _pose(ctx, p["end_offset"], p["rotation"], ("end_offset", "rotation"))
-    return LinearPath(start, end, p["duration"], p["accel_time"], p["start_time"], p["force"])
+    return LinearPath(start, end, p["duration"], p["accel_time"], p["start_time"], p["force"], speed=p["speed"])
 
 
 register_reference(

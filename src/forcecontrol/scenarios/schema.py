@@ -256,7 +256,8 @@ def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tupl
 #: The keys of a straight segment with a trapezoidal speed profile (the paths of
 #: :mod:`.parts`, :mod:`.parts_hybrid` and :mod:`.parts_spatial`).
 TIMING_FIELDS = {
-    "duration": Field("number", True, doc="t_f [s]"),
+    "duration": Field("number", doc="t_f [s] (give this or speed)"),
+    "speed": Field("number", doc="top speed [m/s] instead of duration: t_f = L/v + t_c (t_c = t_f/5 by default)"),
     "accel_time": Field("number", doc="t_c [s] (t_f/5 by default)"),
     "start_time": Field("number", default=0.0, doc="when the motion starts [s]"),
 }
