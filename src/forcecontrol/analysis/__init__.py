@@ -28,6 +28,7 @@ _LAZY = {
     "impedance_axis": ".impedance",
     "ImpedanceModes": ".impedance",
     "impedance_modes": ".impedance",
+    "impedance_response": ".impedance",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -36,7 +37,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .force import ForceLoopAxis
     from .force_design import ForceGains, design_force_gains, force_loop_axes, operational_mass, sampled_stability_limit
     from .gain_design import GainDesign, design_gains
-    from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes
+    from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes, impedance_response
 
 
 def __getattr__(name: str) -> Any:
@@ -60,6 +61,7 @@ __all__ = [
     "impedance_axis",
     "ImpedanceModes",
     "impedance_modes",
+    "impedance_response",
     "ForceLoopAxis",
     "ForceGains",
     "force_loop_axes",

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
 
-__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes"]
+__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response"]
 
 
 @dataclass(frozen=True)
@@ -143,3 +143,32 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
         position=x, contact_force=K @ (x - x_r), natural_frequencies=np.asarray(wn)[order],
         damping_ratios=np.asarray(zeta)[order], directions=vec, in_contact=in_contact,
     )
+
+
+def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
+                       start: Any, times: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The transient of the linear model of :func:`impedance_modes` from rest at ``start``.
+
+    ``M_d ẍ + K_D ẋ + (K_P + K) x = K_P x_d + K x_r`` with constant x_d, solved exactly
+    (``scipy.linalg.expm`` of the state matrix), ``x(0) = start``, ``ẋ(0) = 0``.
+
+    Returns:
+        (x (N, m) [m], h_e = K (x − x_r) (N, m) [N]) at ``times`` [s].
+    """
+    from scipy.linalg import expm  # type: ignore[import-untyped]
+
+    x_d = as_vector("desired", desired)
+    m = x_d.shape[0]
+    x_r = as_vector("rest", rest, m)
+    x0 = as_vector("start", start, m)
+    M = as_gain_matrix("inertia", inertia, m)
+    D = as_gain_matrix("damping", damping, m, definite=False)
+    KP = as_gain_matrix("stiffness", stiffness, m)
+    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
+    Minv = np.linalg.inv(M)
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ D]])
+    z0 = np.concatenate([x0 - x_e, np.zeros(m)])
+    t = np.asarray(times, dtype=np.float64)
+    x = np.array([x_e + (expm(A * ti) @ z0)[:m] for ti in t])
+    return x, (x - x_r) @ K.T

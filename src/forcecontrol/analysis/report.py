@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-__all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE"]
+__all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE", "TRANSIENT_TOLERANCE"]
 
 
 def _plain(v: Any) -> Any:
@@ -28,20 +28,27 @@ def _plain(v: Any) -> Any:
 
 #: relative difference under which a predicted steady value agrees with the simulation.
 VERIFY_TOLERANCE = 0.01
+#: difference (of the simulated peak contact force) under which a predicted transient agrees.
+TRANSIENT_TOLERANCE = 0.02
+#: when the transient is compared [s] (those within the case's duration).
+TRANSIENT_TIMES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 1.0, 1.5, 2.0, 3.0)
 
 
 def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "auto") -> dict[str, Any]:
-    """Check a case's predicted equilibrium (``steady_*``) against a simulation of the same case.
+    """Check a case's predicted equilibrium (``steady_*``) and transient against a simulation of the same case.
 
     The case is simulated as the scenario says (``simulate`` on the full nonlinear arm); each
     predicted ``steady_<axis>`` and ``steady_f<axis>`` is compared with the settled value over the
     scenario's ``settle_window``. A relative difference above :data:`VERIFY_TOLERANCE` (of the
     largest predicted position offset or force of the case) means the loop is outside the linear
-    regime of the analysis (lost contact, saturation, not settled) and is reported as such.
+    regime of the analysis (lost contact, saturation, not settled) and is reported as such. When the
+    case's analysis has a linear transient model (impedance on a linear environment, the direct
+    force schemes' sampled loops), its contact force at :data:`TRANSIENT_TIMES` is compared too,
+    within :data:`TRANSIENT_TOLERANCE` of the simulated peak.
 
     Returns:
         ``{"quantities": {name: {"predicted", "simulated", "relative_difference", "agrees"}},
-        "agrees": bool, "warning": str | None}``.
+        "transient": {...} | None, "agrees": bool, "warning": str | None}``.
     """
     from ..simulation import simulate
 
@@ -66,12 +73,38 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
             diff = abs(settled[name] - float(predicted)) / scale
             out[key] = {"predicted": float(predicted), "simulated": settled[name], "relative_difference": diff,
                         "agrees": diff <= VERIFY_TOLERANCE}
+    transient = _verify_transient(parts, res)
     bad = [k for k, v in out.items() if not v["agrees"]]
+    if transient is not None and not transient["agrees"]:
+        bad.append("the contact-force transient")
     warning = None
     if bad:
-        warning = (f"{', '.join(bad)} differ from the simulation by more than {100 * VERIFY_TOLERANCE:g} %: the loop "
-                   "is outside the analysis' linear regime (contact lost, saturation) or has not settled")
-    return {"quantities": out, "agrees": not bad, "warning": warning}
+        warning = (f"{', '.join(bad)} differ from the simulation by more than {100 * VERIFY_TOLERANCE:g} % "
+                   f"({100 * TRANSIENT_TOLERANCE:g} % of the peak for the transient): the loop is outside the "
+                   "analysis' linear regime (contact lost, saturation) or has not settled")
+    return {"quantities": out, "transient": transient, "agrees": not bad, "warning": warning}
+
+
+def _verify_transient(parts: dict[str, Any], res: Any) -> dict[str, Any] | None:
+    """The linear model's contact force (:func:`forcecontrol.scenarios.case_response`) at fixed times
+    against the simulation: ``{"times", "predicted", "simulated", "difference_over_peak", "agrees"}``,
+    or None when the case has no linear transient model."""
+    import numpy as np
+
+    from ..scenarios.core import case_response
+
+    Ts = float(parts["controller"].sample_time)
+    times = np.array([t for t in TRANSIENT_TIMES if t <= res.t[-1] + 1e-12])
+    if times.size == 0:
+        return None
+    predicted = case_response(parts, times)
+    if predicted is None:
+        return None
+    simulated = res.wrench[np.rint(times / Ts).astype(int), : predicted.shape[1]]
+    peak = max(float(np.max(np.linalg.norm(res.wrench, axis=1))), 1e-9)
+    diff = float(np.max(np.linalg.norm(simulated - predicted, axis=1))) / peak
+    return {"times": times.tolist(), "predicted": predicted.tolist(), "simulated": simulated.tolist(),
+            "difference_over_peak": diff, "agrees": diff <= TRANSIENT_TOLERANCE}
 
 
 def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = False) -> dict[str, Any]:

@@ -84,6 +84,11 @@ def analyze_command(
                 for k, v in ver["quantities"].items():
                     vt.add_row(k, f"{v['predicted']:.6g}", f"{v['simulated']:.6g}", f"{100 * v['relative_difference']:.3f} %",
                                "[green]agrees[/]" if v["agrees"] else "[red]differs[/]")
+                tr = ver.get("transient")
+                if tr is not None:
+                    vt.add_row(f"contact force at {len(tr['times'])} times ≤ {tr['times'][-1]:g} s", "linear model",
+                               "", f"{100 * tr['difference_over_peak']:.3f} % of peak",
+                               "[green]agrees[/]" if tr["agrees"] else "[red]differs[/]")
                 console.print(vt)
                 if ver["warning"]:
                     console.print(f"[yellow]warning:[/] {escape(ver['warning'])}", highlight=False)

@@ -10,7 +10,8 @@ import numpy as np
 from ..errors import ScenarioError
 from ..simulation import SimulationResult
 
-__all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "check_expected"]
+__all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "register_response", "case_response",
+           "check_expected"]
 
 
 #: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
@@ -29,6 +30,31 @@ def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], f
 def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
     """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
     _ANALYSES.append((applies, fn))
+
+
+#: list of (predicate(parts), fn(parts, times) -> predicted h_e (N, m) or None): linear transients.
+_RESPONSES: list[tuple[Callable[[dict[str, Any]], bool], Callable[[dict[str, Any], np.ndarray], Any]]] = []
+
+
+def register_response(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any], np.ndarray], Any]) -> None:
+    """Add a linear model's contact-force transient for the cases ``applies`` accepts.
+
+    ``fn(parts, times)`` returns the predicted h_e at ``times`` (N, m) [N], from the same
+    parameters and conventions as the case's analysis, or None when the case is outside the
+    model (e.g. the contact would be lost).
+    """
+    _RESPONSES.append((applies, fn))
+
+
+def case_response(parts: dict[str, Any], times: Any) -> np.ndarray | None:
+    """The first registered linear transient that applies to a built case, at ``times`` (or None)."""
+    t = np.asarray(times, dtype=np.float64)
+    for applies, fn in _RESPONSES:
+        if applies(parts):
+            out = fn(parts, t)
+            if out is not None:
+                return np.asarray(out, dtype=np.float64)
+    return None
 
 
 def case_analysis(parts: dict[str, Any]) -> dict[str, Any]:

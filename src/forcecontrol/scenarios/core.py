@@ -23,9 +23,11 @@ from .checks import (  # noqa: F401
     _column_metric,
     _penetration,
     case_analysis,
+    case_response,
     check_expected,
     register_analysis,
     register_metric,
+    register_response,
 )
 from .model import (  # noqa: F401
     _RICH_SENSOR_KEYS,
@@ -57,6 +59,8 @@ __all__ = [
     "run_scenario",
     "register_metric",
     "register_analysis",
+    "register_response",
+    "case_response",
     "case_analysis",
     "check_expected",
     "METRICS",

@@ -196,6 +196,22 @@ def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _impedance_response(parts: dict[str, Any], times: Any) -> Any:
+    """h_e(t) of the linear model of the impedance analysis, from rest at the start tip; None when it
+    leaves a one-sided contact (or starts off it) at one of the times."""
+    import numpy as np
+
+    from ..analysis import impedance_response
+
+    ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
+    K, rest, normal = _environment_matrix(env)
+    x0 = np.asarray(robot.forward_kinematics(np.asarray(parts["q0"], dtype=float)), dtype=float)[: ctl.m]
+    x, h = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, x0, times)
+    if normal is not None and np.any((x - rest) @ normal > 1e-9):  # off the plane: the spring model does not hold
+        return None
+    return h
+
+
 def _compliance_applies(parts: dict[str, Any]) -> bool:
     return isinstance(parts["controller"], OperationalSpacePD) and isinstance(parts["reference"], Setpoint) and hasattr(
         parts["environment"], "stiffness_matrix"
@@ -218,7 +234,8 @@ def _compliance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
 
 
 def _register_analyses() -> None:
-    from .core import register_analysis
+    from .core import register_analysis, register_response
 
     register_analysis(_impedance_applies, _impedance_analysis)
+    register_response(_impedance_applies, _impedance_response)
     register_analysis(_compliance_applies, _compliance_analysis)

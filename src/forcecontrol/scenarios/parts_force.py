@@ -164,7 +164,48 @@ def force_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def force_response(parts: dict[str, Any], times: Any) -> Any:
+    """h_e(t) of the sampled linear loops of the analysis (:meth:`ForceLoopAxis.sampled`, with the arm's
+    operational mass at q0), from rest at the start tip with ξ₀ as the controller presets it;
+    None when the scenario is outside that model (a rotated task frame, a start off the contact,
+    a reference that is not a set-point)."""
+    from ..analysis.force_design import force_loop_axes, operational_mass
+
+    ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
+    if not isinstance(ref, Setpoint) or getattr(ctl, "task_frame", None) is not None:
+        return None
+    K = env.stiffness_matrix()
+    rest = np.asarray(env.point if hasattr(env, "point") else env.rest_position, dtype=float)
+    q0 = np.asarray(parts["q0"], dtype=float)
+    x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)[: ctl.m]
+    Ts = float(ctl.sample_time)
+    idx = np.rint(np.asarray(times, dtype=float) / Ts).astype(int)
+    n = int(idx.max()) + 1
+    refs = [ref.at(k * Ts) for k in range(n)]
+    out = np.zeros((idx.size, ctl.m))
+    for i, ax in enumerate(force_loop_axes(ctl, K)):
+        if ax.environment_stiffness == 0.0:
+            continue  # no contact along this axis: h_e = 0
+        if abs(x0[i] - rest[i]) > 1e-9:
+            return None  # the loop starts off the contact: the approach is not in the linear model
+        nu = np.zeros(ctl.m)
+        nu[i] = 1.0
+        A, B, C, D = ax._sampled_matrices(Ts, operational_mass(robot, q0, nu))
+        U = np.array([[r.force[i], r.position[i], rest[i]] for r in refs])
+        z = np.zeros(A.shape[0])
+        z[0] = rest[i]
+        if ax.has_integral:
+            z[2] = ax.initial_integral(float(U[0, 0]), float(U[0, 1]), float(rest[i]))
+        f = np.empty(n)
+        for k in range(n):
+            f[k] = C[0] @ z + D[0] @ U[k]
+            z = A @ z + B @ U[k]
+        out[:, i] = f[idx]
+    return out
+
+
 def _register_analyses() -> None:
-    from .core import register_analysis
+    from .core import register_analysis, register_response
 
     register_analysis(_force_applies, force_analysis)
+    register_response(_force_applies, force_response)
