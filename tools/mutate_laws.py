@@ -76,7 +76,7 @@ MUTANTS = [
            "acc += p[oR + i * m + j] * (p[oF + j] * e[j] + xi)", "acc += p[oR + i * m + j] * (e[j] + xi)"),
     Mutant("M11", "6-D compliance (9.15): damping on J q̇ instead of J_Ad q̇", "controllers/spatial.py",
            "-err.x, JAd @ qd, JAd, Jdq", "-err.x, J @ qd, JAd, Jdq"),
-    Mutant("M12", "6-D hybrid (9.77): C replaced by C⁻¹ in the force term", "controllers/spatial.py",
+    Mutant("M12", "6-D hybrid (9.77): C replaced by C⁻¹ in the force term", "controllers/spatial_hybrid.py",
            "(Q @ self.compliance).ravel()", "(Q @ np.linalg.inv(self.compliance)).ravel()"),
 ]
 
