@@ -58,7 +58,7 @@ def _radius(config: dict[str, Any], label: str, assign: dict[str, Any]) -> float
     """ρ of the case ``config`` with ``assign`` applied (memoised on the resulting configuration:
     cases that differ only in a swept parameter share their boundary)."""
     from ..scenarios import CaseSpec, build_case
-    from .prepare import _apply
+    from .paths import _apply
 
     cfg = copy.deepcopy(config)
     for path, v in assign.items():

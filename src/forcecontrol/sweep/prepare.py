@@ -10,7 +10,6 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
-import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -20,13 +19,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DriftWarning, ForceControlError, ScenarioError
-from .spec import SweepDefinition, SweepError, SweepParameter, definition_hash
-
-if sys.version_info >= (3, 11):
-    pass
-else:  # pragma: no cover
-    pass
-
+from .paths import _apply, _check_path, sweep_label
+from .spec import SweepDefinition, SweepError, definition_hash
 
 __all__ = ["PreparedSweep", "CaseJob", "load_sweep_scenario", "prepare_sweep", "sweep_label", "METRIC_COLUMNS", "MAX_JOINT_SPEED"]
 
@@ -73,113 +67,6 @@ def load_sweep_scenario(source: Any):
 
 
 # ----------------------------------------------------------------------------- path checks
-
-
-def _sweepable_top() -> list[str]:
-    from ..scenarios.core import TOP_FIELDS
-
-    return [k for k, f in TOP_FIELDS.items() if f.kind != "table" and k not in ("name", "title", "description")]
-
-
-def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:
-    """Reject a path the scenario schema does not know, naming the valid choices."""
-    from ..robots import PlanarTwoLinkParameters
-    from ..scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS
-    from ..scenarios.schema import CONTROLLERS, ENVIRONMENTS, REFERENCES
-
-    keys = p.keys
-    top = keys[0]
-    tables = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}
-    where = f"unknown parameter path '{p.path}'"
-    if len(keys) == 1:
-        choices = _sweepable_top()
-        if top not in choices:
-            raise SweepError(
-                f"{where}: '{top}' is not a sweepable top-level key; expected one of {', '.join(choices)} "
-                "or a key of [robot], [environment], [controller], [reference], [sensor]"
-            )
-        return
-    if top in tables:
-        registry = tables[top]
-        if len(keys) != 2:
-            raise SweepError(f"{where}: [{top}] keys are not tables; expected '{top}.<key>'")
-        kind = cfg.get(top, {}).get("type")
-        spec = registry.get(kind)
-        valid = sorted({"type"} | (set(spec.fields) if spec else set()))
-        if keys[1] not in valid:
-            raise SweepError(
-                f"{where} (case '{label}'): [{top}] of type '{kind}' has no key '{keys[1]}'; "
-                f"expected one of {', '.join(valid)}"
-            )
-        return
-    if top == "robot":
-        if keys[1] not in ROBOT_FIELDS:
-            raise SweepError(f"{where}: [robot] has no key '{keys[1]}'; expected one of {', '.join(ROBOT_FIELDS)}")
-        if keys[1] == "parameters":
-            names = list(PlanarTwoLinkParameters.__dataclass_fields__)
-            if len(keys) != 3 or keys[2] not in names:
-                raise SweepError(f"{where}: expected 'robot.parameters.<name>' with a name among {', '.join(names)}")
-        elif len(keys) != 2:
-            raise SweepError(f"{where}: expected 'robot.<key>'")
-        return
-    if top == "sensor":
-        if len(keys) != 2 or keys[1] not in SENSOR_FIELDS:
-            raise SweepError(f"{where}: [sensor] keys are {', '.join(SENSOR_FIELDS)}; got '{'.'.join(keys[1:])}'")
-        return
-    raise SweepError(
-        f"{where}: no table '{top}'; expected robot, environment, controller, reference, sensor or a top-level "
-        f"key ({', '.join(_sweepable_top())})"
-    )
-
-
-def _apply(cfg: dict[str, Any], p: SweepParameter, value: Any, label: str) -> None:
-    """Set ``p.path = value`` in a case configuration (creating missing [sensor]/parameters tables)."""
-    keys = p.keys
-    node = cfg
-    for k in keys[:-1]:
-        if k not in node or node[k] is None:
-            node[k] = {}
-        node = node[k]
-    last = keys[-1]
-    idx = p.indices
-    if not idx:
-        node[last] = copy.deepcopy(value)
-        return
-    if last not in node:
-        raise SweepError(
-            f"parameter '{p.path}' (case '{label}'): '{'.'.join(keys)}' is not set in the scenario, so it has no "
-            "entries to index; sweep the whole value instead"
-        )
-    cur = copy.deepcopy(node[last])
-    target = cur
-    for depth, i in enumerate(idx):
-        if not isinstance(target, list) or i >= len(target):
-            raise SweepError(
-                f"parameter '{p.path}' (case '{label}'): index [{i}] needs a list of more than {i} entries at "
-                f"'{'.'.join(keys)}{''.join(f'[{j}]' for j in idx[:depth])}'; the scenario has {target!r}"
-            )
-        if depth == len(idx) - 1:
-            target[i] = copy.deepcopy(value)
-        else:
-            target = target[i]
-    node[last] = cur
-
-
-def sweep_label(label: str, overrides: tuple[str, ...], parameters: list[SweepParameter]) -> str:
-    """The case label a sweep row carries: the scenario's, marked when the sweep overrides what the case set.
-
-    A case's label often states the values its ``[[case]]`` table sets (``k_x = 1e4 N/m``); when
-    a swept parameter replaces such a value (``overrides``: the case's own dotted keys), the
-    label would describe another case, so it becomes
-    ``"k_x = 1e4 N/m [environment.stiffness swept]"`` and the summary groups it apart.
-    """
-    own = [p.path for p in parameters
-           if any(".".join(p.keys) == k or ".".join(p.keys).startswith(k + ".") or k.startswith(".".join(p.keys) + ".")
-                  for k in overrides)]
-    return f"{label} [{', '.join(own)} swept]" if own else label
-
-
-# ----------------------------------------------------------------------------- jobs
 
 
 @dataclass

@@ -233,7 +233,7 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
 
 def _case_config(cases: dict[str, Any], row_label: str) -> dict[str, Any] | None:
     """The scenario case of a table row: its label, or its label marked ``"<label> [<paths> swept]"``
-    (:func:`forcecontrol.sweep.prepare.sweep_label`)."""
+    (:func:`forcecontrol.sweep.paths.sweep_label`)."""
     if row_label in cases:
         return cases[row_label]
     for label, cfg in cases.items():
