@@ -71,15 +71,20 @@ class DesiredFrameError:
         self.x, self.xd, self.JAd, self.c, self.R_d = x, xd, JAd, c, R_d
 
 
+def _euler_regular(R: np.ndarray, t: float, what: str, advice: str) -> None:
+    """SingularityError when R's XYZ Euler angles are at their representation singularity (|cos φ₂| < 1e-3)."""
+    c2 = math.hypot(R[0, 0], R[0, 1])
+    if c2 < 1e-3:
+        raise SingularityError(
+            f"at t = {t:.6g} s {what} is at a representation singularity of XYZ Euler angles "
+            f"(cos(phi_2) = {c2:.3g}); {advice}"
+        )
+
+
 def _orientation_terms(R_de: np.ndarray, orientation: str, t: float):
     """(φ, T(φ), T⁻¹(φ)) for the chosen representation of R_e^d."""
     if orientation == "euler":
-        c2 = math.hypot(R_de[0, 0], R_de[0, 1])
-        if c2 < 1e-3:
-            raise SingularityError(
-                f"at t = {t:.6g} s the orientation error is at a representation singularity of XYZ Euler "
-                f"angles (cos(phi_2) = {c2:.3g}); use orientation='rotvec'"
-            )
+        _euler_regular(R_de, t, "the orientation error", "use orientation='rotvec'")
         phi = rotation_to_euler_xyz(R_de)
         return phi, euler_xyz_T(phi), euler_xyz_T_inv(phi)
     phi = rotation_vector(R_de)
@@ -285,12 +290,7 @@ class SpatialImpedanceController(_SpatialBase):
         acceleration ω_d, ω̇_d become φ̇_d = T⁻¹(φ_d) ω_d and φ̈_d = T⁻¹ (ω̇_d − Ṫ φ̇_d).
         """
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
-        c2 = math.hypot(R_e[0, 0], R_e[0, 1])
-        if c2 < 1e-3:
-            raise SingularityError(
-                f"at t = {t:.6g} s the end-effector orientation is at a representation singularity of XYZ Euler "
-                f"angles (cos(phi_2) = {c2:.3g}); frame='base' cannot be used there (use frame='desired')"
-            )
+        _euler_regular(R_e, t, "the end-effector orientation", "frame='base' cannot be used there (use frame='desired')")
         phi_e = rotation_to_euler_xyz(R_e)
         Tinv_e = euler_xyz_T_inv(phi_e)
         v = J @ qd

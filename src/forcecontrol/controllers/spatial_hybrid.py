@@ -54,7 +54,28 @@ def _desired_frame(err: Any, reference: Reference, h: np.ndarray, ref: np.ndarra
     return np.concatenate([RdT @ h[:3], RdT @ h[3:]])
 
 
-class SpatialHybridController(_SpatialBase):
+class _DesiredFrameHybrid(_SpatialBase):
+    """What both 6-D hybrids do each sample: the desired-frame coordinates, then the planar law."""
+
+    _params: np.ndarray
+    _ws: np.ndarray
+    _ref: np.ndarray
+    _hc: np.ndarray
+
+    def _run(self, law: Any, t: float, measurement: Measurement, reference: Reference, state: np.ndarray):
+        """``law`` on the desired frame: returns (a (6,), the error terms, (q, q̇, B, n, J) for the
+        inner loop, h_e); the law's force command is left in ``self._hc``."""
+        q, qd = measurement.q, measurement.qd
+        h = self._wrench(measurement.wrench)
+        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
+        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        h_d = _desired_frame(err, reference, h, self._ref)
+        a = np.empty(6)
+        law(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params, state, self._ws, a, self._hc)
+        return a, err, (q, qd, B, nv, J), h
+
+
+class SpatialHybridController(_DesiredFrameHybrid):
     """Hybrid force/motion control on the desired frame, for a compliant environment (Sect. 9.7.1 in 6-D).
 
     The 6-D form of (9.77)–(9.84) with a 6×k force selection ``S_f`` (orthonormal columns,
@@ -117,15 +138,8 @@ class SpatialHybridController(_SpatialBase):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of the 6-D hybrid law for this sample: (9.77)-(9.82) on the desired frame, then (9.30)."""
-        q, qd = measurement.q, measurement.qd
-        h = self._wrench(measurement.wrench)
-        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
-        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
-        h_d = _desired_frame(err, reference, h, self._ref)
-        a = np.empty(6)
-        laws.hybrid_compliant_acceleration(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params,
-                                           self._integral, self._ws, a, self._hc)
-        u = self._redundant_torque(err.JAd, err.c + a, q, qd, B, nv, J, h)  # x̃̈ = −J_Ad q̈ + c = −a
+        a, err, terms, h = self._run(laws.hybrid_compliant_acceleration, t, measurement, reference, self._integral)
+        u = self._redundant_torque(err.JAd, err.c + a, *terms, h)  # x̃̈ = −J_Ad q̈ + c = −a
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:
@@ -139,7 +153,7 @@ class SpatialHybridController(_SpatialBase):
         }
 
 
-class SpatialHybridRigidController(_SpatialBase):
+class SpatialHybridRigidController(_DesiredFrameHybrid):
     """Hybrid force/motion control on the desired frame, for a rigid environment (Sect. 9.7.2 in 6-D).
 
     The 6-D form of (9.91)–(9.95): the planar law :func:`forcecontrol.laws.hybrid_rigid_acceleration`
@@ -189,6 +203,7 @@ class SpatialHybridRigidController(_SpatialBase):
         self.state = np.zeros(l + k)  # [∫(ν_d − ν) (unused by the pose servo), ∫(λ_d − λ)]
         self._ws = np.zeros(9 * 6)
         self._ref = np.zeros(36)
+        self._hc = np.zeros(6)
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         """The force integral back to zero."""
@@ -196,17 +211,9 @@ class SpatialHybridRigidController(_SpatialBase):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.91) on the desired frame for this sample; advances ∫(λ_d − λ)."""
-        q, qd = measurement.q, measurement.qd
-        h = self._wrench(measurement.wrench)
-        R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
-        err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
-        h_d = _desired_frame(err, reference, h, self._ref)
-        a, h_c = np.empty(6), np.empty(6)
-        laws.hybrid_rigid_acceleration(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params,
-                                       self.state, self._ws, a, h_c)
-        R_d = err.R_d
-        h_c_base = np.concatenate([R_d @ h_c[:3], R_d @ h_c[3:]])
-        u = self._redundant_torque(err.JAd, err.c + a, q, qd, B, nv, J, h_c_base)
+        a, err, terms, _h = self._run(laws.hybrid_rigid_acceleration, t, measurement, reference, self.state)
+        h_c, R_d = self._hc, err.R_d  # S_f f_λ on the desired frame, to the base frame
+        u = self._redundant_torque(err.JAd, err.c + a, *terms, np.concatenate([R_d @ h_c[:3], R_d @ h_c[3:]]))
         return self._check_output(t, u, measurement)
 
     def gains(self) -> dict[str, Any]:

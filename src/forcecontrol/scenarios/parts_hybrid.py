@@ -26,7 +26,7 @@ from ..environments.rigid import PlaneConstraint, RigidEnvironment
 from ..errors import ParameterError, ScenarioError
 from ..task import SelectionMatrices, inclined_plane
 from ..trajectories import LinearPath
-from .schema import TRAPEZOID_FIELDS, Field, register_controller, register_environment, register_reference
+from .schema import TRAPEZOID_FIELDS, Field, force_law_fields, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -175,10 +175,7 @@ register_controller(
         "velocity_gain": Field("gain", True, doc="K_Pν (9.80) or K_Dr (9.95) [1/s]"),
         "velocity_integral_gain": Field("gain", doc="K_Iν (9.80) [1/s²] (motion = velocity)"),
         "position_gain": Field("gain", doc="K_Pr (9.95) [1/s²] (motion = position)"),
-        "force_law": Field("str", default="integral", choices=("feedforward", "proportional", "integral"),
-                           doc="(9.92), (9.93) or (9.94)"),
-        "force_gain": Field("gain", doc="K_Pλ (9.93) [-], below 1 (sampled reaction) (force_law = proportional)"),
-        "force_integral_gain": Field("gain", doc="K_Iλ (9.94) [1/s], below 2/Ts (force_law = integral)"),
+        **force_law_fields("integral"),
     },
     _hybrid_rigid,
     "hybrid force/velocity or force/position control, rigid environment (9.91)-(9.95)",

@@ -17,7 +17,7 @@ import numpy as np
 from .._validate import as_matrix, as_vector
 from ..errors import DimensionError, ScenarioError
 from ..spatial import euler_xyz_to_rotation, rotation_to_euler_xyz
-from .schema import TIMING_FIELDS, Field, register_controller, register_environment, register_reference
+from .schema import TIMING_FIELDS, Field, force_law_fields, register_controller, register_environment, register_reference
 
 # ----------------------------------------------------------------------------- robots
 
@@ -275,9 +275,11 @@ def _force_directions(p: dict[str, Any]) -> Any:
     return rows.T
 
 
-_DIRECTION_FIELDS = {
+_HYBRID_6D_FIELDS = {
     "task": Field("str", doc="a named task of forcecontrol.task (e.g. 'peg-in-hole', Table 9.2)"),
     "force_directions": Field("gain", doc="S_f columns given as rows of 6 numbers (desired frame)"),
+    "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) along S_v (6, 6) [1/s²]"),
+    "damping": Field("gain", True, doc="K_D of the pose servo (9.95) along S_v (6, 6) [1/s]"),
 }
 
 
@@ -294,10 +296,8 @@ def _hybrid(p: dict[str, Any], ctx: dict[str, Any]):
 register_controller(
     "spatial-hybrid",
     {
-        **_DIRECTION_FIELDS,
+        **_HYBRID_6D_FIELDS,
         "compliance": Field("gain", True, doc="C along S_f [m/N, rad/(N m)]"),
-        "stiffness": Field("gain", True, doc="K_P of the motion loop (6, 6) [1/s²]"),
-        "damping": Field("gain", True, doc="K_D of the motion loop (6, 6) [1/s]"),
         "force_stiffness": Field("gain", True, doc="K_Pλ [1/s²]"),
         "force_damping": Field("gain", True, doc="K_Dλ [1/s]"),
         **_POSTURE_FIELDS,
@@ -320,13 +320,8 @@ def _hybrid_rigid(p: dict[str, Any], ctx: dict[str, Any]):
 register_controller(
     "spatial-hybrid-rigid",
     {
-        **_DIRECTION_FIELDS,
-        "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) (6, 6) [1/s²]"),
-        "damping": Field("gain", True, doc="K_D of the pose servo (9.95) (6, 6) [1/s]"),
-        "force_law": Field("str", default="feedforward", choices=("feedforward", "proportional", "integral"),
-                           doc="(9.92), (9.93) or (9.94)"),
-        "force_gain": Field("gain", doc="K_Pλ (proportional law)"),
-        "force_integral_gain": Field("gain", doc="K_Iλ [1/s] (integral law)"),
+        **_HYBRID_6D_FIELDS,
+        **force_law_fields("feedforward"),
         **_POSTURE_FIELDS,
     },
     _hybrid_rigid,

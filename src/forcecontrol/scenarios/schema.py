@@ -266,3 +266,13 @@ TRAPEZOID_FIELDS = {
     "end": Field("vector", True, doc="p_f [m]"),
     **TIMING_FIELDS,
 }
+
+
+def force_law_fields(default: str) -> dict[str, Field]:
+    """The keys of a rigid hybrid's force law (9.92)-(9.94), planar or 6-D; ``default`` the law's."""
+    return {
+        "force_law": Field("str", default=default, choices=("feedforward", "proportional", "integral"),
+                           doc="(9.92), (9.93) or (9.94)"),
+        "force_gain": Field("gain", doc="K_Pλ (9.93) [-], below 1 (sampled reaction) (force_law = proportional)"),
+        "force_integral_gain": Field("gain", doc="K_Iλ (9.94) [1/s], below 2/Ts (force_law = integral)"),
+    }
