@@ -106,7 +106,9 @@ class MujocoPlant:
     Args:
         robot: the built-in chapter arm or a URDF :class:`~forcecontrol.robots.pinocchio.PinocchioRobot`.
         environment: :class:`~forcecontrol.environments.elastic.ElasticPlane` or
-            :class:`~forcecontrol.environments.spatial.Table` (MuJoCo contact).
+            :class:`~forcecontrol.environments.spatial.Table` (MuJoCo contact), or a 2-/3-D
+            :class:`~forcecontrol.environments.elastic.LinearSpring` (a passive force on the
+            controlled frame that MuJoCo evaluates at every integrator stage).
         sample_time: control period Ts [s]; substeps: MuJoCo steps per sample.
         contact_radius: radius of the end-effector sphere [m].
         impedance: MuJoCo's constraint impedance d (solimp dmin = dmax), in (0, 1). MuJoCo's contact
@@ -136,6 +138,7 @@ class MujocoPlant:
         self.substeps = int(substeps)
         self.radius = float(contact_radius)
         self.impedance = float(impedance)
+        self._spring: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         urdf, frame, locked, armature, gravity, task = _robot_source(robot)
         self.task = task
         spec = mujoco.MjSpec.from_string(_clean_urdf(urdf.read_text(), locked))
@@ -172,11 +175,22 @@ class MujocoPlant:
 
     # -- building
     def _add_environment(self, spec) -> bool:
-        from ..environments.elastic import ElasticPlane
+        from ..environments.elastic import ElasticPlane, LinearSpring
         from ..environments.spatial import Table
 
         mujoco = self._mujoco
         env = self.environment
+        if isinstance(env, LinearSpring):
+            if env.dim not in (2, 3) or env.dim != self.robot.task_dim:
+                raise ParameterError(
+                    "a LinearSpring in MuJoCo acts on the position of the controlled frame (a 2- or 3-dimensional "
+                    f"task space like the robot's); got a {env.dim}-dimensional spring for a "
+                    f"{self.robot.task_dim}-dimensional task"
+                )
+            # a bilateral spring-damper h_e = K (x − x_r) + D ẋ on the controlled frame's origin:
+            # a passive force MuJoCo evaluates at every integrator stage (see _spring_passive)
+            self._spring = (np.asarray(env.stiffness), np.asarray(env.damping), np.asarray(env.rest_position))
+            return False
         if isinstance(env, (ElasticPlane, Table)):
             point = np.zeros(3)
             normal = np.zeros(3)
@@ -185,7 +199,7 @@ class MujocoPlant:
             self._k_env, self._c_env = float(env.stiffness), float(env.damping)
         else:
             raise ParameterError(
-                f"the MuJoCo engine supports ElasticPlane and Table environments; got {type(env).__name__}"
+                f"the MuJoCo engine supports ElasticPlane, Table and LinearSpring environments; got {type(env).__name__}"
             )
         g = spec.worldbody.add_geom()
         g.name = "environment"
@@ -284,6 +298,22 @@ class MujocoPlant:
         if R != self._scheduled_R:
             self._schedule(R)
 
+    # -- the spring environment
+    def _spring_state(self, m: Any, d: Any) -> tuple[np.ndarray, np.ndarray, int]:
+        """The controlled frame's origin and its velocity in the spring's m coordinates."""
+        dim = self._spring[2].shape[0]
+        v6 = np.zeros(6)
+        self._mujoco.mj_objectVelocity(m, d, self._mujoco.mjtObj.mjOBJ_XBODY, self.ee_body, v6, 0)
+        return d.xpos[self.ee_body][:dim], v6[3 : 3 + dim], dim
+
+    def _spring_passive(self, m: Any, d: Any) -> None:
+        """mjcb_passive: add ``J_Pᵀ (−h_e)`` of the spring to MuJoCo's passive forces (every RK4 stage)."""
+        K, D, x_r = self._spring
+        x, xd, dim = self._spring_state(m, d)
+        jacp = np.zeros((3, m.nv))
+        self._mujoco.mj_jacBody(m, d, jacp, None, self.ee_body)
+        d.qfrc_passive[:] -= jacp[:dim].T @ (K @ (x - x_r) + D @ xd)
+
     # -- measuring
     def _pose_twist(self) -> tuple[np.ndarray, np.ndarray]:
         mujoco, m, d = self._mujoco, self.model, self.data
@@ -299,8 +329,13 @@ class MujocoPlant:
         return np.concatenate([p, rotation_to_euler_xyz(R)]), twist
 
     def contact_wrench(self) -> np.ndarray:
-        """h_e from MuJoCo's contacts on the end-effector sphere: ``[f; μ]`` about the frame origin, base frame."""
+        """h_e from MuJoCo's contacts on the end-effector sphere: ``[f; μ]`` about the frame origin, base frame
+        (for a spring environment: ``K (x − x_r) + D ẋ`` at MuJoCo's current state)."""
         mujoco, m, d = self._mujoco, self.model, self.data
+        if self._spring is not None:
+            K, D, x_r = self._spring
+            x, xd, _ = self._spring_state(m, d)
+            return K @ (x - x_r) + D @ xd
         f_ee = np.zeros(3)
         mu_ee = np.zeros(3)
         o = d.xpos[self.ee_body]
@@ -353,6 +388,39 @@ class MujocoPlant:
         mdim = refs.shape[1] // len(REFERENCE_FIELDS)
         logs = {k: np.full((N + 1, n), np.nan) for k in ("q", "qd", "torque")}
         logs.update({k: np.full((N + 1, mdim), np.nan) for k in ("x", "xd", "wrench", "wrench_measured")})
+        previous = mujoco.get_mjcb_passive()
+        if self._spring is not None:
+            mujoco.set_mjcb_passive(self._spring_passive)  # global in MuJoCo: restored below
+        try:
+            status_k = self._loop(controller, reference, N, refs, logs, max_joint_speed)
+        finally:
+            mujoco.set_mjcb_passive(previous)
+        meta = {
+            "label": label,
+            "engine": "mujoco",
+            "robot": type(self.robot).__name__,
+            "environment": self.environment.describe(),
+            "controller": {"type": type(controller).__name__, **controller.gains()},
+            "sample_time": Ts,
+            "duration": float(duration),
+            "substeps": self.substeps,
+            "mujoco": self.describe(),
+        }
+        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)  # type: ignore[arg-type]
+        if status_k is not None:
+            raise SimulationDivergedError(
+                f"MuJoCo run '{label or 'case'}' diverged at t = {status_k * Ts:.4f} s",
+                time=status_k * Ts, step=status_k, cause="runaway", q=d.qpos.copy(),
+            )
+        return result
+
+    def _loop(self, controller: Controller, reference: ReferenceSignal, N: int, refs: np.ndarray,
+              logs: dict[str, np.ndarray], max_joint_speed: float) -> int | None:
+        """The sampled loop; returns the sample at which it diverged, or None."""
+        mujoco, m, d = self._mujoco, self.model, self.data
+        Ts = self.sample_time
+        mdim = refs.shape[1] // len(REFERENCE_FIELDS)
+        mujoco.mj_forward(m, d)
         h = self.contact_wrench()
         controller.reset(Measurement(d.qpos.copy(), d.qvel.copy(), h), reference.at(0.0))
         status_k = None
@@ -375,24 +443,7 @@ class MujocoPlant:
             if not math.isfinite(float(d.qpos.sum())) or not float(np.abs(d.qvel).max()) <= max_joint_speed:  # NaN fails too
                 status_k = k
                 break
-        meta = {
-            "label": label,
-            "engine": "mujoco",
-            "robot": type(self.robot).__name__,
-            "environment": self.environment.describe(),
-            "controller": {"type": type(controller).__name__, **controller.gains()},
-            "sample_time": Ts,
-            "duration": float(duration),
-            "substeps": self.substeps,
-            "mujoco": self.describe(),
-        }
-        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)  # type: ignore[arg-type]
-        if status_k is not None:
-            raise SimulationDivergedError(
-                f"MuJoCo run '{label or 'case'}' diverged at t = {status_k * Ts:.4f} s",
-                time=status_k * Ts, step=status_k, cause="runaway", q=d.qpos.copy(),
-            )
-        return result
+        return status_k
 
     def describe(self) -> dict[str, Any]:
         """MuJoCo-side parameters (for metadata and reports)."""
