@@ -14,7 +14,7 @@ from .checks import METRICS, _check_expected_specs
 from .model import _RICH_SENSOR_KEYS, ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS, CaseSpec
 from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_value
 
-__all__ = ["build_case"]
+__all__ = ["build_case", "build_sensor"]
 
 
 def _allow_contact_loss(where: str, v: Any) -> bool:
@@ -108,25 +108,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     ctx["environment"] = env
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
     ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
-    st = check_table(f"{where}: [sensor]", cfg.get("sensor") or {}, SENSOR_FIELDS)
-    sensor: ForceSensor
-    try:
-        if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
-            from ..sensors import RealisticForceSensor, ToolGravity
-
-            tool = None if st["tool_mass"] is None else ToolGravity(st["tool_mass"])
-            sensor = RealisticForceSensor(
-                st["noise_std"], st["bias"], st["cutoff"], st["seed"], filter=st["filter"],
-                drift=0.0 if st["drift"] is None else st["drift"], resolution=st["resolution"] or 0.0,
-                delay_samples=st["delay_samples"] or 0, zeroing_samples=st["zeroing_samples"] or 0,
-                tool=tool, tool_estimate=tool,
-            )
-            sensor.filter_coefficients(Ts)
-        else:
-            sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
-        sensor.alpha(Ts)
-    except ForceControlError as exc:
-        raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
+    sensor = build_sensor(where, cfg.get("sensor"), Ts)
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     for name, part in (("environment", env), ("reference", ref)):
         if part.dim != robot.task_dim:
@@ -146,6 +128,36 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
         "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
         "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
     }
+
+
+def build_sensor(where: str, table: Any, sample_time: float) -> ForceSensor:
+    """The ``[sensor]`` table as a sensor (ideal when absent), checked at the case's sample time.
+
+    Raises:
+        ScenarioError: an unknown key, a value of the wrong type, or a sensor the sample time
+            cannot realise (e.g. a cutoff above Nyquist); the message names the key.
+    """
+    Ts = sample_time
+    st = check_table(f"{where}: [sensor]", table or {}, SENSOR_FIELDS)
+    sensor: ForceSensor
+    try:
+        if any(st[k] is not None for k in _RICH_SENSOR_KEYS):
+            from ..sensors import RealisticForceSensor, ToolGravity
+
+            tool = None if st["tool_mass"] is None else ToolGravity(st["tool_mass"])
+            sensor = RealisticForceSensor(
+                st["noise_std"], st["bias"], st["cutoff"], st["seed"], filter=st["filter"],
+                drift=0.0 if st["drift"] is None else st["drift"], resolution=st["resolution"] or 0.0,
+                delay_samples=st["delay_samples"] or 0, zeroing_samples=st["zeroing_samples"] or 0,
+                tool=tool, tool_estimate=tool,
+            )
+            sensor.filter_coefficients(Ts)
+        else:
+            sensor = ForceSensor(st["noise_std"], st["bias"], st["cutoff"], st["seed"])
+        sensor.alpha(Ts)
+    except ForceControlError as exc:
+        raise ScenarioError(f"{where}: [sensor]: {exc}") from exc
+    return sensor
 
 
 def _actuator(where: str, table: Any, n: int) -> Actuator | None:

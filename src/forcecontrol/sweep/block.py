@@ -54,13 +54,14 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
                 ref_index[key] = len(refs)
                 refs.append(r)
             ref_id[i] = ref_index[key]
-            b, noise = j.sensor.sequences(j.N + 1, 2)
+            b, _ = j.sensor.sequences(0, 2)  # the bias (and the shape check)
             bias[i] = b
-            if np.any(noise):
-                nkey = (j.sensor.seed, tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist()), j.N)
+            std = tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist())
+            if any(std):  # a noise sequence is drawn once per (seed, std, length), not per case
+                nkey = (j.sensor.seed, std, j.N)
                 if nkey not in noise_index:
                     nz = np.zeros((nmax + 1, 2))
-                    nz[: j.N + 1] = noise
+                    nz[: j.N + 1] = j.sensor.sequences(j.N + 1, 2)[1]
                     noise_index[nkey] = len(noises)
                     noises.append(nz)
                 noise_id[i] = noise_index[nkey]

@@ -141,15 +141,40 @@ def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, str] | None) ->
     return digest
 
 
-def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str, Any],
-              ref_keys: dict[Any, str] | None = None) -> CaseJob:
-    from ..controllers.base import Measurement
+@dataclass
+class _Plant:
+    """What the cases sharing a robot, environment, controller and reference share (all but the sensor).
+
+    Built once per distinct set of non-sensor values in a sweep; the cases then differ only in
+    their sensor (noise seed, bias), which enters the controller's reset through the first sample.
+    """
+
+    parts: dict[str, Any]
+    Ts: float
+    N: int
+    nsub: int
+    window: int
+    d: np.ndarray
+    f_ref: float
+    ref_key: str
+    #: every part can run in the batch kernel (the sensor is checked per case).
+    compiled: bool
+    h0: np.ndarray | None = None
+    ref0: Any = None
+    K: np.ndarray | None = None
+    env_p: np.ndarray | None = None
+    q0: np.ndarray | None = None
+    qd0: np.ndarray | None = None
+
+
+def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, str] | None) -> _Plant:
+    """Check a built case's run size and sub-steps and pack what its cases share."""
     from ..errors import ParameterError
     from ..limits import check_run_size, check_substeps
     from ..robots import PlanarTwoLink
     from ..simulation import choose_substeps, pre_start_wrench
 
-    robot, env, ctl, ref, sensor = (parts[k] for k in ("robot", "environment", "controller", "reference", "sensor"))
+    robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
     Ts = float(ctl.sample_time)
     duration = float(parts["duration"])
     try:  # the same limits as simulate(), before anything is allocated
@@ -163,36 +188,60 @@ def _make_job(case_id: int, label: str, values: dict[str, Any], parts: dict[str,
     nsub = int(parts["substeps"]) if parts["substeps"] is not None else choose_substeps(robot, env, q0, Ts)
     d, f_ref = _force_direction(env, ref, N * Ts)
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
-    fast = (
+    compiled = (
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None
-        and robot.task_dim == 2 and bool(getattr(sensor, "compiled_ok", True))  # realistic sensors: simulate()
+        and robot.task_dim == 2
         and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
     )
-    # cases share a sampled reference only when the samples themselves are equal (a describe()
-    # of a user's reference type need not say everything that shapes it)
     try:
-        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if fast else "python")
+        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if compiled else "python")
     except ParameterError as exc:
         raise SweepError(f"case {label!r}: {exc}") from exc
-    job = CaseJob(case_id, label, values, fast, Ts, N, nsub, window, d, f_ref, ref, sensor,
-                  _reference_key(ref, N, Ts, ref_keys))
-    if not fast:
-        job.parts = {k: parts[k] for k in ("robot", "environment", "controller", "reference", "sensor", "q0", "qd0", "actuator")}
+    # cases share a sampled reference only when the samples themselves are equal (a describe()
+    # of a user's reference type need not say everything that shapes it)
+    plant = _Plant(parts, Ts, N, nsub, window, d, f_ref, _reference_key(ref, N, Ts, ref_keys), compiled)
+    if compiled:
+        plant.h0 = pre_start_wrench(robot, env, q0, qd0)
+        plant.ref0 = ref.at(0.0)
+        plant.K = np.array(robot._K, dtype=np.float64)
+        plant.env_p = np.array(env.packed(), dtype=np.float64)
+        plant.q0, plant.qd0 = q0, qd0
+    return plant
+
+
+def _first_sample(sensor: Any, dim: int) -> np.ndarray:
+    """bias + the first noise sample: what the sensor reads at t = 0 on top of the true wrench."""
+    bias, noise0 = sensor.sequences(1, dim)
+    return bias + noise0[0]
+
+
+def _batch_sensor(sensor: Any) -> bool:
+    """The sensor runs in the batch kernel (a realistic sensor is stateful: simulate() runs it)."""
+    return bool(getattr(sensor, "compiled_ok", True))
+
+
+def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor: Any, first: np.ndarray) -> CaseJob:
+    """One case: the kernel's packed arrays (compiled plants and sensors) or its parts for simulate()."""
+    from ..controllers.base import Measurement
+
+    p = plant.parts
+    job = CaseJob(case_id, label, values, False, plant.Ts, plant.N, plant.nsub, plant.window, plant.d, plant.f_ref,
+                  p["reference"], sensor, plant.ref_key)
+    if not (plant.compiled and _batch_sensor(sensor)):
+        job.parts = {k: p[k] for k in ("robot", "environment", "controller", "reference", "q0", "qd0", "actuator")}
+        job.parts["sensor"] = sensor
         return job
-    # the controller's reset exactly as simulate() does it (same first noise sample)
-    bias, noise0 = sensor.sequences(1, robot.task_dim)
-    h0 = pre_start_wrench(robot, env, q0, qd0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DriftWarning)
-        ctl.reset(Measurement(q0, qd0, h0 + bias + noise0[0]), ref.at(0.0))
-    job.K = np.array(robot._K, dtype=np.float64)
-    job.env_kind = int(env.kind)
-    job.env_p = np.array(env.packed(), dtype=np.float64)
+    ctl = p["controller"]
+    # the controller's reset exactly as simulate() does it (same first noise sample); the packed
+    # parameters and state are copied, so the next case may reset the same controller
+    ctl.reset(Measurement(plant.q0, plant.qd0, plant.h0 + first), plant.ref0)
+    job.fast = True
+    job.K, job.env_kind, job.env_p = plant.K, int(p["environment"].kind), plant.env_p
     job.law = ctl.compiled_law
     job.ctrl_p = np.array(ctl._params, dtype=np.float64)
     job.ctrl_s = np.array(ctl.state, dtype=np.float64)
-    job.q0, job.qd0 = q0.copy(), qd0.copy()
-    job.alpha = float(sensor.alpha(Ts))
+    job.q0, job.qd0 = plant.q0, plant.qd0
+    job.alpha = float(sensor.alpha(plant.Ts))
     return job
 
 
@@ -256,6 +305,16 @@ def _select_cases(scn: Any, wanted: tuple[str, ...]) -> list[tuple[int, Any]]:
     return out
 
 
+def _value_key(v: Any) -> tuple[str, Any]:
+    """A hashable key of a swept value (its type kept: 1, 1.0 and True do not build the same case)."""
+    return (type(v).__name__, v if isinstance(v, (bool, int, float, str)) else json.dumps(v, sort_keys=True))
+
+
+def _where(cid: int, label: str, values: dict[str, Any]) -> str:
+    shown = ", ".join(f"{k}={v!r}" for k, v in values.items())
+    return f"sweep case {cid} ('{label}', {shown})"
+
+
 def prepare_sweep(
     scenario: Any,
     definition: SweepDefinition | None = None,
@@ -274,6 +333,7 @@ def prepare_sweep(
             that fails the scenario's validation (the message names the case and its values).
     """
     from ..scenarios import CaseSpec, Scenario, build_case
+    from ..scenarios.build import build_sensor
 
     if isinstance(scenario, Scenario):
         scn, file_def = scenario, None
@@ -293,28 +353,58 @@ def prepare_sweep(
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     jobs: list[CaseJob] = []
     ref_keys: dict[Any, str] = {}
+    plant_params = [p for p in definition.parameters if p.keys[0] != "sensor"]
+    sensor_params = [p for p in definition.parameters if p.keys[0] == "sensor"]
     cid = 0
     total = len(selected) * len(assignments)
-    for _, case in selected:
-        row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
-        for values in assignments:
-            cfg = copy.deepcopy(case.config)
-            for p in definition.parameters:
-                _apply(cfg, p, values[p.path], case.label)
-            shown = ", ".join(f"{k}={v!r}" for k, v in values.items())
-            where = f"sweep case {cid} ('{case.label}', {shown})"
-            try:
-                parts = build_case(CaseSpec(case.label, cfg, {}), where=where)
-                job = _make_job(cid, case.label, values, parts, ref_keys)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DriftWarning)  # reported when the case runs
+        for ci, case in selected:
+            row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
+            # the parts (robot, environment, controller, reference) are built once per distinct
+            # set of non-sensor values, the sensor once per distinct sensor values
+            plants: dict[tuple[Any, ...], _Plant] = {}
+            sensors: dict[tuple[Any, ...], tuple[Any, np.ndarray]] = {}
+            for values in assignments:
+                pkey = tuple(_value_key(values[p.path]) for p in plant_params)
+                skey = tuple(_value_key(values[p.path]) for p in sensor_params)
+                try:
+                    job = None
+                    plant = plants.get(pkey)
+                    if plant is not None and plant.compiled:
+                        sensor_first = sensors.get((skey, plant.Ts))
+                        if sensor_first is None:
+                            table = {"sensor": copy.deepcopy(case.config.get("sensor") or {})}
+                            for p in sensor_params:
+                                _apply(table, p, values[p.path], case.label)
+                            sensor = build_sensor(_where(cid, case.label, values), table["sensor"], plant.Ts)
+                            sensor_first = sensors[(skey, plant.Ts)] = (sensor, _first_sample(sensor, plant.parts["robot"].task_dim))
+                        if _batch_sensor(sensor_first[0]):
+                            job = _job(cid, case.label, values, plant, *sensor_first)
+                    if job is None:  # a new plant, or a case run by simulate(), which owns its parts
+                        cfg = copy.deepcopy(case.config)
+                        for p in definition.parameters:
+                            _apply(cfg, p, values[p.path], case.label)
+                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values))
+                        own = _plant(case.label, built, ref_keys)
+                        plants.setdefault(pkey, own)
+                        sensor = built["sensor"]
+                        sensor_first = sensors.get((skey, own.Ts)) if own.compiled and _batch_sensor(sensor) else None
+                        if sensor_first is None:
+                            sensor_first = (sensor, _first_sample(sensor, built["robot"].task_dim))
+                            if _batch_sensor(sensor):
+                                sensors[(skey, own.Ts)] = sensor_first
+                        job = _job(cid, case.label, values, own, *sensor_first)
+                except SweepError:
+                    raise
+                except ForceControlError as exc:
+                    where = _where(cid, case.label, values)
+                    raise SweepError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from exc
                 job.row_label = row_label
                 jobs.append(job)
-            except SweepError:
-                raise
-            except ForceControlError as exc:
-                raise SweepError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from exc
-            cid += 1
-            if progress is not None and (cid % 100 == 0 or cid == total):
-                progress(cid, total)
+                cid += 1
+                if progress is not None and (cid % 100 == 0 or cid == total):
+                    progress(cid, total)
     payload = {
         "scenario": scn.name,
         "cases": [{"index": ci + 1, "label": c.label, "config": c.config} for ci, c in selected],
