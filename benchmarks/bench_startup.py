@@ -36,7 +36,8 @@ def commands(out: str) -> dict[str, list[str]]:
         "forcecontrol --help": [*cli, "--help"],
         "forcecontrol --version": [*cli, "--version"],
         "forcecontrol run example-9.2 --json": [*cli, "run", "example-9.2", "--json", "--force", "--out", out],
-        "forcecontrol run example-9.2 --json --no-figure": [*cli, "run", "example-9.2", "--json", "--no-figure", "--force", "--out", out],
+        "forcecontrol run example-9.2 --json --no-figure": [
+            *cli, "run", "example-9.2", "--json", "--no-figure", "--force", "--out", out],
     }
 
 

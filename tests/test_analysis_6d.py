@@ -1,10 +1,13 @@
-"""6-D analysis (issue 13 item 1): the translational equilibrium of spatial impedance (9.36) and
-admittance (9.37) on linear environments, for tilted tables, rotated desired frames, anisotropic
-gains and rotated springs, against full nonlinear simulations of the 7-DOF Panda.
+"""6-D analysis (issue 13 item 1): equilibrium and transient of spatial impedance (9.36), base-frame
+impedance (9.31) and admittance (9.37) on linear environments — tilted tables, rotated desired
+frames, anisotropic gains, rotated springs, moment springs with a turned rest frame, gains that
+couple translation and rotation — against full nonlinear simulations of the 7-DOF Panda.
 
 The reference is the simulator (Pinocchio dynamics, the controller's own 6-D law), independent of
-the linear model in ``scenarios/parts_spatial.py``; agreement within 1 % of the contact force and
-0.1 mm of the position.
+the linear model in ``scenarios/parts_spatial_analysis.py``. Agreement: the equilibrium wrench
+within 1 % (forces and moments each against their own size), the position within 0.1 mm, the
+orientation within 1e-3 rad; the contact force at fixed times within 2 % of its peak (impedance:
+the model leaves out the admittance's inner motion loop, so admittance gets the equilibrium only).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import pytest
 pytest.importorskip("pinocchio")
 
 from forcecontrol.scenarios import load_scenario  # noqa: E402
-from forcecontrol.scenarios.core import build_case, case_analysis  # noqa: E402
+from forcecontrol.scenarios.core import build_case, case_analysis, case_response  # noqa: E402
 
 S20, C20 = math.sin(math.radians(20.0)), math.cos(math.radians(20.0))
 
@@ -48,6 +51,19 @@ stiffness = [{kx}, {ky}, {kz}, 0.0, 0.0, 0.0]
 rotation = [0.0, 0.0, {rz}]
 offset = [0.0, 0.0, 0.0]
 """
+MOMENT_SPRING = """
+type = "spatial-spring"
+stiffness = {K}
+rotation = {rot}
+offset = {off}
+"""
+COUPLED = """
+type = "spatial-impedance"
+inertia = [4.0, 4.0, 4.0, 0.1, 0.1, 0.1]
+damping = [300, 300, 300, 2.83, 2.83, 2.83]
+stiffness = [[1000, 0, 0, 0, 20, 0], [0, 1000, 0, -20, 0, 0], [0, 0, 1000, 0, 0, 0],
+             [0, -20, 0, 20, 0, 0], [20, 0, 0, 0, 20, 0], [0, 0, 0, 0, 0, 20]]
+"""
 
 GEOMETRIES = {
     "impedance, flat table": (IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000), TABLE.format(n="0.0, 0.0, 1.0", k=5000),
@@ -65,6 +81,21 @@ GEOMETRIES = {
     "impedance, spring rotated 45 deg": (IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000),
                                          SPRING.format(kx=4000, ky=1000, kz=2000, rz=45.0), "[0.01, 0.02, -0.01]",
                                          "[0.0, 0.0, 0.0]"),
+    "impedance, moment spring, rest frame turned (2, -3, 4) deg": (
+        IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000),
+        MOMENT_SPRING.format(K="[4000, 1000, 2000, 8.0, 5.0, 5.0]", rot="[2.0, -3.0, 4.0]", off="[0.01, 0.0, -0.01]"),
+        "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]"),
+    "impedance, gains coupling translation and rotation, moment spring": (
+        COUPLED, MOMENT_SPRING.format(K="[4000, 1000, 2000, 5.0, 5.0, 5.0]", rot="[0.0, 0.0, 0.0]", off="[0.01, 0.01, -0.01]"),
+        "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]"),
+    "impedance in the base frame (9.31), moment spring, desired frame turned 30 deg": (
+        IMPEDANCE.format(d=300, kx=800, ky=1500, kz=1000) + 'frame = "base"\n',
+        MOMENT_SPRING.format(K="[3000, 1000, 2000, 6.0, 5.0, 4.0]", rot="[2.0, 3.0, 32.0]", off="[0.01, 0.0, -0.01]"),
+        "[0.0, 0.0, 0.0]", "[0.0, 0.0, 30.0]"),
+    "admittance, moment spring, rest frame turned (-2, 3, 2) deg": (
+        ADMITTANCE.format(d=200, kx=1000, ky=1000, kz=1000),
+        MOMENT_SPRING.format(K="[3000, 1000, 2000, 6.0, 5.0, 4.0]", rot="[-2.0, 3.0, 2.0]", off="[0.0, 0.01, -0.01]"),
+        "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]"),
 }
 
 
@@ -90,26 +121,53 @@ def _scenario(tmp_path, controller, environment, offset, rotation):
     return load_scenario(path)
 
 
+POSE = ("x", "y", "z", "rx", "ry", "rz")
+WRENCH = ("fx", "fy", "fz", "mx", "my", "mz")
+
+
 @pytest.mark.parametrize("name", list(GEOMETRIES))
-def test_translational_equilibrium_agrees_with_the_panda_simulation(tmp_path, name):
+def test_6d_equilibrium_and_transient_agree_with_the_panda_simulation(tmp_path, name):
     sc = _scenario(tmp_path, *GEOMETRIES[name])
-    predicted = case_analysis(build_case(sc.cases[0]))
+    parts = build_case(sc.cases[0])
+    predicted = case_analysis(parts)
     assert predicted["in_contact"]
+    times = np.array([0.02, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6])
+    transient = case_response(parts, times)
     res = sc.run().cases[0].result
     settled = res.settled_values(0.1)
-    f_pred = np.array([predicted[f"steady_f{a}"] for a in "xyz"])
-    f_sim = np.array([settled[f"f{a}"] for a in "xyz"])
-    assert np.linalg.norm(f_pred) > 5.0  # a real contact
-    np.testing.assert_allclose(f_sim, f_pred, atol=0.01 * np.linalg.norm(f_pred))
-    p_pred = np.array([predicted[f"steady_{a}"] for a in "xyz"])
-    p_sim = np.array([settled[a] for a in "xyz"])
-    np.testing.assert_allclose(p_sim, p_pred, atol=1e-4)
+    w_pred = np.array([predicted[f"steady_{k}"] for k in WRENCH])
+    w_sim = np.array([settled[k] for k in WRENCH])
+    assert np.linalg.norm(w_pred[:3]) > 5.0  # a real contact
+    np.testing.assert_allclose(w_sim[:3], w_pred[:3], atol=0.01 * np.linalg.norm(w_pred[:3]))
+    np.testing.assert_allclose(w_sim[3:], w_pred[3:], atol=0.01 * max(np.linalg.norm(w_pred[3:]), 1e-3))
+    x_pred = np.array([predicted[f"steady_{k}"] for k in POSE])
+    x_sim = np.array([settled[k] for k in POSE])
+    np.testing.assert_allclose(x_sim[:3], x_pred[:3], atol=1e-4)
+    turn = (x_sim[3:] - x_pred[3:] + np.pi) % (2 * np.pi) - np.pi  # Euler angles of ±π are one angle
+    np.testing.assert_allclose(turn, 0.0, atol=1e-3)
+    if "admittance" in name:
+        assert transient is None
+        return
+    assert transient is not None
+    sim = res.wrench[np.searchsorted(res.t, times)]
+    peak = np.abs(res.wrench[:, :3]).max()
+    np.testing.assert_allclose(transient[:, :3], sim[:, :3], atol=0.02 * peak)
 
 
-def test_coupled_gains_or_moment_springs_get_no_translational_analysis(tmp_path):
-    """The translational model needs decoupled gains and a force-only environment: otherwise none is claimed."""
-    sc = _scenario(tmp_path, IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000),
-                   SPRING.format(kx=4000, ky=1000, kz=2000, rz=0.0).replace(
-                       "[4000, 1000, 2000, 0.0, 0.0, 0.0]", "[4000, 1000, 2000, 5.0, 5.0, 5.0]"),
-                   "[0.0, 0.0, -0.01]", "[0.0, 0.0, 0.0]")
-    assert "steady_fz" not in case_analysis(build_case(sc.cases[0]))
+def test_a_moment_spring_turned_far_from_the_desired_frame_is_outside_the_linear_model(tmp_path):
+    """The analysis linearises the spring's rotation vector about the desired frame: with the rest
+    frame turned (60, 45, 0) deg, the simulated moments leave its 1 % band (``analyze --verify``
+    reports this), while at 3 deg they agree within 1 % (about one axis alone the model is exact)."""
+    def moments(rot):
+        sc = _scenario(tmp_path, IMPEDANCE.format(d=300, kx=1000, ky=1000, kz=1000),
+                       MOMENT_SPRING.format(K="[4000, 1000, 2000, 8.0, 8.0, 8.0]", rot=rot, off="[0.0, 0.0, -0.01]"),
+                       "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]")
+        predicted = case_analysis(build_case(sc.cases[0]))
+        settled = sc.run().cases[0].result.settled_values(0.1)
+        return (np.array([predicted[f"steady_{k}"] for k in ("mx", "my", "mz")]),
+                np.array([settled[k] for k in ("mx", "my", "mz")]))
+
+    pred, sim = moments("[3.0, 0.0, 0.0]")
+    np.testing.assert_allclose(sim, pred, atol=0.01 * np.linalg.norm(pred))
+    pred, sim = moments("[60.0, 45.0, 0.0]")
+    assert np.linalg.norm(sim - pred) > 0.01 * np.linalg.norm(pred)

@@ -95,8 +95,8 @@ class ImpedanceModes:
 
 
 def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
-                    *, one_sided_normal: Any = None) -> ImpedanceModes:
-    """Equilibrium, ω_n and ζ of the impedance (9.32) on ``h_e = K (x_e − x_r)``, for any K.
+                    *, one_sided_normal: Any = None, environment_damping: Any = None) -> ImpedanceModes:
+    """Equilibrium, ω_n and ζ of the impedance (9.32) on ``h_e = K (x_e − x_r) + D_e ẋ_e``, for any K.
 
     Args:
         inertia, damping, stiffness: M_d [kg], K_D [N s/m], K_P [N/m], symmetric (m, m).
@@ -104,6 +104,8 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
         desired: x_d (m,) [m]; rest: x_r, a point of the undeformed environment (m,) [m].
         one_sided_normal: the outward normal of a one-sided environment (a plane): if the
             equilibrium in contact would not penetrate it, the free equilibrium is returned.
+        environment_damping: D_e, symmetric positive semi-definite (m, m) [N s/m] (default 0):
+            it adds to K_D in the closed loop (its force is measured like the spring's).
     """
     x_d = as_vector("desired", desired)
     m = x_d.shape[0]
@@ -112,16 +114,19 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
     D = as_gain_matrix("damping", damping, m, definite=False)
     KP = as_gain_matrix("stiffness", stiffness, m)
     K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
+        "environment_damping", environment_damping, m, definite=False)
     in_contact = True
     x = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     if one_sided_normal is not None:
         nrm = as_vector("one_sided_normal", one_sided_normal, m)
         if float(nrm @ (x_r - x)) <= 0.0:  # no penetration at the contact equilibrium: free motion
             K = np.zeros((m, m))
+            De = np.zeros((m, m))
             x = x_d.copy()
             in_contact = False
     Minv = np.linalg.inv(M)
-    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ D]])
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ (D + De)]])
     lam = np.linalg.eigvals(A)
     # pair the 2m eigenvalues into m modes: complex pairs by conjugacy, real ones by size
     cplx = sorted((v for v in lam if v.imag > 1e-9 * max(1.0, abs(v))), key=abs)
@@ -146,14 +151,14 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
 
 
 def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
-                       start: Any, times: Any) -> tuple[np.ndarray, np.ndarray]:
+                       start: Any, times: Any, *, environment_damping: Any = None) -> tuple[np.ndarray, np.ndarray]:
     """The transient of the linear model of :func:`impedance_modes` from rest at ``start``.
 
-    ``M_d ẍ + K_D ẋ + (K_P + K) x = K_P x_d + K x_r`` with constant x_d, solved exactly
+    ``M_d ẍ + (K_D + D_e) ẋ + (K_P + K) x = K_P x_d + K x_r`` with constant x_d, solved exactly
     (``scipy.linalg.expm`` of the state matrix), ``x(0) = start``, ``ẋ(0) = 0``.
 
     Returns:
-        (x (N, m) [m], h_e = K (x − x_r) (N, m) [N]) at ``times`` [s].
+        (x (N, m) [m], h_e = K (x − x_r) + D_e ẋ (N, m) [N]) at ``times`` [s].
     """
     from scipy.linalg import expm  # type: ignore[import-untyped]
 
@@ -165,10 +170,13 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
     D = as_gain_matrix("damping", damping, m, definite=False)
     KP = as_gain_matrix("stiffness", stiffness, m)
     K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
+        "environment_damping", environment_damping, m, definite=False)
     x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     Minv = np.linalg.inv(M)
-    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ D]])
+    A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ (D + De)]])
     z0 = np.concatenate([x0 - x_e, np.zeros(m)])
     t = np.asarray(times, dtype=np.float64)
-    x = np.array([x_e + (expm(A * ti) @ z0)[:m] for ti in t])
-    return x, (x - x_r) @ K.T
+    z = np.array([expm(A * ti) @ z0 for ti in t]).reshape(len(t), 2 * m)
+    x = x_e + z[:, :m]
+    return x, (x - x_r) @ K.T + z[:, m:] @ De.T

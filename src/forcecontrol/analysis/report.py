@@ -14,6 +14,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from .._axes import axis_names
+
 __all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE", "TRANSIENT_TOLERANCE"]
 
 
@@ -38,9 +40,10 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
     """Check a case's predicted equilibrium (``steady_*``) and transient against a simulation of the same case.
 
     The case is simulated as the scenario says (``simulate`` on the full nonlinear arm); each
-    predicted ``steady_<axis>`` and ``steady_f<axis>`` is compared with the settled value over the
+    predicted ``steady_<axis>`` (``x … rz``, ``fx … mz``) is compared with the settled value over the
     scenario's ``settle_window``. A relative difference above :data:`VERIFY_TOLERANCE` (of the
-    largest predicted position offset or force of the case) means the loop is outside the linear
+    largest predicted move from the start of the case among positions, among angles, or of the
+    largest predicted force, or moment) means the loop is outside the linear
     regime of the analysis (lost contact, saturation, not settled) and is reported as such. When the
     case's analysis has a linear transient model (impedance on a linear environment, the direct
     force schemes' sampled loops), its contact force at :data:`TRANSIENT_TIMES` is compared too,
@@ -58,21 +61,29 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
         engine=engine,  # type: ignore[arg-type]
     )
     settled = res.settled_values(parts["settle_window"])
-    pos = {k: v for k, v in analysis.items() if k.startswith("steady_") and not k.startswith("steady_f")}
-    frc = {k: v for k, v in analysis.items() if k.startswith("steady_f")}
-    x0 = res.x[0]
-    axes = list(settled)
-    pos_scale = max([abs(float(v) - float(x0[axes.index(k[7:])])) for k, v in pos.items() if k[7:] in axes] + [1e-6])
-    frc_scale = max([abs(float(v)) for v in frc.values()] + [1e-6])
+    pose_names, _, wrench_names = axis_names(res.x.shape[1])
+    start = dict(zip(pose_names, (float(v) for v in res.x[0])))
+    # four groups, each against its own scale: positions and angles (the move from the start
+    # pose), forces and moments (the predicted size)
+    groups: dict[str, dict[str, float]] = {"position": {}, "angle": {}, "force": {}, "moment": {}}
+    for key, predicted in analysis.items():
+        name = key[len("steady_"):] if key.startswith("steady_") else None
+        if name not in settled or predicted is None or not math.isfinite(float(predicted)):
+            continue
+        group = ("angle" if name.startswith("r") else "position") if name in pose_names else (
+            "moment" if name.startswith("m") else "force") if name in wrench_names else None
+        if group is not None:
+            groups[group][name] = float(predicted)
     out: dict[str, Any] = {}
-    for group, scale in ((pos, pos_scale), (frc, frc_scale)):
-        for key, predicted in group.items():
-            name = key[len("steady_"):]
-            if name not in settled or predicted is None or not math.isfinite(float(predicted)):
-                continue
-            diff = abs(settled[name] - float(predicted)) / scale
-            out[key] = {"predicted": float(predicted), "simulated": settled[name], "relative_difference": diff,
-                        "agrees": diff <= VERIFY_TOLERANCE}
+    for group, values in groups.items():
+        if group in ("position", "angle"):
+            scale = max([abs(_difference(group, v, start[n])) for n, v in values.items()] + [1e-6])
+        else:
+            scale = max([abs(v) for v in values.values()] + [1e-6])
+        for name, predicted in values.items():
+            diff = abs(_difference(group, settled[name], predicted)) / scale
+            out[f"steady_{name}"] = {"predicted": predicted, "simulated": settled[name], "relative_difference": diff,
+                                     "agrees": diff <= VERIFY_TOLERANCE}
     transient = _verify_transient(parts, res)
     bad = [k for k, v in out.items() if not v["agrees"]]
     if transient is not None and not transient["agrees"]:
@@ -83,6 +94,12 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
                    f"({100 * TRANSIENT_TOLERANCE:g} % of the peak for the transient): the loop is outside the "
                    "analysis' linear regime (contact lost, saturation) or has not settled")
     return {"quantities": out, "transient": transient, "agrees": not bad, "warning": warning}
+
+
+def _difference(group: str, a: float, b: float) -> float:
+    """a − b; for angles the shortest one (XYZ angles of ±π are one angle)."""
+    d = float(a) - float(b)
+    return (d + math.pi) % (2.0 * math.pi) - math.pi if group == "angle" else d
 
 
 def _verify_transient(parts: dict[str, Any], res: Any) -> dict[str, Any] | None:

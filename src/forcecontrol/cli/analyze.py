@@ -77,7 +77,7 @@ def analyze_command(
                 t.add_row("(no analysis applies to this case)", "", "", "", "")
             console.print(t)
             ver = case.get("verification")
-            if ver is not None:
+            if ver is not None and (ver["quantities"] or ver.get("transient") is not None):
                 vt = Table(title="predicted equilibrium against a simulation of the case", title_justify="left")
                 for col in ("quantity", "predicted", "simulated", "difference", ""):
                     vt.add_column(col, justify="left" if col == "quantity" else "right")

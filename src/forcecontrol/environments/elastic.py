@@ -117,6 +117,10 @@ class ElasticPlane(Environment):
         """K = k ν νᵀ, the (m, m) positive semi-definite stiffness while in contact."""
         return self.stiffness * np.outer(self.normal, self.normal)
 
+    def damping_matrix(self) -> np.ndarray:
+        """``c n nᵀ`` (m, m) [N s/m]: the damping in contact (while the contact pushes)."""
+        return self.damping * np.outer(self.normal, self.normal)
+
     def max_stiffness(self) -> float:
         return self.stiffness
 
@@ -150,6 +154,10 @@ class LinearSpring(Environment):
     def stiffness_matrix(self) -> np.ndarray:
         """K, (m, m)."""
         return np.array(self.stiffness)
+
+    def damping_matrix(self) -> np.ndarray:
+        """D (m, m) [N s/m]."""
+        return np.array(self.damping)
 
     def max_stiffness(self) -> float:
         return float(np.linalg.eigvalsh(self.stiffness).max())

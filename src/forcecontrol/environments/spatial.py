@@ -70,6 +70,10 @@ class SpatialSpring(Environment):
         """K in the base frame, (6, 6) (sets the simulator's integration step)."""
         return np.array(self._K0)
 
+    def damping_matrix(self) -> np.ndarray:
+        """D in the base frame, (6, 6) [N s/m, N m s/rad]."""
+        return np.array(self._D0)
+
 
 class Table(Environment):
     """A horizontal-or-not elastic table: one-sided, frictionless point contact at the end-effector origin.
@@ -113,6 +117,12 @@ class Table(Environment):
         K = np.zeros((6, 6))
         K[:3, :3] = self.stiffness * np.outer(self.normal, self.normal)
         return K
+
+    def damping_matrix(self) -> np.ndarray:
+        """The (6, 6) damping in contact: ``c ν νᵀ`` on the force block (while the contact pushes)."""
+        D = np.zeros((6, 6))
+        D[:3, :3] = self.damping * np.outer(self.normal, self.normal)
+        return D
 
 
 class ConstantWrench(Environment):

@@ -147,12 +147,13 @@ register_reference(
 
 
 def _environment_matrix(env: Any) -> Any:
-    """(K, x_r, one-sided normal) of a linear elastic environment in the base frame, or None."""
+    """(K, x_r, one-sided normal, D_e) of a linear elastic environment in the base frame, or None."""
     if not hasattr(env, "stiffness_matrix"):
         return None
+    D = env.damping_matrix() if hasattr(env, "damping_matrix") else None
     if isinstance(env, ElasticPlane):
-        return env.stiffness_matrix(), env.point, env.normal
-    return env.stiffness_matrix(), env.rest_position, None
+        return env.stiffness_matrix(), env.point, env.normal, D
+    return env.stiffness_matrix(), env.rest_position, None, D
 
 
 def _impedance_applies(parts: dict[str, Any]) -> bool:
@@ -177,8 +178,9 @@ def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     from ..analysis import impedance_modes
 
     ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
-    K, rest, normal = _environment_matrix(env)
-    md = impedance_modes(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, one_sided_normal=normal)
+    K, rest, normal, De = _environment_matrix(env)
+    md = impedance_modes(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, one_sided_normal=normal,
+                         environment_damping=De)
     axes = "xyz"[: ctl.m]
     out: dict[str, Any] = {}
     for i, a in enumerate(axes):
@@ -204,9 +206,10 @@ def _impedance_response(parts: dict[str, Any], times: Any) -> Any:
     from ..analysis import impedance_response
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
-    K, rest, normal = _environment_matrix(env)
+    K, rest, normal, De = _environment_matrix(env)
     x0 = np.asarray(robot.forward_kinematics(np.asarray(parts["q0"], dtype=float)), dtype=float)[: ctl.m]
-    x, h = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, x0, times)
+    x, h = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, x0, times,
+                              environment_damping=De)
     if normal is not None and np.any((x - rest) @ normal > 1e-9):  # off the plane: the spring model does not hold
         return None
     return h

@@ -359,7 +359,7 @@ def prepare_sweep(
     total = len(selected) * len(assignments)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DriftWarning)  # reported when the case runs
-        for ci, case in selected:
+        for _, case in selected:
             row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
             # the parts (robot, environment, controller, reference) are built once per distinct
             # set of non-sensor values, the sensor once per distinct sensor values
@@ -378,7 +378,8 @@ def prepare_sweep(
                             for p in sensor_params:
                                 _apply(table, p, values[p.path], case.label)
                             sensor = build_sensor(_where(cid, case.label, values), table["sensor"], plant.Ts)
-                            sensor_first = sensors[(skey, plant.Ts)] = (sensor, _first_sample(sensor, plant.parts["robot"].task_dim))
+                            first = _first_sample(sensor, plant.parts["robot"].task_dim)
+                            sensor_first = sensors[(skey, plant.Ts)] = (sensor, first)
                         if _batch_sensor(sensor_first[0]):
                             job = _job(cid, case.label, values, plant, *sensor_first)
                     if job is None:  # a new plant, or a case run by simulate(), which owns its parts
