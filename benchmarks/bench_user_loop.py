@@ -10,7 +10,9 @@ controller stack Safety(ContactSupervisor(impedance, inner velocity loop)), writ
   percentiles and a histogram, and the control step alone (reference + controller);
 * the wake-up lateness (jitter) against the 1 ms schedule, as percentiles and a histogram;
 * overruns (a cycle ending after the next tick);
-* the cost of each layer alone in a tight loop (no sleeping), to see where the time goes.
+* the cost of each layer alone in a tight loop (no sleeping), to see where the time goes;
+* the baseline: the same schedule with no work at all, whose late wake-ups are the OS's (on a
+  general-purpose kernel without real-time priority an overrun can come from there alone).
 
 Wall-clock numbers depend on the machine and its load (a shared machine shows long tails):
 the script asserts nothing. Run: ``python benchmarks/bench_user_loop.py [--cycles 5000]``.
@@ -107,7 +109,25 @@ def main(cycles: int = 5000) -> dict[str, object]:
     for k, v in costs.items():
         print(f"  {k:36s} {v:8.1f} µs")
     out["layers_us"] = costs
+    bare = bare_loop(cycles)
+    print(f"\nbaseline, the same RateLimiter loop doing no work ({cycles} cycles, heap frozen): "
+          f"wake-ups more than 0.5 ms late: {bare['late_over_500us']}, max lateness {bare['max_late_us']:.0f} µs "
+          "(what the OS alone adds on this machine, without real-time priority)")
+    out["bare_loop"] = bare
     return out
+
+
+def bare_loop(cycles: int) -> dict[str, float]:
+    """The OS's share: the same 1 kHz schedule with no work in the cycle."""
+    from forcecontrol.realtime import RateLimiter, frozen_heap
+
+    late = np.empty(cycles)
+    limiter = RateLimiter(1e-3, cycles=cycles)
+    with frozen_heap():
+        for k in range(cycles):
+            late[k] = limiter.wait()
+            limiter.done()
+    return {"late_over_500us": int(np.sum(late > 5e-4)), "max_late_us": float(1e6 * late.max())}
 
 
 if __name__ == "__main__":

@@ -23,7 +23,8 @@ see :mod:`forcecontrol.realtime` for the full list. In short: find out whether t
 the wake-up is late (the report separates them); keep logging, plotting and allocation out of
 the loop and warm up compiled code before the motors are on; lower the rate (500 Hz suffices
 for force loops of tens of Hz bandwidth; retune for the new sample time); pin the process to an
-idle core with a real-time priority on a PREEMPT_RT kernel and ``gc.disable()`` during the run;
+idle core with a real-time priority on a PREEMPT_RT kernel; keep full garbage collections out of
+the loop (:func:`forcecontrol.realtime.frozen_heap`, used below);
 or leave the 1 kHz loop to the robot's own real-time controller (libfranka, UR RTDE,
 ros2_control) and send it set-points from Python at a lower rate. Never let an overrun go
 unnoticed: stop the arm after a few consecutive ones.
@@ -40,7 +41,7 @@ from typing import Protocol
 import numpy as np
 
 import forcecontrol as fc
-from forcecontrol.realtime import LoopStatistics, RateLimiter
+from forcecontrol.realtime import LoopStatistics, RateLimiter, frozen_heap
 from forcecontrol.safety import Safety
 from forcecontrol.sensors import RealisticForceSensor
 from forcecontrol.transitions import ContactSupervisor
@@ -141,18 +142,19 @@ def run(robot: ArmInterface, controller: fc.Controller, reference, cycles: int) 
     compute, control, late = np.empty(cycles), np.empty(cycles), np.empty(cycles)
     overrun = np.zeros(cycles, dtype=bool)
     limiter = RateLimiter(PERIOD, cycles=cycles)
-    for k in range(cycles):
-        late[k] = limiter.wait()
-        t0 = time.perf_counter()
-        t = k * PERIOD  # the stand-ins advance one period per cycle; on a real arm use the schedule's time
-        q, qd = robot.read_state()
-        h = robot.read_wrench()
-        tr = time.perf_counter()
-        u = controller.step(t, fc.Measurement(q, qd, h), reference.at(t))
-        t1 = time.perf_counter()
-        robot.write_torque(u)
-        compute[k], control[k] = t1 - t0, t1 - tr
-        overrun[k] = limiter.done()
+    with frozen_heap():  # no full garbage collection (milliseconds) inside the loop
+        for k in range(cycles):
+            late[k] = limiter.wait()
+            t0 = time.perf_counter()
+            t = k * PERIOD  # the stand-ins advance one period per cycle; on a real arm use the schedule's time
+            q, qd = robot.read_state()
+            h = robot.read_wrench()
+            tr = time.perf_counter()
+            u = controller.step(t, fc.Measurement(q, qd, h), reference.at(t))
+            t1 = time.perf_counter()
+            robot.write_torque(u)
+            compute[k], control[k] = t1 - t0, t1 - tr
+            overrun[k] = limiter.done()
     return {"compute": compute, "control": control, "lateness": late, "overrun": overrun,
             "statistics": limiter.statistics()}
 

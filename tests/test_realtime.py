@@ -146,3 +146,47 @@ def test_own_loop_example_runs_both_arms_and_reports_statistics():
     pytest.importorskip("pinocchio")
     st = own_loop.panda(100)["statistics"]
     assert st.cycles == 100
+
+
+def test_a_read_only_reference_runs_the_same_compiled_step_no_new_specialisation():
+    """A path's constant force is a read-only array: stepping with it after a writable one must not
+    compile or load another specialisation mid-loop (that cost one 8 ms cycle at first contact)."""
+    import numpy as np
+
+    import forcecontrol as fc
+    from forcecontrol import laws
+
+    arm = fc.CHAPTER_ARM
+    ctl = fc.InnerVelocityForceController(arm, 100, 5000, 2500, [0.0024, 0.0])
+    q = arm.inverse_kinematics([1.0, 0.0])
+    m = fc.Measurement(q, np.array([0.01, -0.02]), np.array([3.0, 0.0]))
+    writable = fc.Reference.setpoint([1.0, 0.0], [10.0, 0.0])
+    ctl.reset(m, writable)
+    u1 = ctl.step(0, m, writable)  # an int time is fine too
+    step = laws.on_arm(ctl.compiled_law)
+    force = np.array([10.0, 0.0])
+    force.flags.writeable = False
+    read_only = fc.Reference(writable.position, writable.velocity, writable.acceleration, force,
+                             writable.force_rate, writable.force_accel)
+    ctl.reset(m, read_only)
+    u2 = ctl.step(0.0, m, read_only)
+    assert len(step.signatures) == 1
+    np.testing.assert_array_equal(u1, u2)
+    # a non-contiguous view takes the checked path, same torques
+    wide = np.zeros((2, 2))
+    wide[:, 0] = q
+    ctl.reset(m, writable)
+    u3 = ctl.step(0.0, fc.Measurement(wide[:, 0], m.qd, m.wrench), writable)
+    np.testing.assert_allclose(u3, u1, rtol=1e-12)
+
+
+def test_frozen_heap_freezes_for_the_loop_and_unfreezes_after():
+    import gc
+
+    from forcecontrol.realtime import frozen_heap
+
+    assert gc.get_freeze_count() == 0
+    with frozen_heap():
+        assert gc.get_freeze_count() > 1000  # the library's heap, out of the collector's way
+        assert gc.isenabled()
+    assert gc.get_freeze_count() == 0

@@ -38,6 +38,7 @@ TESTS = [
     "tests/test_task.py",
     "tests/test_rigid.py",
     "tests/test_controller_guards.py",
+    "tests/test_planar_vs_6d.py",
 ]
 
 

@@ -150,10 +150,13 @@ def _fast_step(self: Controller, t: float, measurement: Measurement, reference: 
     if not _vectors(m.q, m.qd, m.wrench, r.position, r.velocity, r.acceleration, r.force, r.force_rate, r.force_accel):
         return None
     u = np.empty(m.q.shape[0])
-    ok = on_arm(
-        self._fused_K, t, self.sample_time, m.q, m.qd, m.wrench, r.position, r.velocity, r.acceleration, r.force,
-        r.force_rate, r.force_accel, self._params, self.state, self._workspace(), u,
-    )
+    try:  # one compiled signature (read-only inputs, C layout): another layout takes the checked path
+        ok = on_arm(
+            self._fused_K, float(t), self.sample_time, m.q, m.qd, m.wrench, r.position, r.velocity, r.acceleration,
+            r.force, r.force_rate, r.force_accel, self._params, self.state, self._workspace(), u,
+        )
+    except TypeError:
+        return None
     return u if ok else None
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from numba import njit
+from numba import njit, types
 
 from .._numba_cache import stable_identities
 from ..robots.planar_2r import _terms_into
@@ -96,6 +96,12 @@ def on_arm(law: Any) -> Any:
     it failed (:func:`arm_finish`). Built once per law (the law inlined) and cached on disk;
     Python calls it through Numba's typed dispatcher (about 1 µs), whereas passing the law as an
     argument from Python would cost 5 µs of type resolution per call.
+
+    Compiled for one signature, inputs typed read-only (writable arrays convert to it at no cost):
+    a reference whose arrays are read-only (a path's constant force) and one whose arrays are
+    not run the same machine code, so no new specialisation is compiled or loaded in the middle
+    of a user's real-time loop (that cost one 8 ms cycle at the first contact). Inputs of another
+    layout (non-contiguous views) raise TypeError, and ``Controller.step`` takes its checked path.
     """
     step = _ON_ARM.get(law)
     if step is None:
@@ -105,9 +111,13 @@ def on_arm(law: Any) -> Any:
             ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
             return ok and arm_finish(law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
 
-        step = _ON_ARM[law] = njit(cache=True)(run)
+        step = _ON_ARM[law] = njit(_ON_ARM_SIGNATURE, cache=True)(run)
         step._set_uuid(f"forcecontrol:laws.arm.on_arm:{law._uuid}")
     return step
 
 
 _ON_ARM: dict[Any, Any] = {}
+_IN = types.Array(types.float64, 1, "C", readonly=True)
+_OUT = types.Array(types.float64, 1, "C")
+#: (K, t, dt, q, q̇, h, x_d, ẋ_d, ẍ_d, f_d, ḟ_d, f̈_d, p) read, (s, ws, u) written.
+_ON_ARM_SIGNATURE = types.boolean(_IN, types.float64, types.float64, *([_IN] * 10), _OUT, _OUT, _OUT)
