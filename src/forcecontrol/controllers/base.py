@@ -204,6 +204,10 @@ def _validated_reset(fn: Any) -> Any:
     return reset
 
 
+#: robot classes already found to implement RobotModel (the check looks at the class's methods).
+_ROBOT_TYPES: set[type] = set()
+
+
 class Controller(ABC):
     """Base of every controller: gains checked once, explicit state, ``reset`` and ``step``.
 
@@ -245,8 +249,10 @@ class Controller(ABC):
                 setattr(cls, name, wrap(fn))
 
     def __init__(self, robot: RobotModel, sample_time: float = 1e-3) -> None:
-        if not isinstance(robot, RobotModel):
-            raise ParameterError(f"robot must implement RobotModel; got {type(robot).__name__}")
+        if type(robot) not in _ROBOT_TYPES:  # a runtime Protocol check costs ~15 µs: once per type
+            if not isinstance(robot, RobotModel):
+                raise ParameterError(f"robot must implement RobotModel; got {type(robot).__name__}")
+            _ROBOT_TYPES.add(type(robot))
         if self.position_task_only and getattr(robot, "task", None) == "pose":
             raise ParameterError(
                 f"{type(self).__name__} works in a position task space (x_e = o_e, J = J_P); the robot's task is "
