@@ -94,6 +94,21 @@ class ImpedanceModes:
     in_contact: bool
 
 
+def _model_inputs(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
+                  environment_damping: Any) -> tuple[np.ndarray, ...]:
+    """The checked (x_d, x_r, M_d, K_D, K_P, K, D_e) of the linear impedance model (D_e = 0 when None)."""
+    x_d = as_vector("desired", desired)
+    m = x_d.shape[0]
+    x_r = as_vector("rest", rest, m)
+    M = as_gain_matrix("inertia", inertia, m)
+    D = as_gain_matrix("damping", damping, m, definite=False)
+    KP = as_gain_matrix("stiffness", stiffness, m)
+    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
+        "environment_damping", environment_damping, m, definite=False)
+    return x_d, x_r, M, D, KP, K, De
+
+
 def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
                     *, one_sided_normal: Any = None, environment_damping: Any = None) -> ImpedanceModes:
     """Equilibrium, ω_n and ζ of the impedance (9.32) on ``h_e = K (x_e − x_r) + D_e ẋ_e``, for any K.
@@ -107,15 +122,9 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
         environment_damping: D_e, symmetric positive semi-definite (m, m) [N s/m] (default 0):
             it adds to K_D in the closed loop (its force is measured like the spring's).
     """
-    x_d = as_vector("desired", desired)
+    x_d, x_r, M, D, KP, K, De = _model_inputs(inertia, damping, stiffness, environment_stiffness, desired, rest,
+                                              environment_damping)
     m = x_d.shape[0]
-    x_r = as_vector("rest", rest, m)
-    M = as_gain_matrix("inertia", inertia, m)
-    D = as_gain_matrix("damping", damping, m, definite=False)
-    KP = as_gain_matrix("stiffness", stiffness, m)
-    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
-    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
-        "environment_damping", environment_damping, m, definite=False)
     in_contact = True
     x = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     if one_sided_normal is not None:
@@ -162,16 +171,10 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
     """
     from scipy.linalg import expm  # type: ignore[import-untyped]
 
-    x_d = as_vector("desired", desired)
+    x_d, x_r, M, D, KP, K, De = _model_inputs(inertia, damping, stiffness, environment_stiffness, desired, rest,
+                                              environment_damping)
     m = x_d.shape[0]
-    x_r = as_vector("rest", rest, m)
     x0 = as_vector("start", start, m)
-    M = as_gain_matrix("inertia", inertia, m)
-    D = as_gain_matrix("damping", damping, m, definite=False)
-    KP = as_gain_matrix("stiffness", stiffness, m)
-    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
-    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
-        "environment_damping", environment_damping, m, definite=False)
     x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     Minv = np.linalg.inv(M)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ (D + De)]])

@@ -70,7 +70,22 @@ def load_sweep_scenario(source: Any):
 
 
 @dataclass
-class CaseJob:
+class _RunShape:
+    """What the cases of one plant share: sample time, samples, sub-steps, the settle window (samples),
+    the unit direction d of the force metrics and the reference force along it, and the hash of the
+    sampled reference."""
+
+    Ts: float
+    N: int
+    nsub: int
+    window: int
+    d: np.ndarray
+    f_ref: float
+    ref_key: str
+
+
+@dataclass
+class CaseJob(_RunShape):
     """One case, ready to simulate (picklable: it travels to Dask workers).
 
     ``fast`` cases carry the kernel's packed arrays; the others carry their parts for
@@ -81,15 +96,8 @@ class CaseJob:
     label: str
     values: dict[str, Any]
     fast: bool
-    Ts: float
-    N: int
-    nsub: int
-    window: int
-    d: np.ndarray
-    f_ref: float
     reference: Any
     sensor: Any
-    ref_key: str
     K: np.ndarray | None = None
     env_kind: int = 0
     env_p: np.ndarray | None = None
@@ -142,7 +150,7 @@ def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, str] | None) ->
 
 
 @dataclass
-class _Plant:
+class _Plant(_RunShape):
     """What the cases sharing a robot, environment, controller and reference share (all but the sensor).
 
     Built once per distinct set of non-sensor values in a sweep; the cases then differ only in
@@ -150,13 +158,6 @@ class _Plant:
     """
 
     parts: dict[str, Any]
-    Ts: float
-    N: int
-    nsub: int
-    window: int
-    d: np.ndarray
-    f_ref: float
-    ref_key: str
     #: every part can run in the batch kernel (the sensor is checked per case).
     compiled: bool
     h0: np.ndarray | None = None
@@ -199,7 +200,7 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, str] | None) -
         raise SweepError(f"case {label!r}: {exc}") from exc
     # cases share a sampled reference only when the samples themselves are equal (a describe()
     # of a user's reference type need not say everything that shapes it)
-    plant = _Plant(parts, Ts, N, nsub, window, d, f_ref, _reference_key(ref, N, Ts, ref_keys), compiled)
+    plant = _Plant(Ts, N, nsub, window, d, f_ref, _reference_key(ref, N, Ts, ref_keys), parts=parts, compiled=compiled)
     if compiled:
         plant.h0 = pre_start_wrench(robot, env, q0, qd0)
         plant.ref0 = ref.at(0.0)
@@ -225,8 +226,8 @@ def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor
     from ..controllers.base import Measurement
 
     p = plant.parts
-    job = CaseJob(case_id, label, values, False, plant.Ts, plant.N, plant.nsub, plant.window, plant.d, plant.f_ref,
-                  p["reference"], sensor, plant.ref_key)
+    job = CaseJob(plant.Ts, plant.N, plant.nsub, plant.window, plant.d, plant.f_ref, plant.ref_key,
+                  case_id=case_id, label=label, values=values, fast=False, reference=p["reference"], sensor=sensor)
     if not (plant.compiled and _batch_sensor(sensor)):
         job.parts = {k: p[k] for k in ("robot", "environment", "controller", "reference", "q0", "qd0", "actuator")}
         job.parts["sensor"] = sensor
