@@ -171,3 +171,73 @@ def test_a_moment_spring_turned_far_from_the_desired_frame_is_outside_the_linear
     np.testing.assert_allclose(sim, pred, atol=0.01 * np.linalg.norm(pred))
     pred, sim = moments("[60.0, 45.0, 0.0]")
     assert np.linalg.norm(sim - pred) > 0.01 * np.linalg.norm(pred)
+
+
+HYBRID = """
+type = "spatial-hybrid"
+force_directions = [{s}]
+compliance = {c}
+stiffness = 400.0
+damping = 40.0
+force_stiffness = 400.0
+force_damping = 30.0
+"""
+
+
+def _hybrid_scenario(tmp_path, compliance, tilt_deg, sample_time=2e-4):
+    """The Panda's hand on a table (k = 1e4 N/m) tilted about x, pressing 20 N along its normal."""
+    from forcecontrol.robots.pinocchio import panda
+    from forcecontrol.spatial import euler_xyz_to_rotation
+
+    q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    R0 = euler_xyz_to_rotation(panda().forward_kinematics(q0)[3:])
+    t = math.radians(tilt_deg)
+    n = np.array([0.0, math.sin(t), math.cos(t)])
+    s = np.concatenate([R0.T @ n, np.zeros(3)])  # the force direction, desired-frame coordinates
+    f = np.concatenate([-20.0 * n, np.zeros(3)])
+    text = textwrap.dedent(f"""
+        name = "six-d-hybrid"
+        duration = 1.5
+        sample_time = {sample_time}
+        [robot]
+        model = "panda"
+        q0 = {q0.tolist()}
+        [environment]
+        type = "table"
+        normal = {n.tolist()}
+        stiffness = 10000.0
+        [controller]
+        {textwrap.dedent(HYBRID.format(s=', '.join(f'{v:.17g}' for v in s), c=compliance))}
+        [reference]
+        type = "pose-setpoint"
+        offset = [0.0, 0.0, 0.0]
+        force = {f.tolist()}
+    """)
+    path = tmp_path / "six-d-hybrid.toml"
+    path.write_text("\n".join(line.strip() for line in text.splitlines()) + "\n")
+    return load_scenario(path), f
+
+
+@pytest.mark.parametrize(("compliance", "tilt"), [(1e-4, 0.0), (2e-4, 0.0), (0.5e-4, 20.0)])
+def test_6d_hybrid_force_loop_9_84_agrees_with_the_panda_simulation(tmp_path, compliance, tilt):
+    """(9.84) in 6-D: λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0 with L_f = k Ĉ (Ĉ = C, 2C, C/2; flat and
+    tilted tables); ω_n = √(L_f K_Pλ) by hand, λ → λ_d whatever Ĉ, and the force transient at
+    fixed times within 1 % of its peak of the simulation at Ts = 0.2 ms. (At 1 ms the continuous
+    model is 1.2–2.1 % off: the torque held over the sample, felt through the Panda's light
+    operational mass, an effect first order in Ts — 5x smaller at Ts/5.)"""
+    sc, f = _hybrid_scenario(tmp_path, compliance, tilt)
+    parts = build_case(sc.cases[0])
+    predicted = case_analysis(parts)
+    L_f = 1e4 * compliance
+    assert predicted["L_f"] == pytest.approx(L_f, rel=1e-9)
+    assert predicted["force_omega_n"] == pytest.approx(math.sqrt(L_f * 400.0), rel=1e-9)
+    assert predicted["force_zeta"] == pytest.approx(30.0 / (2.0 * math.sqrt(L_f * 400.0)), rel=1e-9)
+    np.testing.assert_allclose([predicted[f"steady_{k}"] for k in WRENCH], f, atol=1e-9)
+    times = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 1.2])
+    transient = case_response(parts, times)
+    res = sc.run().cases[0].result
+    settled = res.settled_values(0.1)
+    np.testing.assert_allclose([settled[k] for k in WRENCH], f, atol=0.01 * 20.0)
+    sim = res.wrench[np.searchsorted(res.t, times)]
+    peak = np.max(np.linalg.norm(res.wrench, axis=1))
+    assert np.max(np.linalg.norm(sim - transient, axis=1)) <= 0.01 * peak

@@ -43,7 +43,8 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
     predicted ``steady_<axis>`` (``x … rz``, ``fx … mz``) is compared with the settled value over the
     scenario's ``settle_window``. A relative difference above :data:`VERIFY_TOLERANCE` (of the
     largest predicted move from the start of the case among positions, among angles, or of the
-    largest predicted force, or moment) means the loop is outside the linear
+    largest predicted force, or moment — of the run's peak force or moment when the prediction
+    is zero) means the loop is outside the linear
     regime of the analysis (lost contact, saturation, not settled) and is reported as such. When the
     case's analysis has a linear transient model (impedance on a linear environment, the direct
     force schemes' sampled loops), its contact force at :data:`TRANSIENT_TIMES` is compared too,
@@ -53,6 +54,8 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
         ``{"quantities": {name: {"predicted", "simulated", "relative_difference", "agrees"}},
         "transient": {...} | None, "agrees": bool, "warning": str | None}``.
     """
+    import numpy as np
+
     from ..simulation import simulate
 
     res = simulate(
@@ -78,8 +81,12 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
     for group, values in groups.items():
         if group in ("position", "angle"):
             scale = max([abs(_difference(group, v, start[n])) for n, v in values.items()] + [1e-6])
-        else:
+        else:  # a wrench predicted zero (a peg aligned in its hole) is measured against the run's peak
+            cols = [wrench_names.index(n) for n in values]
+            peak = float(np.max(np.linalg.norm(res.wrench[:, cols], axis=1))) if cols else 0.0
             scale = max([abs(v) for v in values.values()] + [1e-6])
+            if scale <= 1e-6:
+                scale = max(peak, 1e-6)
         for name, predicted in values.items():
             diff = abs(_difference(group, settled[name], predicted)) / scale
             out[f"steady_{name}"] = {"predicted": predicted, "simulated": settled[name], "relative_difference": diff,

@@ -175,3 +175,94 @@ def _spatial_impedance_response(parts: dict[str, Any], times: Any) -> Any:
 
 register_analysis(_spatial_impedance_applies, _spatial_impedance_analysis)
 register_response(_spatial_impedance_response_applies, _spatial_impedance_response)
+
+
+# ----------------------------------------------------------------------------- 6-D hybrid (compliant)
+
+
+def _spatial_hybrid_applies(parts: dict[str, Any]) -> bool:
+    from ..controllers.spatial_hybrid import SpatialHybridController
+
+    env = parts["environment"]
+    return (isinstance(parts["controller"], SpatialHybridController) and hasattr(env, "stiffness_matrix")
+            and np.shape(env.stiffness_matrix()) == (6, 6) and getattr(parts["reference"], "dim", 0) == 6)
+
+
+def _spatial_hybrid_model(parts: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(L_f, λ_d, the base-frame wrench per unit λ (6, k), the environment's stiffness along S_f K_f).
+
+    On the desired frame the environment's stiffness seen along the force directions is
+    ``K_f = S_fᵀ Xᵀ K X S_f`` (X = blockdiag(R_d, R_d)); the commanded ``p̈_f = Ĉ f_λ`` then gives
+    ``λ̈ = K_f Ĉ f_λ``, so ``L_f = K_f Ĉ`` (= I when Ĉ = K_f⁻¹), and with λ̇ estimated through Ĉ
+    (9.82) the force loop is ``λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0`` (9.84).
+    """
+    from ..spatial import euler_xyz_to_rotation
+
+    ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
+    final = ref.at(float(parts.get("duration", 0.0)))
+    R_d = euler_xyz_to_rotation(np.asarray(final.position, dtype=float)[3:])
+    X = np.zeros((6, 6))
+    X[:3, :3] = R_d
+    X[3:, 3:] = R_d
+    S_f = np.asarray(ctl.force_selection, dtype=float)
+    K_f = S_f.T @ X.T @ np.asarray(env.stiffness_matrix(), dtype=float) @ X @ S_f
+    L_f = K_f @ ctl.compliance
+    lam_d = S_f.T @ X.T @ np.asarray(final.force, dtype=float)
+    return L_f, lam_d, X @ S_f, K_f
+
+
+def _spatial_hybrid_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """The decoupled closed loops of 6-D hybrid control on a compliant environment: the force loop
+    (9.84) along S_f (``force_omega_n``, ``force_zeta``, ``L_f``; settles at λ_d even with Ĉ ≠ C)
+    and the pose servo ``x̃̈ + K_D x̃̇ + K_P x̃ = 0`` along S_v (``motion_omega_n_i``,
+    ``motion_zeta_i``); the steady wrench on the environment (``steady_fx … steady_mz``) is the
+    reference's along S_f (one force direction: k = 1 reports scalars)."""
+    from ..analysis import impedance_modes
+
+    ctl = parts["controller"]
+    L_f, lam_d, W, K_f = _spatial_hybrid_model(parts)
+    out: dict[str, Any] = {}
+    if L_f.shape == (1, 1):
+        w = float(np.sqrt(L_f[0, 0] * ctl.force_stiffness[0, 0]))
+        out.update(L_f=float(L_f[0, 0]), force_omega_n=w, force_zeta=float(ctl.force_damping[0, 0]) / (2.0 * w))
+    wrench = W @ lam_d
+    for i in range(6):
+        out[f"steady_{_WRENCH[i]}"] = float(wrench[i])
+    S_v = np.linalg.svd(np.eye(6) - ctl.force_selection @ ctl.force_selection.T)[0][:, : 6 - ctl.force_selection.shape[1]]
+    l = S_v.shape[1]
+    md = impedance_modes(np.eye(l), S_v.T @ ctl.damping @ S_v, S_v.T @ ctl.stiffness @ S_v, np.zeros((l, l)),
+                         np.zeros(l), np.zeros(l))
+    for i in range(l):
+        out[f"motion_omega_n_{i + 1}"] = float(md.natural_frequencies[i])
+        out[f"motion_zeta_{i + 1}"] = float(md.damping_ratios[i])
+    out["in_contact"] = bool(np.all(np.linalg.eigvalsh(0.5 * (K_f + K_f.T)) > 0.0))
+    return out
+
+
+def _spatial_hybrid_response_applies(parts: dict[str, Any]) -> bool:
+    if not _spatial_hybrid_applies(parts) or parts["controller"].force_selection.shape[1] != 1:
+        return False
+    ref, T = parts["reference"], float(parts.get("duration", 0.0))
+    f0, f1 = ref.at(0.0), ref.at(T)  # the force loop's step response needs a constant λ_d
+    return bool(np.array_equal(f0.force, f1.force) and not np.any(f0.force_rate) and not np.any(f1.force_rate))
+
+
+def _spatial_hybrid_response(parts: dict[str, Any], times: Any) -> Any:
+    """h_e(t) of the force loop (9.84) from the start (at rest, contact force of the start pose),
+    along the force direction; the motion along S_v exerts nothing on the environment."""
+    from ..analysis import impedance_response
+    from ..simulation import pre_start_wrench
+
+    ctl, robot = parts["controller"], parts["robot"]
+    L_f, lam_d, W, _ = _spatial_hybrid_model(parts)
+    q0 = np.asarray(parts["q0"], dtype=float)
+    h0 = pre_start_wrench(robot, parts["environment"], q0, np.zeros(robot.nq))
+    lam0 = float(np.linalg.lstsq(W, h0, rcond=None)[0][0])
+    # λ̈ + K_Dλ λ̇ + L_f K_Pλ λ = L_f K_Pλ λ_d: the impedance model with M = 1, K_P = L_f K_Pλ, K = 0
+    lam, _ = impedance_response(1.0, ctl.force_damping, L_f @ ctl.force_stiffness, np.zeros((1, 1)), lam_d,
+                                np.zeros(1), [lam0], times)
+    return lam @ W.T
+
+
+register_analysis(_spatial_hybrid_applies, _spatial_hybrid_analysis)
+register_response(_spatial_hybrid_response_applies, _spatial_hybrid_response)
