@@ -46,7 +46,7 @@ def kernels(law: Any) -> tuple[Any, Any]:
     """
     k = _KERNELS.get(law)
     if k is None:
-        k = _KERNELS[law] = _make_kernels(planar_loop(law))
+        k = _KERNELS[law] = _make_kernels(planar_loop(law, full_log=False))
         for name, fn in zip(("case", "one", "batch"), k[2]):
             fn._set_uuid(f"forcecontrol:_batch.{name}:{law._uuid}")  # cacheable on disk (see stable_identities)
     return k[0], k[1]
@@ -76,20 +76,20 @@ def _make_kernels(loop: Any) -> tuple[Any, Any, tuple[Any, ...]]:  # pragma: no 
 
         The loop is :func:`forcecontrol.loop.planar_loop` (sensor ``raw = h_e + bias + noise_k``
         low-passed with ``alpha``, the law, torque held over Ts, ``nsub`` RK4 steps), the same
-        function ``simulate`` runs; ``ctrl_s`` is advanced in place.
+        function ``simulate`` runs, built to keep only h_e (``full_log=False``); ``ctrl_s`` is
+        advanced in place.
 
         Returns:
             (status, last sample index, peak contact force norm [N], contact lost): contact is lost
             when a sample has ``h_e = 0`` after a sample with ``h_e ≠ 0``.
         """
-        rows = N + 1
-        Q = np.empty((rows, 2))
-        QD = np.empty((rows, 2))
-        X = np.empty((rows, 2))
-        XD = np.empty((rows, 2))
-        H = np.empty((rows, 2))
-        HM = np.empty((rows, 2))
-        U = np.empty((rows, 2))
+        Q = np.empty((1, 2))  # the loop without its full log (row 0 reused): only h_e is kept
+        QD = np.empty((1, 2))
+        X = np.empty((1, 2))
+        XD = np.empty((1, 2))
+        H = np.empty((N + 1, 2))
+        HM = np.empty((1, 2))
+        U = np.empty((1, 2))
         status, last = loop(
             K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
         )

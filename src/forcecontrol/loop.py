@@ -26,25 +26,28 @@ from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fi
 __all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
 
-def planar_loop(law: Any) -> Any:
+def planar_loop(law: Any, full_log: bool = True) -> Any:
     """The compiled sampled loop for control ``law``, built once per law and cached on disk by Numba.
 
     ``planar_loop(law)(K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha, q0, q̇0, Ts,
     nsub, max_q̇, Q, Q̇, X, Ẋ, H, H_m, U) -> (status, last_row)``. The law is a constant of the
-    loop (a closure), so Numba compiles the loop with the law inlined, specialised for it.
+    loop (a closure), so Numba compiles the loop with the law inlined, specialised for it. With
+    ``full_log=False`` (the sweeps' batch, which keeps the contact force only) every log but ``H``
+    may have one row: row 0 is overwritten at each sample, the same arithmetic otherwise.
     """
-    loop = _LOOPS.get(law)
+    loop = _LOOPS.get((law, full_log))
     if loop is None:
         stable_identities()
-        loop = _LOOPS[law] = njit(cache=True)(_make_loop(law))
-        loop._set_uuid(f"forcecontrol:loop:{law._uuid}")  # cacheable on disk (see stable_identities)
+        loop = _LOOPS[(law, full_log)] = njit(cache=True)(_make_loop(law, full_log))
+        tag = "" if full_log else ":h-only"
+        loop._set_uuid(f"forcecontrol:loop:{law._uuid}{tag}")  # cacheable on disk (see stable_identities)
     return loop
 
 
 _LOOPS: dict[Any, Any] = {}
 
 
-def _make_loop(law: Any) -> Any:  # pragma: no cover - compiled
+def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
     def run(
         K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
         q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
@@ -56,7 +59,7 @@ def _make_loop(law: Any) -> Any:  # pragma: no cover - compiled
         """
         n = q0.shape[0]
         m = 2
-        N = Q.shape[0] - 1
+        N = H.shape[0] - 1
         x = np.empty(m)
         xd = np.empty(m)
         J = np.empty((m, n))
@@ -91,10 +94,11 @@ def _make_loop(law: Any) -> Any:  # pragma: no cover - compiled
             law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
             u0 = u[0]
             u1 = u[1]
-            Q[k, 0], Q[k, 1], QD[k, 0], QD[k, 1] = q_0, q_1, w_0, w_1
-            U[k, 0], U[k, 1] = u0, u1
-            X[k, 0], X[k, 1], XD[k, 0], XD[k, 1] = T[0], T[1], T[2], T[3]
-            H[k, 0], H[k, 1], HM[k, 0], HM[k, 1] = h0, h1, hm0, hm1
+            r = k if full_log else 0
+            Q[r, 0], Q[r, 1], QD[r, 0], QD[r, 1] = q_0, q_1, w_0, w_1
+            U[r, 0], U[r, 1] = u0, u1
+            X[r, 0], X[r, 1], XD[r, 0], XD[r, 1] = T[0], T[1], T[2], T[3]
+            H[k, 0], H[k, 1], HM[r, 0], HM[r, 1] = h0, h1, hm0, hm1
             if not (math.isfinite(u0) and math.isfinite(u1)):
                 det = T[4] * T[7] - T[5] * T[6]
                 if abs(det) < 1e-9:
