@@ -327,7 +327,9 @@ def prepare_sweep(
         scenario: a loaded scenario, a built-in name, a TOML path (may hold a ``[sweep]`` table)
             or a dict.
         definition: the sweep; by default the scenario file's ``[sweep]`` table.
-        progress: ``progress(built, total)`` every 100 cases (building costs about 1 ms a case).
+        progress: ``progress(built, total)`` every 100 cases (the parts are built once per distinct
+            set of non-sensor values, about 0.3 ms, the sensor once per sensor values; a case
+            that shares them costs about 20 µs).
 
     Raises:
         SweepError: no definition, unknown parameter path, empty range, malformed value, a case
