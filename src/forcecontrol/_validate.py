@@ -122,10 +122,16 @@ def as_gain_matrix(
         raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got {value!r}") from exc
     if a.dtype == object or not np.all(np.isfinite(a)):
         raise ParameterError(f"{name} must be finite; got {a.tolist()}")
-    if diagonal_ok and a.ndim == 0:
-        a = float(a) * np.eye(size)
-    elif diagonal_ok and a.ndim == 1 and a.shape == (size,):
-        a = np.diag(a)
+    if diagonal_ok and a.ndim <= 1 and a.size in (1, size) and (a.ndim == 0 or a.shape == (size,)):
+        # a scalar or a diagonal: symmetric, its eigenvalues are its entries (no eigensolver)
+        d = np.broadcast_to(a, (size,)).astype(np.float64)
+        scale = max(1.0, float(np.max(np.abs(d))))
+        tol = 1e-12 * scale
+        if (d.min() <= tol) if definite else (d.min() < -tol):
+            raise ParameterError(
+                f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(np.sort(d), 9).tolist()}"
+            )
+        return readonly(np.diag(d))
     if a.shape != (size, size):
         raise DimensionError(
             f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got shape {a.shape}"

@@ -237,6 +237,7 @@ class _DirectForceController(Controller):
             else as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
         )
         self._consistent_reference: bytes | None = None
+        self._task_rotation = readonly(np.eye(m) if self.task_frame is None else np.array(self.task_frame))
         self._Md_inv = readonly(np.linalg.inv(self.inertia))
         self._params = np.concatenate([
             self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
@@ -281,7 +282,7 @@ class _DirectForceController(Controller):
                 (needs ``environment_stiffness``) or along axes where C_F is zero.
         """
         m = self.m
-        R = np.eye(m) if self.task_frame is None else self.task_frame  # C_F is diagonal in the task frame
+        R = self._task_rotation  # C_F is diagonal in the task frame
         self.state[:] = 0.0
         if reference is not None:
             f_d = R.T @ np.asarray(reference.force, dtype=np.float64)
