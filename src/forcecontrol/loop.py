@@ -73,7 +73,6 @@ def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
         u = np.empty(n)
         ws = np.empty(2 * m * m + 12 * m + 2 * n + 8)
         T = np.empty(17)
-        W = np.empty(17)
         q_0, q_1, w_0, w_1 = q0[0], q0[1], qd0[0], qd0[1]
         hm0 = 0.0
         hm1 = 0.0
@@ -106,7 +105,7 @@ def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
                 return NONFINITE_TORQUE, k
             if k == N:
                 break
-            ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub, W)
+            ok, q_0, q_1, w_0, w_1 = rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, nsub)
             if not ok:
                 return NONFINITE_STATE, k
             if not (math.isfinite(q_0) and math.isfinite(q_1) and math.isfinite(w_0) and math.isfinite(w_1)):
