@@ -40,6 +40,11 @@ def _numbers(name: str, value: Any, what: str) -> None:
         raise ParameterError(f"{name} must be {what} (numbers, not text or booleans); got {value!r}")
 
 
+def _plain_number(x: Any) -> bool:
+    """A Python int or float (not a bool): what a TOML file or a literal gives for a number."""
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
 def _finite(name: str, a: np.ndarray) -> None:
     if not np.all(np.isfinite(a)):
         raise ParameterError(f"{name} must be finite; got {a.tolist()}")
@@ -115,6 +120,20 @@ def as_gain_matrix(
         diagonal_ok: accept scalars and vectors as diagonal shorthands.
     """
     kind = "positive definite" if definite else "positive semi-definite"
+    if diagonal_ok and _plain_number(value):
+        # a Python scalar (most gains): value * I, its eigenvalue is value (no array work)
+        v = float(value)
+        if not math.isfinite(v):
+            raise ParameterError(f"{name} must be finite; got {v}")
+        _check_eigenvalues(name, kind, size, [v] * size, definite)
+        return readonly(v * np.eye(size))
+    if diagonal_ok and isinstance(value, (list, tuple)) and len(value) == size and all(map(_plain_number, value)):
+        # a diagonal written as a list (a TOML file's gains): its entries are its eigenvalues
+        d = [float(x) for x in value]
+        if not all(map(math.isfinite, d)):
+            raise ParameterError(f"{name} must be finite; got {d}")
+        _check_eigenvalues(name, kind, size, d, definite)
+        return readonly(np.diag(d))
     _numbers(name, value, f"a symmetric {kind} ({size}, {size}) matrix, a vector or a scalar")
     try:
         a = np.array(value, dtype=np.float64)
@@ -125,29 +144,36 @@ def as_gain_matrix(
     if diagonal_ok and a.ndim <= 1 and a.size in (1, size) and (a.ndim == 0 or a.shape == (size,)):
         # a scalar or a diagonal: symmetric, its eigenvalues are its entries (no eigensolver)
         d = np.broadcast_to(a, (size,)).astype(np.float64)
-        scale = max(1.0, float(np.max(np.abs(d))))
-        tol = 1e-12 * scale
-        if (d.min() <= tol) if definite else (d.min() < -tol):
-            raise ParameterError(
-                f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(np.sort(d), 9).tolist()}"
-            )
+        _check_eigenvalues(name, kind, size, d.tolist(), definite)
         return readonly(np.diag(d))
     if a.shape != (size, size):
         raise DimensionError(
             f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got shape {a.shape}"
         )
-    _finite(name, a)
+    off = a - np.diag(np.diagonal(a))
+    if not off.any():  # a diagonal matrix (e.g. a plane's k n nᵀ along an axis): its entries are its eigenvalues
+        _check_eigenvalues(name, kind, size, np.diagonal(a).tolist(), definite)
+        return readonly(a)
     scale = max(1.0, float(np.max(np.abs(a))))
     if float(np.max(np.abs(a - a.T))) > 1e-12 * scale:  # allclose(a, aᵀ, rtol=0), at a tenth of its cost
         raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got a non-symmetric matrix")
     a = 0.5 * (a + a.T)
-    w = np.linalg.eigvalsh(a)
-    tol = 1e-12 * scale
-    if (w.min() <= tol) if definite else (w.min() < -tol):
-        raise ParameterError(
-            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(w, 9).tolist()}"
-        )
+    _check_eigenvalues(name, kind, size, np.linalg.eigvalsh(a).tolist(), definite, scale)
     return readonly(a)
+
+
+def _check_eigenvalues(name: str, kind: str, size: int, w: list[float], definite: bool, scale: float | None = None) -> None:
+    """Refuse eigenvalues ``w`` of a symmetric gain that are not (semi-)positive, at 1e-12 of its scale.
+
+    ``scale`` is ``max(1, max |a_ij|)`` (the largest |eigenvalue| when the matrix is diagonal).
+    """
+    if scale is None:
+        scale = max(1.0, max(abs(x) for x in w))
+    tol = 1e-12 * scale
+    if (min(w) <= tol) if definite else (min(w) < -tol):
+        raise ParameterError(
+            f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got eigenvalues {np.round(np.sort(w), 9).tolist()}"
+        )
 
 
 def _scalar(name: str, value: Any, what: str, unit: str, ok: Any) -> float:

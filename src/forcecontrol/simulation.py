@@ -76,7 +76,6 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
     c = float(c_attr) if isinstance(c_attr, (int, float)) else 0.0  # a scalar damping along the normal [N s/m]
     try:
         mobility = J @ np.linalg.solve(B, J.T)  # B_x⁻¹ = J B⁻¹ Jᵀ
-        lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
         K = getattr(environment, "stiffness_matrix", None)
         K = None if K is None else np.asarray(K(), dtype=np.float64)
         if K is not None and K.shape == mobility.shape:
@@ -85,6 +84,7 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
             w2 = max(float(np.max(np.linalg.eigvals(mobility @ K).real)), 0.0)
             omega, damping_rate = math.sqrt(w2), (c / k * w2 if k > 0 else 0.0)
         else:
+            lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
             omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
     except (np.linalg.LinAlgError, ZeroDivisionError):
         lam = float(np.linalg.eigvalsh(B).min())

@@ -35,6 +35,7 @@ and makes the end-effector drift (Sect. 9.4.3); :func:`check_force_reference` re
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any, ClassVar, Literal
 
@@ -59,6 +60,16 @@ __all__ = [
 
 def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
     """The diagonal of a diagonal, non-negative (m, m) gain given as scalar, (m,) or (m, m)."""
+    if isinstance(value, (int, float, list, tuple)) and not isinstance(value, bool):
+        # plain Python numbers (a literal or a TOML file): checked without array work
+        items = [value] * m if isinstance(value, (int, float)) else list(value)
+        if len(items) == m and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in items):
+            d = [float(x) for x in items]
+            if not all(map(math.isfinite, d)):
+                raise ParameterError(f"{name} must be finite; got {d}")
+            if min(d) < 0.0:
+                raise ParameterError(f"{name} must be non-negative on every axis [{unit}]; got {d}")
+            return readonly(np.array(d))
     try:
         a = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -148,9 +159,31 @@ def check_force_reference(
     axes = np.asarray(force_axes, dtype=bool).reshape(-1)
     if axes.shape != (m,):
         raise DimensionError(f"force_axes must have shape ({m},); got shape {axes.shape}")
+    return _check_force_reference(f, K, axes, integral, tolerance, stacklevel=3)
+
+
+def _range_projector(K: np.ndarray) -> np.ndarray:
+    """The orthogonal projector onto R(K) of a symmetric PSD K: ``K K⁺`` (``pinv``'s rcond 1e-12).
+
+    A diagonal K projects on its axes with a non-zero entry; any other K through its eigenvectors
+    (K symmetric: its singular values are |eigenvalues|).
+    """
+    if not np.any(K):
+        return np.zeros_like(K)
+    if not np.any(K - np.diag(np.diagonal(K))):
+        d = np.abs(np.diagonal(K))
+        return np.diag((d > 1e-12 * d.max()).astype(np.float64))
+    w, V = np.linalg.eigh(K)
+    s = np.abs(w)
+    Vr = V[:, s > 1e-12 * s.max()]
+    return Vr @ Vr.T
+
+
+def _check_force_reference(f: np.ndarray, K: np.ndarray, axes: np.ndarray, integral: bool, tolerance: float,
+                           stacklevel: int) -> bool:
+    """:func:`check_force_reference` on inputs already checked (f finite (m,), K symmetric PSD, axes (m,) bool)."""
     scale = max(1.0, float(np.linalg.norm(f)))
-    P_range = K @ np.linalg.pinv(K, rcond=1e-12) if np.any(K) else np.zeros((m, m))
-    outside = f - P_range @ f
+    outside = f - _range_projector(K) @ f
     ok = True
     acted = np.where(axes, outside, 0.0)
     if np.linalg.norm(acted) > tolerance * scale:
@@ -162,7 +195,7 @@ def check_force_reference(
             f"{np.flatnonzero(axes).tolist()}: the end-effector {what} there (Sect. 9.4.3); "
             f"plan f_d inside R(K)",
             DriftWarning,
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
     ignored = np.where(axes, 0.0, f)
     if np.linalg.norm(ignored) > tolerance * scale:
@@ -172,7 +205,7 @@ def check_force_reference(
             f"along axes {np.flatnonzero(~axes).tolist()} where C_F is zero: the scheme ignores "
             f"them and that force is not controlled",
             DriftWarning,
-            stacklevel=2,
+            stacklevel=stacklevel,
         )
     return ok
 
@@ -291,9 +324,9 @@ class _DirectForceController(Controller):
             if f_d.tobytes() != self._consistent_reference:
                 ok = True
                 if self.environment_stiffness is not None:
-                    ok = check_force_reference(f_d, R.T @ self.environment_stiffness @ R, self.force_axes)
+                    ok = _check_force_reference(f_d, R.T @ self.environment_stiffness @ R, self.force_axes, True, 1e-9, 2)
                 elif np.any(np.where(self.force_axes, 0.0, f_d)):
-                    ok = check_force_reference(f_d, np.eye(m), self.force_axes)
+                    ok = _check_force_reference(f_d, np.eye(m), self.force_axes, True, 1e-9, 2)
                 self._consistent_reference = f_d.tobytes() if ok else None
         if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
             return
