@@ -61,21 +61,29 @@ def _versions() -> dict[str, str]:
     }
 
 
-def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray, sample_time: float) -> int:
+def contact_mobility(robot: RobotModel, q0: np.ndarray) -> np.ndarray:
+    """``B_x⁻¹ = J B⁻¹ Jᵀ`` at q0 (any Jacobian shape), what :func:`choose_substeps` weighs the
+    contact stiffness with. Raises ``numpy.linalg.LinAlgError`` when B is singular."""
+    J = np.asarray(robot.jacobian(q0))
+    return J @ np.linalg.solve(np.asarray(robot.mass_matrix(q0)), J.T)
+
+
+def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray, sample_time: float, *,
+                    mobility: np.ndarray | None = None) -> int:
     """Integration substeps per sample so that the stiffest contact mode is resolved.
 
     ω is the fastest contact mode at q0: ``ω² = λ_max(B_x⁻¹ K)`` with ``B_x⁻¹ = J B⁻¹ Jᵀ`` (any
     Jacobian shape) when the environment gives its stiffness matrix K, else the conservative
     ``k_max / λ_min(B_x)``; the RK4 step h is chosen with ``ω h <= 0.05`` (relative error per
-    step below 1e-8), and at least 1.
+    step below 1e-8), and at least 1. ``mobility``: :func:`contact_mobility` at q0, when the
+    caller already has it (a sweep over the environment keeps the arm and q0).
     """
     k = float(environment.max_stiffness())
-    J = np.asarray(robot.jacobian(q0))
-    B = np.asarray(robot.mass_matrix(q0))
     c_attr = getattr(environment, "damping", 0.0)
     c = float(c_attr) if isinstance(c_attr, (int, float)) else 0.0  # a scalar damping along the normal [N s/m]
     try:
-        mobility = J @ np.linalg.solve(B, J.T)  # B_x⁻¹ = J B⁻¹ Jᵀ
+        if mobility is None:
+            mobility = contact_mobility(robot, q0)
         K = getattr(environment, "stiffness_matrix", None)
         K = None if K is None else np.asarray(K(), dtype=np.float64)
         if K is not None and K.shape == mobility.shape:
@@ -87,7 +95,7 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
             lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
             omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
     except (np.linalg.LinAlgError, ZeroDivisionError):
-        lam = float(np.linalg.eigvalsh(B).min())
+        lam = float(np.linalg.eigvalsh(np.asarray(robot.mass_matrix(q0))).min())
         omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
     rate = max(omega, damping_rate)
     return max(1, int(math.ceil(rate * sample_time / 0.05)))

@@ -316,9 +316,11 @@ class _DirectForceController(Controller):
         """
         m = self.m
         R = self._task_rotation  # C_F is diagonal in the task frame
+        turned = self.task_frame is not None  # else R = I: no products (a sweep resets once per case)
         self.state[:] = 0.0
         if reference is not None:
-            f_d = R.T @ np.asarray(reference.force, dtype=np.float64)
+            f_d = np.asarray(reference.force, dtype=np.float64)
+            f_d = R.T @ f_d if turned else f_d
             # the check is a pure function of f_d and the (read-only) gains: a reference already
             # found consistent is not checked again (a sweep resets one controller per case)
             if f_d.tobytes() != self._consistent_reference:
@@ -331,9 +333,11 @@ class _DirectForceController(Controller):
         if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
             return
         f_pre = np.asarray(reference.force, dtype=np.float64) if self.integrator_start == "tip" else np.zeros(m)
-        target = R.T @ self._position_offset(measurement, reference)
-        xi0 = target - self.force_gain * (R.T @ (f_pre - np.asarray(measurement.wrench, dtype=np.float64)))
-        xi0 = np.where(self.integral_gain > 0.0, xi0, 0.0)
+        target = self._position_offset(measurement, reference)
+        error = f_pre - np.asarray(measurement.wrench, dtype=np.float64)
+        if turned:
+            target, error = R.T @ target, R.T @ error
+        xi0 = np.where(self.integral_gain > 0.0, target - self.force_gain * error, 0.0)
         self.state[:m] = xi0
         self.state[m:] = xi0
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 import numpy as np
@@ -12,7 +13,7 @@ from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
 from ..sensors import ForceSensor
 from .checks import METRICS, _check_expected_specs
 from .model import _RICH_SENSOR_KEYS, ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS, CaseSpec
-from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_value
+from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_table_memo, check_value
 
 __all__ = ["build_case", "build_sensor"]
 
@@ -23,7 +24,7 @@ def _allow_contact_loss(where: str, v: Any) -> bool:
     return v
 
 
-def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]):
+def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any], memo: dict[Any, Any] | None = None):
     tw = f"{where}: [{table_name}]"
     if not isinstance(table, dict):
         raise ScenarioError(f"{tw}: must be a table; got {table!r}")
@@ -31,7 +32,7 @@ def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]
     if not isinstance(kind, str) or kind not in registry:  # a list or table is not hashable: no TypeError
         raise ScenarioError(f"{tw}: key 'type' must be one of {', '.join(sorted(registry))}; got {kind!r}")
     spec = registry[kind]
-    params = check_table(f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
+    params = check_table_memo(memo, f"{tw} (type '{kind}')", table, spec.fields, extra_ok=("type",))
     try:
         return spec.build(params, ctx)
     except ScenarioError:
@@ -40,8 +41,34 @@ def _part(where: str, table_name: str, table: Any, registry, ctx: dict[str, Any]
         raise ScenarioError(f"{tw} (type '{kind}'): {exc}") from exc
 
 
-def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
-    """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings."""
+#: built-in references that are pure functions of their table (no file, no context) and are not
+#: changed once built: a sweep's memo shares one object between the cases with an equal table.
+_SHARED_REFERENCES = ("setpoint", "linear-path", "path-on-plane")
+
+
+def _shared_reference(where: str, table: Any, ctx: dict[str, Any], memo: dict[Any, Any] | None) -> Any:
+    key = None
+    if memo is not None and isinstance(table, dict) and table.get("type") in _SHARED_REFERENCES:
+        try:
+            key = ("reference", json.dumps(table, sort_keys=True))
+        except (TypeError, ValueError):  # not plain data: built anew
+            key = None
+        if key is not None and key in memo:
+            return memo[key]
+    ref = _part(where, "reference", table, REFERENCES, ctx, memo)
+    if key is not None:
+        memo[key] = ref  # type: ignore[index]
+    return ref
+
+
+def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] | None = None) -> dict[str, Any]:
+    """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings.
+
+    ``memo`` (a dict the caller keeps, e.g. for the cases of one sweep): tables equal to ones
+    already checked are not checked again, and the chapter's planar arm (immutable) with its q0
+    and the built-in set-point and path references are built once per distinct table. Every
+    other part (environment, controller, sensor, any URDF robot) is built anew for each case.
+    """
     cfg = case.config
     unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
     if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
@@ -57,7 +84,13 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
             if v < low or (key == "settle_window" and v == 0.0):
                 raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
     _check_expected_specs(where, case.expected)
-    rt = check_table(f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
+    rt = check_table_memo(memo, f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
+    robot_key = None
+    if memo is not None and rt["model"] in ("planar-2r", "chapter-arm"):
+        robot_key = ("robot", json.dumps(rt, sort_keys=True, default=repr))
+        if robot_key in memo:
+            robot, q0 = memo[robot_key]
+            return _build_rest(case, where, memo, rt, robot, q0.copy())
     if rt["model"] in ("panda", "ur5", "urdf"):
         from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
 
@@ -97,6 +130,15 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
         raise
     except ForceControlError as exc:
         raise ScenarioError(f"{where}: [robot]: {exc}") from exc
+    if robot_key is not None:
+        memo[robot_key] = (robot, q0.copy())  # type: ignore[index]
+    return _build_rest(case, where, memo, rt, robot, q0)
+
+
+def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dict[str, Any], robot: Any,
+                q0: np.ndarray) -> dict[str, Any]:
+    """The parts after the robot: environment, controller, reference, sensor, actuator and the settings."""
+    cfg = case.config
     Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
     if Ts <= 0:
         raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
@@ -104,10 +146,10 @@ def build_case(case: CaseSpec, where: str = "<scenario>") -> dict[str, Any]:
     if duration <= 0:
         raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
     ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0}
-    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx)
+    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx, memo)
     ctx["environment"] = env
-    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx)
-    ref = _part(where, "reference", cfg["reference"], REFERENCES, ctx)
+    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx, memo)
+    ref = _shared_reference(where, cfg["reference"], ctx, memo)
     sensor = build_sensor(where, cfg.get("sensor"), Ts)
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     for name, part in (("environment", env), ("reference", ref)):

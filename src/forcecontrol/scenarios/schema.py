@@ -13,6 +13,8 @@ library's own constructors, whose messages are prefixed with the file and the ta
 
 from __future__ import annotations
 
+import copy
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -220,6 +222,44 @@ def check_value(where: str, key: str, field: Field, value: Any) -> Any:
 
 
 _ADAPTERS: dict[tuple[str, tuple[str, ...]], Any] = {}
+
+
+_ATOMS = (str, int, float, bool, type(None))
+_ATOM_TYPES = frozenset(_ATOMS)
+
+
+def copy_tree(node: Any) -> Any:
+    """A deep copy of scenario data (tables, arrays, scalars): ``copy.deepcopy`` at a fraction of its
+    cost on the plain dicts, lists and scalars a TOML file gives; anything else is deep-copied."""
+    if isinstance(node, dict):
+        return {k: copy_tree(v) for k, v in node.items()}
+    if isinstance(node, list):
+        if all(type(v) in _ATOM_TYPES for v in node):  # a vector: a shallow copy is a deep one
+            return node[:]
+        return [copy_tree(v) for v in node]
+    if isinstance(node, _ATOMS):
+        return node
+    return copy.deepcopy(node)
+
+
+def check_table_memo(memo: dict[Any, Any] | None, where: str, table: Any, fields: dict[str, Field],
+                     extra_ok: tuple[str, ...] = ()) -> dict[str, Any]:
+    """:func:`check_table`, remembered in ``memo`` (when given) by the table's content.
+
+    For callers that check many equal tables (a sweep builds one case per parameter value; most
+    of its tables do not change): a table equal to one already checked gets a copy of that
+    result. ``memo`` must not outlive the field definitions (``fields`` is keyed by identity).
+    """
+    if memo is None or not isinstance(table, dict):
+        return check_table(where, table, fields, extra_ok)
+    try:
+        key = ("table", id(fields), extra_ok, json.dumps(table, sort_keys=True))
+    except (TypeError, ValueError):  # not plain data (e.g. arrays in a Python dict): no memo
+        return check_table(where, table, fields, extra_ok)
+    hit = memo.get(key)
+    if hit is None:
+        hit = memo[key] = check_table(where, table, fields, extra_ok)
+    return copy_tree(hit)
 
 
 def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tuple[str, ...] = ()) -> dict[str, Any]:

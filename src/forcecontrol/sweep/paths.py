@@ -5,24 +5,10 @@ from __future__ import annotations
 import copy
 from typing import Any
 
+from ..scenarios.schema import copy_tree
 from .spec import SweepError, SweepParameter
 
-__all__ = ["sweep_label"]
-
-
-_ATOMS = (str, int, float, bool, type(None))
-
-
-def copy_tree(node: Any) -> Any:
-    """A deep copy of scenario data (tables, arrays, scalars): ``copy.deepcopy`` at a fraction of its
-    cost on the plain dicts, lists and scalars a TOML file gives; anything else is deep-copied."""
-    if isinstance(node, dict):
-        return {k: copy_tree(v) for k, v in node.items()}
-    if isinstance(node, list):
-        return [copy_tree(v) for v in node]
-    if isinstance(node, _ATOMS):
-        return node
-    return copy.deepcopy(node)
+__all__ = ["sweep_label", "copy_tree"]
 
 
 def _sweepable_top() -> list[str]:

@@ -130,13 +130,24 @@ def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, f
     return d, 0.0
 
 
-def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, str] | None) -> str:
+def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
     """The hash of a reference's samples over the run (cases with equal samples share them in a block).
 
     A reference whose class declares ``describe_complete`` (its ``describe()`` says all that
     shapes the samples: set-points and trapezoidal paths) is sampled and hashed once per distinct
     description in a sweep (``cache``); any other is sampled for every case.
     """
+    if cache is not None:  # the same object again (a sweep shares built-in references between cases)
+        held = cache.get(("object", id(ref), N, Ts))
+        if held is not None and held[0] is ref:  # the object itself is held: its id cannot be reused
+            return held[1]
+    digest = _reference_digest(ref, N, Ts, cache)
+    if cache is not None:
+        cache[("object", id(ref), N, Ts)] = (ref, digest)
+    return digest
+
+
+def _reference_digest(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
     key = None
     if cache is not None and vars(type(ref)).get("describe_complete", False):
         key = (type(ref).__qualname__, json.dumps(ref.describe(), sort_keys=True, default=str), N, Ts)
@@ -168,12 +179,16 @@ class _Plant(_RunShape):
     qd0: np.ndarray | None = None
 
 
-def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, str] | None) -> _Plant:
-    """Check a built case's run size and sub-steps and pack what its cases share."""
+def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, memo: dict[Any, Any] | None = None) -> _Plant:
+    """Check a built case's run size and sub-steps and pack what its cases share.
+
+    ``memo``: the sweep's memo (see :func:`~forcecontrol.scenarios.build_case`); the arm's
+    mobility at q0 is computed once per arm object and q0.
+    """
     from ..errors import ParameterError
     from ..limits import check_run_size, check_substeps
     from ..robots import PlanarTwoLink
-    from ..simulation import choose_substeps, pre_start_wrench
+    from ..simulation import choose_substeps, contact_mobility, pre_start_wrench
 
     robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
     Ts = float(ctl.sample_time)
@@ -186,7 +201,20 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, str] | None) -
         raise SweepError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
     q0 = np.asarray(parts["q0"], dtype=np.float64)
     qd0 = np.zeros(robot.nq) if parts["qd0"] is None else np.asarray(parts["qd0"], dtype=np.float64)
-    nsub = int(parts["substeps"]) if parts["substeps"] is not None else choose_substeps(robot, env, q0, Ts)
+    if parts["substeps"] is not None:
+        nsub = int(parts["substeps"])
+    else:
+        mobility = None
+        if memo is not None:
+            key = ("mobility", id(robot), q0.tobytes())
+            held = memo.get(key)
+            if held is None or held[0] is not robot:  # the object itself is held: its id cannot be reused
+                try:
+                    held = memo[key] = (robot, contact_mobility(robot, q0))
+                except np.linalg.LinAlgError:
+                    held = (robot, None)
+            mobility = held[1]
+        nsub = choose_substeps(robot, env, q0, Ts, mobility=mobility)
     d, f_ref = _force_direction(env, ref, N * Ts)
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
     compiled = (
@@ -355,7 +383,8 @@ def prepare_sweep(
     assignments = definition.assignments()
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     jobs: list[CaseJob] = []
-    ref_keys: dict[Any, str] = {}
+    ref_keys: dict[Any, Any] = {}
+    memo: dict[Any, Any] = {}  # tables already checked, the planar arm already built (build_case)
     plant_params = [p for p in definition.parameters if p.keys[0] != "sensor"]
     sensor_params = [p for p in definition.parameters if p.keys[0] == "sensor"]
     cid = 0
@@ -389,8 +418,8 @@ def prepare_sweep(
                         cfg = copy_tree(case.config)
                         for p in definition.parameters:
                             _apply(cfg, p, values[p.path], case.label)
-                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values))
-                        own = _plant(case.label, built, ref_keys)
+                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values), memo=memo)
+                        own = _plant(case.label, built, ref_keys, memo)
                         plants.setdefault(pkey, own)
                         sensor = built["sensor"]
                         sensor_first = sensors.get((skey, own.Ts)) if own.compiled and _batch_sensor(sensor) else None
