@@ -326,7 +326,8 @@ class _DirectForceController(Controller):
             if f_d.tobytes() != self._consistent_reference:
                 ok = True
                 if self.environment_stiffness is not None:
-                    ok = _check_force_reference(f_d, R.T @ self.environment_stiffness @ R, self.force_axes, True, 1e-9, 2)
+                    K = R.T @ self.environment_stiffness @ R if turned else self.environment_stiffness
+                    ok = _check_force_reference(f_d, K, self.force_axes, True, 1e-9, 2)
                 elif np.any(np.where(self.force_axes, 0.0, f_d)):
                     ok = _check_force_reference(f_d, np.eye(m), self.force_axes, True, 1e-9, 2)
                 self._consistent_reference = f_d.tobytes() if ok else None
