@@ -218,14 +218,16 @@ def _hybrid_scenario(tmp_path, compliance, tilt_deg, sample_time=2e-4):
     return load_scenario(path), f
 
 
+@pytest.mark.parametrize("sample_time", [1e-3, 2e-4])
 @pytest.mark.parametrize(("compliance", "tilt"), [(1e-4, 0.0), (2e-4, 0.0), (0.5e-4, 20.0)])
-def test_6d_hybrid_force_loop_9_84_agrees_with_the_panda_simulation(tmp_path, compliance, tilt):
+def test_6d_hybrid_force_loop_9_84_agrees_with_the_panda_simulation(tmp_path, compliance, tilt, sample_time):
     """(9.84) in 6-D: λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0 with L_f = k Ĉ (Ĉ = C, 2C, C/2; flat and
     tilted tables); ω_n = √(L_f K_Pλ) by hand, λ → λ_d whatever Ĉ, and the force transient at
-    fixed times within 1 % of its peak of the simulation at Ts = 0.2 ms. (At 1 ms the continuous
-    model is 1.2–2.1 % off: the torque held over the sample, felt through the Panda's light
-    operational mass, an effect first order in Ts — 5x smaller at Ts/5.)"""
-    sc, f = _hybrid_scenario(tmp_path, compliance, tilt)
+    fixed times within 0.1 % of its peak of the simulation, at the chapter's 1 ms and at 0.2 ms.
+    The predicted transient is the sampled loop (the torque held over the sample while the
+    environment pushes on the Panda's light operational mass): the continuous (9.84) alone is
+    1.2–2.1 % off at 1 ms (measured 4e-5 with the sampled model)."""
+    sc, f = _hybrid_scenario(tmp_path, compliance, tilt, sample_time)
     parts = build_case(sc.cases[0])
     predicted = case_analysis(parts)
     L_f = 1e4 * compliance
@@ -240,4 +242,4 @@ def test_6d_hybrid_force_loop_9_84_agrees_with_the_panda_simulation(tmp_path, co
     np.testing.assert_allclose([settled[k] for k in WRENCH], f, atol=0.01 * 20.0)
     sim = res.wrench[np.searchsorted(res.t, times)]
     peak = np.max(np.linalg.norm(res.wrench, axis=1))
-    assert np.max(np.linalg.norm(sim - transient, axis=1)) <= 0.01 * peak
+    assert np.max(np.linalg.norm(sim - transient, axis=1)) <= 1e-3 * peak

@@ -29,6 +29,7 @@ _LAZY = {
     "ImpedanceModes": ".impedance",
     "impedance_modes": ".impedance",
     "impedance_response": ".impedance",
+    "held_input_response": ".impedance",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -37,7 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .force import ForceLoopAxis
     from .force_design import ForceGains, design_force_gains, force_loop_axes, operational_mass, sampled_stability_limit
     from .gain_design import GainDesign, design_gains
-    from .impedance import AxisDynamics, ImpedanceModes, impedance_axis, impedance_modes, impedance_response
+    from .impedance import AxisDynamics, ImpedanceModes, held_input_response, impedance_axis, impedance_modes, impedance_response
 
 
 def __getattr__(name: str) -> Any:
@@ -62,6 +63,7 @@ __all__ = [
     "ImpedanceModes",
     "impedance_modes",
     "impedance_response",
+    "held_input_response",
     "ForceLoopAxis",
     "ForceGains",
     "force_loop_axes",

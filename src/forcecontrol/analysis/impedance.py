@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
+from ..errors import ParameterError
 
-__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response"]
+__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response", "held_input_response"]
 
 
 @dataclass(frozen=True)
@@ -183,3 +184,51 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
     z = np.array([expm(A * ti) @ z0 for ti in t]).reshape(len(t), 2 * m)
     x = x_e + z[:, :m]
     return x, (x - x_r) @ K.T + z[:, m:] @ De.T
+
+
+def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, start: Any, times: Any) -> np.ndarray:
+    """The sampled-data response of ``ż = A z + B v`` with ``v = F z_k + g`` held over each sample.
+
+    The controller reads the state at ``t_k = k Ts`` and its output is held until ``t_{k+1}``
+    (zero-order hold), as in the simulator; between samples the plant evolves in continuous
+    time. Exact for the linear model: ``z(t_k + τ) = Φ(τ) z_k + Γ(τ) v_k`` with
+    ``[Φ Γ; 0 I] = expm([A B; 0 0] τ)`` (``scipy.linalg.expm``).
+
+    Args:
+        A: (n, n); B: (n, p); F: (p, n); g: (p,); sample_time: Ts > 0 [s]; start: z(0) (n,);
+        times: where to evaluate [s], >= 0.
+
+    Returns:
+        z at ``times``, (N, n).
+    """
+    from scipy.linalg import expm  # type: ignore[import-untyped]
+
+    A, B, F = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (A, B, F))
+    g = np.atleast_1d(np.asarray(g, dtype=np.float64))
+    Ts = positive_scalar("sample_time", sample_time, "s")
+    n, p = B.shape
+    t = np.asarray(times, dtype=np.float64).reshape(-1)
+    if t.size and (not np.all(np.isfinite(t)) or t.min() < 0.0):
+        raise ParameterError(f"times must be finite and >= 0 [s]; got min {t.min()!r}")
+
+    def hold(tau: float) -> tuple[np.ndarray, np.ndarray]:
+        E = expm(np.block([[A, B], [np.zeros((p, n)), np.zeros((p, p))]]) * tau)
+        return E[:n, :n], E[:n, n:]
+
+    Phi, Gam = hold(Ts)
+    k_of = np.floor(t / Ts + 1e-9).astype(np.int64)
+    z = as_vector("start", start, n).copy()
+    out = np.empty((t.size, n))
+    order = np.argsort(k_of, kind="stable")
+    k = 0
+    for i in order:
+        while k < k_of[i]:
+            z = Phi @ z + Gam @ (F @ z + g)
+            k += 1
+        tau = float(t[i] - k * Ts)
+        if tau <= 1e-12 * Ts:
+            out[i] = z
+        else:
+            P, G = hold(tau)
+            out[i] = P @ z + G @ (F @ z + g)
+    return out

@@ -249,19 +249,31 @@ def _spatial_hybrid_response_applies(parts: dict[str, Any]) -> bool:
 
 def _spatial_hybrid_response(parts: dict[str, Any], times: Any) -> Any:
     """h_e(t) of the force loop (9.84) from the start (at rest, contact force of the start pose),
-    along the force direction; the motion along S_v exerts nothing on the environment."""
-    from ..analysis import impedance_response
-    from ..simulation import pre_start_wrench
+    along the force direction; the motion along S_v exerts nothing on the environment.
+
+    The loop is modelled as the simulator runs it, sampled: the law reads λ_k and λ̇_k at
+    t_k = k Ts and the torque is held until t_{k+1}. The inner loop (9.30) cancels the measured
+    ``Jᵀ h_k`` while the environment pushes with h(t), so between samples
+    ``λ̈ = L_f f_λ,k + K_f m (λ_k − λ(t))`` with ``m = wᵀ J B⁻¹ Jᵀ w`` the arm's mobility along
+    the force direction w at q0 (:func:`~forcecontrol.analysis.held_input_response`). As
+    Ts → 0 this is (9.84), ``λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0``.
+    """
+    from ..analysis import held_input_response
+    from ..simulation import contact_mobility, pre_start_wrench
 
     ctl, robot = parts["controller"], parts["robot"]
-    L_f, lam_d, W, _ = _spatial_hybrid_model(parts)
+    L_f, lam_d, W, K_f = _spatial_hybrid_model(parts)
     q0 = np.asarray(parts["q0"], dtype=float)
     h0 = pre_start_wrench(robot, parts["environment"], q0, np.zeros(robot.nq))
     lam0 = float(np.linalg.lstsq(W, h0, rcond=None)[0][0])
-    # λ̈ + K_Dλ λ̇ + L_f K_Pλ λ = L_f K_Pλ λ_d: the impedance model with M = 1, K_P = L_f K_Pλ, K = 0
-    lam, _ = impedance_response(1.0, ctl.force_damping, L_f @ ctl.force_stiffness, np.zeros((1, 1)), lam_d,
-                                np.zeros(1), [lam0], times)
-    return lam @ W.T
+    w = W[:, 0]
+    mob = float(w @ contact_mobility(robot, q0) @ w)  # [1/kg] along the force direction
+    kf, lf, kp, kd = float(K_f[0, 0]), float(L_f[0, 0]), float(ctl.force_stiffness[0, 0]), float(ctl.force_damping[0, 0])
+    A = np.array([[0.0, 1.0], [-kf * mob, 0.0]])
+    B = np.array([[0.0], [1.0]])
+    F = np.array([[kf * mob - lf * kp, -kd]])  # v_k = L_f (K_Pλ (λ_d − λ_k) − K_Dλ L_f⁻¹ λ̇_k) + K_f m λ_k
+    z = held_input_response(A, B, F, [lf * kp * float(lam_d[0])], ctl.sample_time, [lam0, 0.0], times)
+    return z[:, :1] @ W.T
 
 
 register_analysis(_spatial_hybrid_applies, _spatial_hybrid_analysis)
