@@ -12,7 +12,7 @@ import pytest
 
 from forcecontrol.scenarios import CaseSpec, build_case, load_scenario
 from forcecontrol.scenarios.schema import copy_tree
-from forcecontrol.sweep.prepare import _plant
+from forcecontrol.sweep.cases import _plant
 
 
 def _variants(name, case_index, edits):

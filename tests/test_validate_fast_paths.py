@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from forcecontrol._validate import as_gain_matrix
-from forcecontrol.controllers.force import _diagonal_gain, _range_projector, check_force_reference
+from forcecontrol.controllers.force_checks import _diagonal_gain, _range_projector, check_force_reference
 from forcecontrol.errors import DriftWarning, ParameterError
 
 

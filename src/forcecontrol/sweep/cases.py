@@ -1,0 +1,225 @@
+"""The cases of a sweep: what the cases of one plant share (:class:`_Plant`), and one case as a job.
+
+A plant (robot, environment, controller, reference) is checked and packed once per distinct set
+of non-sensor values (:func:`_plant`); each case then differs only in its sensor, which enters
+the controller's reset through the first sample (:func:`_job`). Cases that the compiled batch
+kernel runs carry its packed arrays; the others carry their parts for ``simulate()``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .spec import SweepError
+
+__all__ = ["CaseJob"]
+
+
+@dataclass
+class _RunShape:
+    """What the cases of one plant share: sample time, samples, sub-steps, the settle window (samples),
+    the unit direction d of the force metrics and the reference force along it, and the hash of the
+    sampled reference."""
+
+    Ts: float
+    N: int
+    nsub: int
+    window: int
+    d: np.ndarray
+    f_ref: float
+    ref_key: str
+
+
+@dataclass
+class CaseJob(_RunShape):
+    """One case, ready to simulate (picklable: it travels to Dask workers).
+
+    ``fast`` cases carry the kernel's packed arrays; the others carry their parts for
+    :func:`forcecontrol.simulation.simulate`.
+    """
+
+    case_id: int
+    label: str
+    values: dict[str, Any]
+    fast: bool
+    reference: Any
+    sensor: Any
+    K: np.ndarray | None = None
+    env_kind: int = 0
+    env_p: np.ndarray | None = None
+    law: Any = None
+    ctrl_p: np.ndarray | None = None
+    ctrl_s: np.ndarray | None = None
+    q0: np.ndarray | None = None
+    qd0: np.ndarray | None = None
+    alpha: float = 1.0
+    parts: dict[str, Any] | None = None
+    #: the label its table row carries (``label`` marked when the sweep replaces what the case set).
+    row_label: str = ""
+
+    @property
+    def steps(self) -> int:
+        """Control samples times integration substeps (the cost of the case)."""
+        return self.N * self.nsub
+
+
+def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, float]:
+    """Unit direction d of the force metrics and the reference force along it."""
+    f_d = np.asarray(ref.at(duration).force, dtype=np.float64)
+    norm = float(np.linalg.norm(f_d))
+    if norm > 0.0:
+        return f_d / norm, norm
+    if hasattr(env, "normal"):
+        return -np.asarray(env.normal, dtype=np.float64), 0.0
+    d = np.zeros(len(f_d))
+    d[0] = 1.0
+    return d, 0.0
+
+
+def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
+    """The hash of a reference's samples over the run (cases with equal samples share them in a block).
+
+    A reference whose class declares ``describe_complete`` (its ``describe()`` says all that
+    shapes the samples: set-points and trapezoidal paths) is sampled and hashed once per distinct
+    description in a sweep (``cache``); any other is sampled for every case.
+    """
+    if cache is not None:  # the same object again (a sweep shares built-in references between cases)
+        held = cache.get(("object", id(ref), N, Ts))
+        if held is not None and held[0] is ref:  # the object itself is held: its id cannot be reused
+            return held[1]
+    digest = _reference_digest(ref, N, Ts, cache)
+    if cache is not None:
+        cache[("object", id(ref), N, Ts)] = (ref, digest)
+    return digest
+
+
+def _reference_digest(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
+    key = None
+    if cache is not None and vars(type(ref)).get("describe_complete", False):
+        key = (type(ref).__qualname__, json.dumps(ref.describe(), sort_keys=True, default=str), N, Ts)
+        if key in cache:
+            return cache[key]
+    samples = np.ascontiguousarray(ref.sample(np.arange(N + 1) * Ts), dtype=np.float64)
+    digest = hashlib.sha256(samples.tobytes()).hexdigest()
+    if key is not None:
+        cache[key] = digest
+    return digest
+
+
+@dataclass
+class _Plant(_RunShape):
+    """What the cases sharing a robot, environment, controller and reference share (all but the sensor).
+
+    Built once per distinct set of non-sensor values in a sweep; the cases then differ only in
+    their sensor (noise seed, bias), which enters the controller's reset through the first sample.
+    """
+
+    parts: dict[str, Any]
+    #: every part can run in the batch kernel (the sensor is checked per case).
+    compiled: bool
+    h0: np.ndarray | None = None
+    ref0: Any = None
+    K: np.ndarray | None = None
+    env_p: np.ndarray | None = None
+    q0: np.ndarray | None = None
+    qd0: np.ndarray | None = None
+
+
+def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, memo: dict[Any, Any] | None = None) -> _Plant:
+    """Check a built case's run size and sub-steps and pack what its cases share.
+
+    ``memo``: the sweep's memo (see :func:`~forcecontrol.scenarios.build_case`); the arm's
+    mobility at q0 is computed once per arm object and q0.
+    """
+    from ..errors import ParameterError
+    from ..limits import check_run_size, check_substeps
+    from ..robots import PlanarTwoLink
+    from ..simulation import choose_substeps, contact_mobility, pre_start_wrench
+
+    robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
+    Ts = float(ctl.sample_time)
+    duration = float(parts["duration"])
+    try:  # the same limits as simulate(), before anything is allocated
+        N = check_run_size(duration, Ts, int(robot.nq), int(robot.task_dim))
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
+    if N < 1:
+        raise SweepError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
+    q0 = np.asarray(parts["q0"], dtype=np.float64)
+    qd0 = np.zeros(robot.nq) if parts["qd0"] is None else np.asarray(parts["qd0"], dtype=np.float64)
+    if parts["substeps"] is not None:
+        nsub = int(parts["substeps"])
+    else:
+        mobility = None
+        if memo is not None:
+            key = ("mobility", id(robot), q0.tobytes())
+            held = memo.get(key)
+            if held is None or held[0] is not robot:  # the object itself is held: its id cannot be reused
+                try:
+                    held = memo[key] = (robot, contact_mobility(robot, q0))
+                except np.linalg.LinAlgError:
+                    held = (robot, None)
+            mobility = held[1]
+        nsub = choose_substeps(robot, env, q0, Ts, mobility=mobility)
+    d, f_ref = _force_direction(env, ref, N * Ts)
+    window = max(1, int(round(float(parts["settle_window"]) / Ts)))
+    compiled = (
+        isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None
+        and robot.task_dim == 2
+        and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
+    )
+    try:
+        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if compiled else "python")
+    except ParameterError as exc:
+        raise SweepError(f"case {label!r}: {exc}") from exc
+    # cases share a sampled reference only when the samples themselves are equal (a describe()
+    # of a user's reference type need not say everything that shapes it)
+    plant = _Plant(Ts, N, nsub, window, d, f_ref, _reference_key(ref, N, Ts, ref_keys), parts=parts, compiled=compiled)
+    if compiled:
+        plant.h0 = pre_start_wrench(robot, env, q0, qd0)
+        plant.ref0 = ref.at(0.0)
+        plant.K = np.array(robot._K, dtype=np.float64)
+        plant.env_p = np.array(env.packed(), dtype=np.float64)
+        plant.q0, plant.qd0 = q0, qd0
+    return plant
+
+
+def _first_sample(sensor: Any, dim: int) -> np.ndarray:
+    """bias + the first noise sample: what the sensor reads at t = 0 on top of the true wrench."""
+    bias, noise0 = sensor.sequences(1, dim)
+    return bias + noise0[0]
+
+
+def _batch_sensor(sensor: Any) -> bool:
+    """The sensor runs in the batch kernel (a realistic sensor is stateful: simulate() runs it)."""
+    return bool(getattr(sensor, "compiled_ok", True))
+
+
+def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor: Any, first: np.ndarray) -> CaseJob:
+    """One case: the kernel's packed arrays (compiled plants and sensors) or its parts for simulate()."""
+    from ..controllers.base import Measurement, reset_prechecked
+
+    p = plant.parts
+    job = CaseJob(plant.Ts, plant.N, plant.nsub, plant.window, plant.d, plant.f_ref, plant.ref_key,
+                  case_id=case_id, label=label, values=values, fast=False, reference=p["reference"], sensor=sensor)
+    if not (plant.compiled and _batch_sensor(sensor)):
+        job.parts = {k: p[k] for k in ("robot", "environment", "controller", "reference", "q0", "qd0", "actuator")}
+        job.parts["sensor"] = sensor
+        return job
+    ctl = p["controller"]
+    # the controller's reset exactly as simulate() does it (same first noise sample); the packed
+    # parameters and state are copied, so the next case may reset the same controller
+    reset_prechecked(ctl, Measurement(plant.q0, plant.qd0, plant.h0 + first), plant.ref0)  # checked parts
+    job.fast = True
+    job.K, job.env_kind, job.env_p = plant.K, int(p["environment"].kind), plant.env_p
+    job.law = ctl.compiled_law
+    job.ctrl_p = np.array(ctl._params, dtype=np.float64)
+    job.ctrl_s = np.array(ctl.state, dtype=np.float64)
+    job.q0, job.qd0 = plant.q0, plant.qd0
+    job.alpha = float(sensor.alpha(plant.Ts))
+    return job
