@@ -151,7 +151,11 @@ def test_6d_equilibrium_and_transient_agree_with_the_panda_simulation(tmp_path, 
     assert transient is not None
     sim = res.wrench[np.searchsorted(res.t, times)]
     peak = np.abs(res.wrench[:, :3]).max()
-    np.testing.assert_allclose(transient[:, :3], sim[:, :3], atol=0.02 * peak)
+    # the predicted transient is the sampled loop's (torque held, the environment pushing between
+    # samples): 3–5e-5 of the peak; the base-frame (9.31) moment spring 2.5e-3, where the
+    # environment's Euler-angle linearisation, not the sampling, sets the difference
+    tol = 5e-3 if "base frame" in name and "moment" in name else 5e-4
+    np.testing.assert_allclose(transient[:, :3], sim[:, :3], atol=tol * peak)
 
 
 def test_a_moment_spring_turned_far_from_the_desired_frame_is_outside_the_linear_model(tmp_path):

@@ -158,19 +158,55 @@ def _spatial_impedance_response_applies(parts: dict[str, Any]) -> bool:
     return isinstance(parts["controller"], SpatialImpedanceController) and _spatial_impedance_applies(parts)
 
 
+def _coordinate_mobility(lin: _Linear6, robot: Any, q0: np.ndarray) -> np.ndarray:
+    """``J_c B⁻¹ Jᵀ X``: the acceleration of the model coordinate per unit model wrench at q0.
+
+    ``J_c = ∂p/∂q`` by central differences of :meth:`_Linear6.coordinate` of the arm's pose (exact
+    for any coordinates: rotation vector on the desired frame, Euler angles in the base frame),
+    J the geometric Jacobian and X the model wrench's map to the base frame.
+    """
+    q0 = np.asarray(q0, dtype=float)
+    eps = 1e-6
+    Jc = np.empty((6, q0.shape[0]))
+    for j in range(q0.shape[0]):
+        dq = np.zeros_like(q0)
+        dq[j] = eps
+        d = lin.coordinate(robot.forward_kinematics(q0 + dq)) - lin.coordinate(robot.forward_kinematics(q0 - dq))
+        d[3:] = (d[3:] + np.pi) % (2.0 * np.pi) - np.pi  # Euler angles may wrap between the two poses
+        Jc[:, j] = d / (2.0 * eps)
+    J = np.asarray(robot.jacobian(q0), dtype=float)
+    return Jc @ np.linalg.solve(np.asarray(robot.mass_matrix(q0), dtype=float), J.T) @ lin.X
+
+
 def _spatial_impedance_response(parts: dict[str, Any], times: Any) -> Any:
     """h_e(t) (base frame, (N, 6)) of the 6-D linear model from rest at the start pose; None when
-    the one-sided contact would be left (or is not yet made) at one of the times."""
-    from ..analysis import impedance_response
+    the one-sided contact would be left (or is not yet made) at one of the times.
+
+    The loop is modelled as the simulator runs it, sampled: the law reads the pose, twist and
+    wrench at t_k and the torque is held until t_{k+1} while the environment pushes with w(t):
+    between samples ``p̈ = a_k + M_c (w_k − w(t))``, ``M_c`` from :func:`_coordinate_mobility`
+    (:func:`~forcecontrol.analysis.held_input_response`); as Ts → 0 this is the impedance
+    ``M_d p̈ + K_D ṗ + K_P p = −w`` of ``impedance_response``.
+    """
+    from ..analysis import held_input_response
 
     ctl, robot = parts["controller"], parts["robot"]
     lin = _linear_model(parts)
-    x0 = np.asarray(robot.forward_kinematics(np.asarray(parts["q0"], dtype=float)), dtype=float)
-    p, w = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, lin.K, np.zeros(6), lin.rest,
-                              lin.coordinate(x0), times, environment_damping=lin.D)
+    q0 = np.asarray(parts["q0"], dtype=float)
+    x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)
+    Mc = _coordinate_mobility(lin, robot, q0)
+    W = np.linalg.inv(ctl.inertia)
+    K, D = lin.K, lin.D
+    I, Z = np.eye(6), np.zeros((6, 6))
+    A = np.block([[Z, I], [-Mc @ K, -Mc @ D]])
+    B = np.vstack([Z, I])
+    F = np.hstack([-W @ ctl.stiffness + (Mc - W) @ K, -W @ ctl.damping + (Mc - W) @ D])
+    g = W @ (K @ lin.rest)  # the desired pose is the model's origin
+    z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([lin.coordinate(x0), np.zeros(6)]), times)
+    p, pd = z[:, :6], z[:, 6:]
     if lin.normal is not None and np.any((p - lin.rest) @ lin.normal > 1e-9):
         return None
-    return w @ lin.X.T
+    return ((p - lin.rest) @ K.T + pd @ D.T) @ lin.X.T
 
 
 register_analysis(_spatial_impedance_applies, _spatial_impedance_analysis)
