@@ -46,9 +46,10 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
     largest predicted force, or moment — of the run's peak force or moment when the prediction
     is zero) means the loop is outside the linear
     regime of the analysis (lost contact, saturation, not settled) and is reported as such. When the
-    case's analysis has a linear transient model (impedance on a linear environment, the direct
-    force schemes' sampled loops), its contact force at :data:`TRANSIENT_TIMES` is compared too,
-    within :data:`TRANSIENT_TOLERANCE` of the simulated peak.
+    case's analysis has a linear transient model (the sampled loops of impedance on a linear
+    environment, of the 6-D hybrid force loop and of the direct force schemes), its contact force
+    at :data:`TRANSIENT_TIMES` is compared too, within :data:`TRANSIENT_TOLERANCE` of the
+    simulated peak.
 
     Returns:
         ``{"quantities": {name: {"predicted", "simulated", "relative_difference", "agrees"}},
@@ -100,8 +101,8 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
         warning = (f"{', '.join(bad)} differ from the simulation by more than {100 * VERIFY_TOLERANCE:g} % "
                    f"({100 * TRANSIENT_TOLERANCE:g} % of the peak for the transient): the loop is outside the "
                    "analysis' linear regime (contact lost, saturation) or has not settled"
-                   + ("; a transient a little over its tolerance can also be the torque held over the sample "
-                      "(the models are continuous-time; the difference shrinks in proportion to the sample time)"
+                   + ("; a transient alone over its tolerance can also be the arm moving far from its start "
+                      "pose (the sampled-loop model is linearised there: the arm's mobility at q0)"
                       if bad == ["the contact-force transient"] else ""))
     return {"quantities": out, "transient": transient, "agrees": not bad, "warning": warning}
 
