@@ -74,3 +74,32 @@ def test_bad_inputs_are_refused_with_the_library_errors():
         held_input_response(A, B, F, [0.0], 1e-3, [0.0, 0.0], [np.nan])
     with pytest.raises(DimensionError, match="start"):
         held_input_response(A, B, F, [0.0], 1e-3, [0.0], [0.1])
+
+
+def test_a_controller_with_its_own_discrete_state_matches_the_loop_by_hand():
+    """A PI position loop on the double integrator, by hand:
+    s_{k+1} = s_k + Ts (x_r − x_k), v_k = −k_p x_k − k_d ẋ_k + k_i s_k + k_p x_r."""
+    A, B = DOUBLE_INTEGRATOR
+    Ts, kp, kd, ki, xr = 2e-3, 300.0, 25.0, 900.0, 0.3
+    times = np.array([0.0, 0.0031, 0.05, 0.2, 0.71, 1.5])
+    z = held_input_response(A, B, [[-kp, -kd]], [kp * xr], Ts, [0.0, 0.0], times,
+                            controller=([[ki]], [[1.0]], [[-Ts, 0.0]], [Ts * xr]))
+    ref = []
+    for t in times:
+        x = v = s = 0.0
+        k = int(np.floor(t / Ts + 1e-9))
+        for _ in range(k):
+            a = -kp * x - kd * v + ki * s + kp * xr
+            x, v, s = x + Ts * v + 0.5 * Ts**2 * a, v + Ts * a, s + Ts * (xr - x)
+        tau = t - k * Ts
+        a = -kp * x - kd * v + ki * s + kp * xr
+        ref.append((x + tau * v + 0.5 * tau**2 * a, v + tau * a))
+    np.testing.assert_allclose(z, np.array(ref), rtol=1e-10, atol=1e-12)
+    assert abs(z[-1, 0] - xr) < 1e-3  # the integrator removes the offset
+
+
+def test_a_controller_of_the_wrong_shape_is_refused():
+    A, B = DOUBLE_INTEGRATOR
+    with pytest.raises(DimensionError, match="controller"):
+        held_input_response(A, B, [[-1.0, -1.0]], [0.0], 1e-3, [0.0, 0.0], [0.1],
+                            controller=([[1.0]], [[1.0]], [[1.0]], [0.0]))

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
-from ..errors import ParameterError
+from ..errors import DimensionError, ParameterError
 
 __all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response", "held_input_response"]
 
@@ -186,7 +186,8 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
     return x, (x - x_r) @ K.T + z[:, m:] @ De.T
 
 
-def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, start: Any, times: Any) -> np.ndarray:
+def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, start: Any, times: Any, *,
+                        controller: tuple[Any, Any, Any, Any] | None = None) -> np.ndarray:
     """The sampled-data response of ``ż = A z + B v`` with ``v = F z_k + g`` held over each sample.
 
     The controller reads the state at ``t_k = k Ts`` and its output is held until ``t_{k+1}``
@@ -197,6 +198,9 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
     Args:
         A: (n, n); B: (n, p); F: (p, n); g: (p,); sample_time: Ts > 0 [s]; start: z(0) (n,);
         times: where to evaluate [s], >= 0.
+        controller: ``(H, S, T, r)`` for a controller with its own discrete state s (s_0 = 0):
+            ``v_k = F z_k + H s_k + g`` and ``s_{k+1} = S s_k + T z_k + r`` (e.g. the compliant
+            frame of admittance control (9.37), integrated by the controller at each sample).
 
     Returns:
         z at ``times``, (N, n).
@@ -210,6 +214,17 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
     t = np.asarray(times, dtype=np.float64).reshape(-1)
     if t.size and (not np.all(np.isfinite(t)) or t.min() < 0.0):
         raise ParameterError(f"times must be finite and >= 0 [s]; got min {t.min()!r}")
+    if controller is None:
+        H, S, T, r = np.zeros((p, 0)), np.zeros((0, 0)), np.zeros((0, n)), np.zeros(0)
+    else:
+        H, S, T = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in controller[:3])
+        r = np.atleast_1d(np.asarray(controller[3], dtype=np.float64))
+        ns = S.shape[0]
+        if S.shape != (ns, ns) or H.shape != (p, ns) or T.shape != (ns, n) or r.shape != (ns,):
+            raise DimensionError(
+                f"controller (H, S, T, r) must have shapes ({p}, s), (s, s), (s, {n}), (s,); got "
+                f"{H.shape}, {S.shape}, {T.shape}, {r.shape}"
+            )
 
     def hold(tau: float) -> tuple[np.ndarray, np.ndarray]:
         E = expm(np.block([[A, B], [np.zeros((p, n)), np.zeros((p, p))]]) * tau)
@@ -218,17 +233,18 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
     Phi, Gam = hold(Ts)
     k_of = np.floor(t / Ts + 1e-9).astype(np.int64)
     z = as_vector("start", start, n).copy()
+    s = np.zeros(S.shape[0])
     out = np.empty((t.size, n))
     order = np.argsort(k_of, kind="stable")
     k = 0
     for i in order:
         while k < k_of[i]:
-            z = Phi @ z + Gam @ (F @ z + g)
+            z, s = Phi @ z + Gam @ (F @ z + H @ s + g), S @ s + T @ z + r
             k += 1
         tau = float(t[i] - k * Ts)
         if tau <= 1e-12 * Ts:
             out[i] = z
         else:
             P, G = hold(tau)
-            out[i] = P @ z + G @ (F @ z + g)
+            out[i] = P @ z + G @ (F @ z + H @ s + g)
     return out

@@ -151,11 +151,7 @@ def _spatial_impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
 
 
 def _spatial_impedance_response_applies(parts: dict[str, Any]) -> bool:
-    from ..controllers.spatial import SpatialImpedanceController
-
-    # admittance (9.37): its transient also holds the inner motion loop's dynamics, which the
-    # model (the tip on the compliant frame) leaves out; its equilibrium is exact
-    return isinstance(parts["controller"], SpatialImpedanceController) and _spatial_impedance_applies(parts)
+    return _spatial_impedance_applies(parts)
 
 
 def _coordinate_mobility(lin: _Linear6, robot: Any, q0: np.ndarray) -> np.ndarray:
@@ -189,12 +185,15 @@ def _spatial_impedance_response(parts: dict[str, Any], times: Any) -> Any:
     ``M_d p̈ + K_D ṗ + K_P p = −w`` of ``impedance_response``.
     """
     from ..analysis import held_input_response
+    from ..controllers.admittance import AdmittanceController
 
     ctl, robot = parts["controller"], parts["robot"]
     lin = _linear_model(parts)
     q0 = np.asarray(parts["q0"], dtype=float)
     x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)
     Mc = _coordinate_mobility(lin, robot, q0)
+    if isinstance(ctl, AdmittanceController):
+        return _admittance_response(ctl, lin, Mc, x0, times)
     W = np.linalg.inv(ctl.inertia)
     K, D = lin.K, lin.D
     I, Z = np.eye(6), np.zeros((6, 6))
@@ -203,6 +202,36 @@ def _spatial_impedance_response(parts: dict[str, Any], times: Any) -> Any:
     F = np.hstack([-W @ ctl.stiffness + (Mc - W) @ K, -W @ ctl.damping + (Mc - W) @ D])
     g = W @ (K @ lin.rest)  # the desired pose is the model's origin
     z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([lin.coordinate(x0), np.zeros(6)]), times)
+    p, pd = z[:, :6], z[:, 6:]
+    if lin.normal is not None and np.any((p - lin.rest) @ lin.normal > 1e-9):
+        return None
+    return ((p - lin.rest) @ K.T + pd @ D.T) @ lin.X.T
+
+
+def _admittance_response(ctl: Any, lin: _Linear6, Mc: np.ndarray, x0: np.ndarray, times: Any) -> Any:
+    """h_e(t) of admittance control (9.37), sampled as the controller runs it.
+
+    The compliant frame's state ``s = [z̃; z̃̇]`` advances by the controller's own exact ZOH step
+    ``s_{k+1} = A_d s_k + G_d w_k`` with the measured wrench w_k (desired frame); the motion loop
+    tracks the compliant frame, ``p_t = −z̃`` to first order, with
+    ``a_k = p̈_t + K_D (ṗ_t − ṗ_k) + K_P (p_t − p_k)``, ``p̈_t = −M_t⁻¹ (w_k − K_Dt z̃̇ − K_Pt z̃)``,
+    and the torque is held while the environment pushes: ``p̈ = a_k + M_c (w_k − w(t))``.
+    """
+    from ..analysis import held_input_response
+
+    Mt_inv = np.linalg.inv(ctl.inertia)
+    K, D = lin.K, lin.D
+    Kw = np.hstack([K, D])  # w = Kw [p; ṗ] − K p_r
+    KPD = np.hstack([ctl.motion_stiffness, ctl.motion_damping])
+    I, Z = np.eye(6), np.zeros((6, 6))
+    A = np.block([[Z, I], [-Mc @ K, -Mc @ D]])
+    B = np.vstack([Z, I])
+    F = (Mc - Mt_inv) @ Kw - KPD
+    H = Mt_inv @ np.hstack([ctl.stiffness, ctl.damping]) - KPD
+    g = Mt_inv @ (K @ lin.rest)
+    controller = (H, ctl._Ad, ctl._Gd @ Kw, -ctl._Gd @ (K @ lin.rest))
+    z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([lin.coordinate(x0), np.zeros(6)]), times,
+                            controller=controller)
     p, pd = z[:, :6], z[:, 6:]
     if lin.normal is not None and np.any((p - lin.rest) @ lin.normal > 1e-9):
         return None
