@@ -206,3 +206,20 @@ def test_analyze_verify_flags_a_loop_outside_its_linear_regime(tmp_path):
     assert analyze_scenario(p, verify=True)["cases"][0]["verification"]["transient"] is None
     parts = build_case(load_scenario(p).cases[0])
     assert case_response(parts, np.linspace(0.01, 1.0, 100)) is None
+
+
+def test_no_transient_is_claimed_when_the_arm_model_has_a_singular_inertia():
+    """The sampled-loop model needs J B⁻¹ Jᵀ: with a singular B the analysis predicts no transient
+    (None), it does not raise numpy's LinAlgError."""
+    from forcecontrol.scenarios import case_response
+
+    class Singular(fc.PlanarTwoLink):
+        def mass_matrix(self, q):
+            return np.zeros((2, 2))
+
+    arm = Singular()
+    env = _plane(0.0, 1e4)
+    parts = {"controller": fc.ImpedanceController(arm, MD, KD, KP), "environment": env, "reference": fc.Setpoint(X_D),
+             "robot": arm, "q0": arm.inverse_kinematics(X_R, elbow="up")}
+    assert case_response(parts, np.array([0.1, 0.2])) is None
+    assert case_analysis(parts)["steady_fx"] > 0.0  # the equilibrium does not need B

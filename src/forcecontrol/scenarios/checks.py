@@ -47,11 +47,18 @@ def register_response(applies: Callable[[dict[str, Any]], bool], fn: Callable[[d
 
 
 def case_response(parts: dict[str, Any], times: Any) -> np.ndarray | None:
-    """The first registered linear transient that applies to a built case, at ``times`` (or None)."""
+    """The first registered linear transient that applies to a built case, at ``times`` (or None).
+
+    None too when the linear model cannot be formed (a singular inertia matrix at q0: the
+    sampled-loop models need the arm's mobility ``J B⁻¹ Jᵀ``).
+    """
     t = np.asarray(times, dtype=np.float64)
     for applies, fn in _RESPONSES:
         if applies(parts):
-            out = fn(parts, t)
+            try:
+                out = fn(parts, t)
+            except np.linalg.LinAlgError:
+                continue
             if out is not None:
                 return np.asarray(out, dtype=np.float64)
     return None
