@@ -103,3 +103,24 @@ def test_a_controller_of_the_wrong_shape_is_refused():
     with pytest.raises(DimensionError, match="controller"):
         held_input_response(A, B, [[-1.0, -1.0]], [0.0], 1e-3, [0.0, 0.0], [0.1],
                             controller=([[1.0]], [[1.0]], [[1.0]], [0.0]))
+
+
+def test_the_sampled_impedance_needs_the_sample_time_and_the_mobility_together():
+    with pytest.raises(ParameterError, match="sample_time and mobility go together"):
+        impedance_response(2.0, 40.0, 800.0, 0.0, [0.1], [0.0], [0.0], [0.1], sample_time=1e-3)
+    with pytest.raises(DimensionError, match="mobility"):
+        impedance_response(2.0, 40.0, 800.0, 0.0, [0.1], [0.0], [0.0], [0.1], sample_time=1e-3, mobility=np.eye(2))
+
+
+def test_the_sampled_impedance_on_a_spring_is_the_held_input_loop_written_out():
+    """impedance_response(sample_time, mobility) against held_input_response with the plant and the
+    law (9.31) written here: ẍ = a_k + μ (h_k − h(t)), a_k = (k_P (x_d − x_k) − k_D ẋ_k − h_k) / m_d."""
+    m, kd, kp, k, mu, xd, Ts = 2.0, 40.0, 800.0, 5000.0, 0.3, 0.1, 1e-3
+    times = np.array([0.0, 0.0105, 0.05, 0.2, 0.6])
+    x, h = impedance_response(m, kd, kp, k, [xd], [0.0], [0.0], times, sample_time=Ts, mobility=[[mu]])
+    A = np.array([[0.0, 1.0], [-mu * k, 0.0]])
+    B = np.array([[0.0], [1.0]])
+    F = np.array([[-kp / m - k / m + mu * k, -kd / m]])
+    z = held_input_response(A, B, F, [kp * xd / m], Ts, [0.0, 0.0], times)
+    np.testing.assert_allclose(x[:, 0], z[:, 0], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(h[:, 0], k * z[:, 0], rtol=1e-12, atol=1e-12)

@@ -30,6 +30,7 @@ _LAZY = {
     "impedance_modes": ".impedance",
     "impedance_response": ".impedance",
     "held_input_response": ".impedance",
+    "contact_plant": ".impedance",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -38,7 +39,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from .force import ForceLoopAxis
     from .force_design import ForceGains, design_force_gains, force_loop_axes, operational_mass, sampled_stability_limit
     from .gain_design import GainDesign, design_gains
-    from .impedance import AxisDynamics, ImpedanceModes, held_input_response, impedance_axis, impedance_modes, impedance_response
+    from .impedance import (
+        AxisDynamics,
+        ImpedanceModes,
+        contact_plant,
+        held_input_response,
+        impedance_axis,
+        impedance_modes,
+        impedance_response,
+    )
 
 
 def __getattr__(name: str) -> Any:
@@ -64,6 +73,7 @@ __all__ = [
     "impedance_modes",
     "impedance_response",
     "held_input_response",
+    "contact_plant",
     "ForceLoopAxis",
     "ForceGains",
     "force_loop_axes",

@@ -17,10 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
+from .._validate import as_gain_matrix, as_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
-__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response", "held_input_response"]
+__all__ = [
+    "AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response", "held_input_response",
+    "contact_plant",
+]
 
 
 @dataclass(frozen=True)
@@ -161,11 +164,18 @@ def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stif
 
 
 def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
-                       start: Any, times: Any, *, environment_damping: Any = None) -> tuple[np.ndarray, np.ndarray]:
+                       start: Any, times: Any, *, environment_damping: Any = None, sample_time: float | None = None,
+                       mobility: Any = None) -> tuple[np.ndarray, np.ndarray]:
     """The transient of the linear model of :func:`impedance_modes` from rest at ``start``.
 
     ``M_d ẍ + (K_D + D_e) ẋ + (K_P + K) x = K_P x_d + K x_r`` with constant x_d, solved exactly
     (``scipy.linalg.expm`` of the state matrix), ``x(0) = start``, ``ẋ(0) = 0``.
+
+    With ``sample_time`` and ``mobility`` (the arm's ``M = J B⁻¹ Jᵀ`` at the start, (m, m)): the
+    loop as a controller runs it, sampled. The law (9.31) reads x_k, ẋ_k and h_k at t_k = k Ts,
+    and the torque is held until t_{k+1} while the environment pushes with h(t), so between
+    samples ``ẍ = a_k + M (h_k − h(t))`` (:func:`held_input_response`). As Ts → 0 this is the
+    continuous model.
 
     Returns:
         (x (N, m) [m], h_e = K (x − x_r) + D_e ẋ (N, m) [N]) at ``times`` [s].
@@ -176,14 +186,42 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
                                               environment_damping)
     m = x_d.shape[0]
     x0 = as_vector("start", start, m)
-    x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     Minv = np.linalg.inv(M)
+    if (sample_time is None) != (mobility is None):
+        raise ParameterError("sample_time and mobility go together (the sampled loop needs both); "
+                             f"got sample_time={sample_time!r} and mobility {'None' if mobility is None else 'given'}")
+    if sample_time is not None:
+        Mob = as_matrix("mobility", mobility, (m, m))
+        A, B = contact_plant(Mob, K, De)
+        F = np.hstack([-Minv @ KP + (Mob - Minv) @ K, -Minv @ D + (Mob - Minv) @ De])
+        z = held_input_response(A, B, F, Minv @ (KP @ x_d + K @ x_r), sample_time, np.concatenate([x0, np.zeros(m)]),
+                                times)
+        x = z[:, :m]
+        return x, (x - x_r) @ K.T + z[:, m:] @ De.T
+    x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
     A = np.block([[np.zeros((m, m)), np.eye(m)], [-Minv @ (KP + K), -Minv @ (D + De)]])
     z0 = np.concatenate([x0 - x_e, np.zeros(m)])
     t = np.asarray(times, dtype=np.float64)
     z = np.array([expm(A * ti) @ z0 for ti in t]).reshape(len(t), 2 * m)
     x = x_e + z[:, :m]
     return x, (x - x_r) @ K.T + z[:, m:] @ De.T
+
+
+def contact_plant(mobility: Any, environment_stiffness: Any, environment_damping: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The arm on a linear environment between two samples, for :func:`held_input_response`.
+
+    With the held input ``v`` (the commanded acceleration plus ``M`` times what the controller
+    cancels at the sample): ``ẍ = v − M (K x + D ẋ)``, state ``[x; ẋ]``; ``M = J B⁻¹ Jᵀ`` the
+    mobility (m, m), K and D the environment's stiffness and damping (m, m).
+
+    Returns:
+        (A (2m, 2m), B (2m, m)).
+    """
+    Mob, K, D = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (mobility, environment_stiffness,
+                                                                          environment_damping))
+    m = Mob.shape[0]
+    I, Z = np.eye(m), np.zeros((m, m))
+    return np.block([[Z, I], [-Mob @ K, -Mob @ D]]), np.vstack([Z, I])
 
 
 def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, start: Any, times: Any, *,

@@ -109,8 +109,10 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
 
 def _difference(group: str, a: float, b: float) -> float:
     """a − b; for angles the shortest one (XYZ angles of ±π are one angle)."""
+    from ..spatial import wrap_angle
+
     d = float(a) - float(b)
-    return (d + math.pi) % (2.0 * math.pi) - math.pi if group == "angle" else d
+    return float(wrap_angle(d)) if group == "angle" else d
 
 
 def _verify_transient(parts: dict[str, Any], res: Any) -> dict[str, Any] | None:

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_gain_matrix, readonly
+from .._validate import _plain_number, as_gain_matrix, readonly
 from ..errors import DimensionError, DriftWarning, ParameterError
 
 __all__ = ["check_force_reference"]
@@ -17,10 +17,10 @@ __all__ = ["check_force_reference"]
 
 def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
     """The diagonal of a diagonal, non-negative (m, m) gain given as scalar, (m,) or (m, m)."""
-    if isinstance(value, (int, float, list, tuple)) and not isinstance(value, bool):
+    if _plain_number(value) or isinstance(value, (list, tuple)):
         # plain Python numbers (a literal or a TOML file): checked without array work
-        items = [value] * m if isinstance(value, (int, float)) else list(value)
-        if len(items) == m and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in items):
+        items = [value] * m if _plain_number(value) else list(value)
+        if len(items) == m and all(map(_plain_number, items)):
             d = [float(x) for x in items]
             if not all(map(math.isfinite, d)):
                 raise ParameterError(f"{name} must be finite; got {d}")

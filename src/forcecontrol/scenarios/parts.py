@@ -202,36 +202,23 @@ def _impedance_response(parts: dict[str, Any], times: Any) -> Any:
     """h_e(t) of the linear model of the impedance analysis, from rest at the start tip; None when it
     leaves a one-sided contact (or starts off it) at one of the times.
 
-    The loop is modelled as the simulator runs it, sampled: the law (9.31) reads x_k, ẋ_k and
-    h_k at t_k = k Ts, and the torque is held until t_{k+1} while the environment pushes with
-    h(t): between samples ``ẍ = a_k + M (h_k − h(t))``, ``M = J B⁻¹ Jᵀ`` the arm's mobility at
-    q0 (:func:`~forcecontrol.analysis.held_input_response`). As Ts → 0 this is the impedance
-    (9.32) ``M_d ẍ + K_D ẋ + K_P x = K_P x_d − h`` of ``impedance_response``.
+    The loop as the simulator runs it, sampled at the controller's Ts with the arm's mobility at
+    q0 (:func:`~forcecontrol.analysis.impedance_response` with ``sample_time`` and ``mobility``).
     """
     import numpy as np
 
-    from ..analysis import held_input_response
+    from ..analysis import impedance_response
     from ..simulation import contact_mobility
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
     K, rest, normal, De = _environment_matrix(env)
-    m = ctl.m
-    K = np.asarray(K, dtype=float)
-    De = np.zeros((m, m)) if De is None else np.asarray(De, dtype=float)
     q0 = np.asarray(parts["q0"], dtype=float)
-    x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)[:m]
-    Mob = contact_mobility(robot, q0)
-    W = np.linalg.inv(ctl.inertia)
-    I, Z = np.eye(m), np.zeros((m, m))
-    A = np.block([[Z, I], [-Mob @ K, -Mob @ De]])
-    B = np.vstack([Z, I])
-    F = np.hstack([-W @ ctl.stiffness + (Mob - W) @ K, -W @ ctl.damping + (Mob - W) @ De])
-    g = W @ (ctl.stiffness @ np.asarray(ref.position, dtype=float) + K @ np.asarray(rest, dtype=float))
-    z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([x0, np.zeros(m)]), times)
-    x, xd = z[:, :m], z[:, m:]
+    x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)[: ctl.m]
+    x, h = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, K, ref.position, rest, x0, times,
+                              environment_damping=De, sample_time=ctl.sample_time, mobility=contact_mobility(robot, q0))
     if normal is not None and np.any((x - rest) @ normal > 1e-9):  # off the plane: the spring model does not hold
         return None
-    return (x - rest) @ K.T + xd @ De.T
+    return h
 
 
 def _compliance_applies(parts: dict[str, Any]) -> bool:

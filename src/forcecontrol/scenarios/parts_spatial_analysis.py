@@ -150,10 +150,6 @@ def _spatial_impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _spatial_impedance_response_applies(parts: dict[str, Any]) -> bool:
-    return _spatial_impedance_applies(parts)
-
-
 def _coordinate_mobility(lin: _Linear6, robot: Any, q0: np.ndarray) -> np.ndarray:
     """``J_c B⁻¹ Jᵀ X``: the acceleration of the model coordinate per unit model wrench at q0.
 
@@ -161,6 +157,8 @@ def _coordinate_mobility(lin: _Linear6, robot: Any, q0: np.ndarray) -> np.ndarra
     for any coordinates: rotation vector on the desired frame, Euler angles in the base frame),
     J the geometric Jacobian and X the model wrench's map to the base frame.
     """
+    from ..spatial import wrap_angle
+
     q0 = np.asarray(q0, dtype=float)
     eps = 1e-6
     Jc = np.empty((6, q0.shape[0]))
@@ -168,7 +166,7 @@ def _coordinate_mobility(lin: _Linear6, robot: Any, q0: np.ndarray) -> np.ndarra
         dq = np.zeros_like(q0)
         dq[j] = eps
         d = lin.coordinate(robot.forward_kinematics(q0 + dq)) - lin.coordinate(robot.forward_kinematics(q0 - dq))
-        d[3:] = (d[3:] + np.pi) % (2.0 * np.pi) - np.pi  # Euler angles may wrap between the two poses
+        d[3:] = wrap_angle(d[3:])  # Euler angles may wrap between the two poses
         Jc[:, j] = d / (2.0 * eps)
     J = np.asarray(robot.jacobian(q0), dtype=float)
     return Jc @ np.linalg.solve(np.asarray(robot.mass_matrix(q0), dtype=float), J.T) @ lin.X
@@ -178,68 +176,57 @@ def _spatial_impedance_response(parts: dict[str, Any], times: Any) -> Any:
     """h_e(t) (base frame, (N, 6)) of the 6-D linear model from rest at the start pose; None when
     the one-sided contact would be left (or is not yet made) at one of the times.
 
-    The loop is modelled as the simulator runs it, sampled: the law reads the pose, twist and
-    wrench at t_k and the torque is held until t_{k+1} while the environment pushes with w(t):
-    between samples ``p̈ = a_k + M_c (w_k − w(t))``, ``M_c`` from :func:`_coordinate_mobility`
-    (:func:`~forcecontrol.analysis.held_input_response`); as Ts → 0 this is the impedance
-    ``M_d p̈ + K_D ṗ + K_P p = −w`` of ``impedance_response``.
+    The loop as the simulator runs it, sampled at the controller's Ts, with the mobility of the
+    model coordinate (:func:`_coordinate_mobility`): impedance by
+    :func:`~forcecontrol.analysis.impedance_response` with ``sample_time`` and ``mobility``,
+    admittance by :func:`_admittance_response`.
     """
-    from ..analysis import held_input_response
+    from ..analysis import impedance_response
     from ..controllers.admittance import AdmittanceController
 
     ctl, robot = parts["controller"], parts["robot"]
     lin = _linear_model(parts)
     q0 = np.asarray(parts["q0"], dtype=float)
-    x0 = np.asarray(robot.forward_kinematics(q0), dtype=float)
+    p0 = lin.coordinate(np.asarray(robot.forward_kinematics(q0), dtype=float))
     Mc = _coordinate_mobility(lin, robot, q0)
     if isinstance(ctl, AdmittanceController):
-        return _admittance_response(ctl, lin, Mc, x0, times)
-    W = np.linalg.inv(ctl.inertia)
-    K, D = lin.K, lin.D
-    I, Z = np.eye(6), np.zeros((6, 6))
-    A = np.block([[Z, I], [-Mc @ K, -Mc @ D]])
-    B = np.vstack([Z, I])
-    F = np.hstack([-W @ ctl.stiffness + (Mc - W) @ K, -W @ ctl.damping + (Mc - W) @ D])
-    g = W @ (K @ lin.rest)  # the desired pose is the model's origin
-    z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([lin.coordinate(x0), np.zeros(6)]), times)
-    p, pd = z[:, :6], z[:, 6:]
+        p, w = _admittance_response(ctl, lin, Mc, p0, times)
+    else:  # the desired pose is the model's origin
+        p, w = impedance_response(ctl.inertia, ctl.damping, ctl.stiffness, lin.K, np.zeros(6), lin.rest, p0, times,
+                                  environment_damping=lin.D, sample_time=ctl.sample_time, mobility=Mc)
     if lin.normal is not None and np.any((p - lin.rest) @ lin.normal > 1e-9):
         return None
-    return ((p - lin.rest) @ K.T + pd @ D.T) @ lin.X.T
+    return w @ lin.X.T
 
 
-def _admittance_response(ctl: Any, lin: _Linear6, Mc: np.ndarray, x0: np.ndarray, times: Any) -> Any:
-    """h_e(t) of admittance control (9.37), sampled as the controller runs it.
+def _admittance_response(ctl: Any, lin: _Linear6, Mc: np.ndarray, p0: np.ndarray, times: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(p, w) of admittance control (9.37), sampled as the controller runs it, from rest at p0.
 
     The compliant frame's state ``s = [z̃; z̃̇]`` advances by the controller's own exact ZOH step
     ``s_{k+1} = A_d s_k + G_d w_k`` with the measured wrench w_k (desired frame); the motion loop
     tracks the compliant frame, ``p_t = −z̃`` to first order, with
     ``a_k = p̈_t + K_D (ṗ_t − ṗ_k) + K_P (p_t − p_k)``, ``p̈_t = −M_t⁻¹ (w_k − K_Dt z̃̇ − K_Pt z̃)``,
-    and the torque is held while the environment pushes: ``p̈ = a_k + M_c (w_k − w(t))``.
+    and the torque is held while the environment pushes: ``p̈ = a_k + M_c (w_k − w(t))``
+    (:func:`~forcecontrol.analysis.contact_plant`).
     """
-    from ..analysis import held_input_response
+    from ..analysis import contact_plant, held_input_response
 
     Mt_inv = np.linalg.inv(ctl.inertia)
     K, D = lin.K, lin.D
     Kw = np.hstack([K, D])  # w = Kw [p; ṗ] − K p_r
     KPD = np.hstack([ctl.motion_stiffness, ctl.motion_damping])
-    I, Z = np.eye(6), np.zeros((6, 6))
-    A = np.block([[Z, I], [-Mc @ K, -Mc @ D]])
-    B = np.vstack([Z, I])
+    A, B = contact_plant(Mc, K, D)
     F = (Mc - Mt_inv) @ Kw - KPD
     H = Mt_inv @ np.hstack([ctl.stiffness, ctl.damping]) - KPD
-    g = Mt_inv @ (K @ lin.rest)
     controller = (H, ctl._Ad, ctl._Gd @ Kw, -ctl._Gd @ (K @ lin.rest))
-    z = held_input_response(A, B, F, g, ctl.sample_time, np.concatenate([lin.coordinate(x0), np.zeros(6)]), times,
+    z = held_input_response(A, B, F, Mt_inv @ (K @ lin.rest), ctl.sample_time, np.concatenate([p0, np.zeros(6)]), times,
                             controller=controller)
-    p, pd = z[:, :6], z[:, 6:]
-    if lin.normal is not None and np.any((p - lin.rest) @ lin.normal > 1e-9):
-        return None
-    return ((p - lin.rest) @ K.T + pd @ D.T) @ lin.X.T
+    p = z[:, :6]
+    return p, (p - lin.rest) @ K.T + z[:, 6:] @ D.T
 
 
 register_analysis(_spatial_impedance_applies, _spatial_impedance_analysis)
-register_response(_spatial_impedance_response_applies, _spatial_impedance_response)
+register_response(_spatial_impedance_applies, _spatial_impedance_response)
 
 
 # ----------------------------------------------------------------------------- 6-D hybrid (compliant)

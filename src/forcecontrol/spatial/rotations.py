@@ -29,6 +29,7 @@ __all__ = [
     "rotvec_to_rotation",
     "rotvec_T",
     "check_rotation",
+    "wrap_angle",
     "EULER_SINGULARITY_TOL",
 ]
 
@@ -37,6 +38,12 @@ def _rotation_class() -> Any:
     from scipy.spatial.transform import Rotation  # scipy.spatial costs ~0.1 s to import: only when needed
 
     return Rotation
+
+
+def wrap_angle(a: Any) -> Any:
+    """An angle (or an array of angles) [rad] brought into [−π, π): the difference of two XYZ
+    angles that name the same turn is 0, not 2π."""
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def skew(v: Any) -> np.ndarray:

@@ -81,21 +81,30 @@ def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, f
     return d, 0.0
 
 
+def _per_object(cache: dict[Any, Any] | None, tag: str, obj: Any, extra: tuple[Any, ...], compute: Any) -> Any:
+    """``compute()``, remembered in ``cache`` for this very object (and ``extra``).
+
+    The entry holds the object itself, so its ``id`` cannot be reused by another object while the
+    entry lives; ``cache=None`` computes every time.
+    """
+    if cache is None:
+        return compute()
+    key = (tag, id(obj), *extra)
+    held = cache.get(key)
+    if held is None or held[0] is not obj:
+        held = cache[key] = (obj, compute())
+    return held[1]
+
+
 def _reference_key(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
     """The hash of a reference's samples over the run (cases with equal samples share them in a block).
 
     A reference whose class declares ``describe_complete`` (its ``describe()`` says all that
     shapes the samples: set-points and trapezoidal paths) is sampled and hashed once per distinct
-    description in a sweep (``cache``); any other is sampled for every case.
+    description in a sweep (``cache``); any other is sampled for every case. The same object
+    again (a sweep shares built-in references between cases) is not described again.
     """
-    if cache is not None:  # the same object again (a sweep shares built-in references between cases)
-        held = cache.get(("object", id(ref), N, Ts))
-        if held is not None and held[0] is ref:  # the object itself is held: its id cannot be reused
-            return held[1]
-    digest = _reference_digest(ref, N, Ts, cache)
-    if cache is not None:
-        cache[("object", id(ref), N, Ts)] = (ref, digest)
-    return digest
+    return _per_object(cache, "reference", ref, (N, Ts), lambda: _reference_digest(ref, N, Ts, cache))
 
 
 def _reference_digest(ref: Any, N: int, Ts: float, cache: dict[Any, Any] | None) -> str:
@@ -155,17 +164,13 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
     if parts["substeps"] is not None:
         nsub = int(parts["substeps"])
     else:
-        mobility = None
-        if memo is not None:
-            key = ("mobility", id(robot), q0.tobytes())
-            held = memo.get(key)
-            if held is None or held[0] is not robot:  # the object itself is held: its id cannot be reused
-                try:
-                    held = memo[key] = (robot, contact_mobility(robot, q0))
-                except np.linalg.LinAlgError:
-                    held = (robot, None)
-            mobility = held[1]
-        nsub = choose_substeps(robot, env, q0, Ts, mobility=mobility)
+        def mobility() -> np.ndarray | None:
+            try:
+                return contact_mobility(robot, q0)
+            except np.linalg.LinAlgError:  # choose_substeps falls back on B alone
+                return None
+
+        nsub = choose_substeps(robot, env, q0, Ts, mobility=_per_object(memo, "mobility", robot, (q0.tobytes(),), mobility))
     d, f_ref = _force_direction(env, ref, N * Ts)
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
     compiled = (
