@@ -20,10 +20,8 @@ import numpy as np
 from .._validate import as_gain_matrix, as_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
-__all__ = [
-    "AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response", "held_input_response",
-    "contact_plant",
-]
+__all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response",
+           "held_input_response", "contact_plant"]
 
 
 @dataclass(frozen=True)
