@@ -95,6 +95,22 @@ class ImpedanceModes:
     directions: np.ndarray
     in_contact: bool
 
+    def named(self, axes: Any, *, with_directions: bool = True) -> dict[str, Any]:
+        """``omega_n_<name>`` and ``zeta_<name>`` of each mode, named by its axis when every mode lies
+        along one of ``axes`` (a distinct one each: the contact is axis-aligned), else numbered from 1
+        (with ``mode_<i>``, its direction, when ``with_directions``)."""
+        m = len(axes)
+        D = np.abs(self.directions)
+        aligned = bool(np.all(np.abs(D.max(axis=1) - 1.0) < 1e-9)) and len(set(D.argmax(axis=1).tolist())) == m
+        out: dict[str, Any] = {}
+        for i in range(m):
+            name = axes[int(D[i].argmax())] if aligned else str(i + 1)
+            out[f"omega_n_{name}"] = float(self.natural_frequencies[i])
+            out[f"zeta_{name}"] = float(self.damping_ratios[i])
+            if with_directions and not aligned:
+                out[f"mode_{name}"] = [float(v) for v in self.directions[i]]
+        return out
+
 
 def _model_inputs(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
                   environment_damping: Any) -> tuple[np.ndarray, ...]:

@@ -173,7 +173,6 @@ def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     axes (``omega_n_x``, ``zeta_x``, ...) when the contact is axis-aligned (Example 9.2), else per
     mode (``omega_n_1``, ``zeta_1``, ``mode_1`` = its direction), ascending.
     """
-    import numpy as np
 
     from ..analysis import impedance_modes
 
@@ -186,14 +185,7 @@ def _impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     for i, a in enumerate(axes):
         out[f"steady_{a}"] = float(md.position[i])
         out[f"steady_f{a}"] = float(md.contact_force[i])
-    D = np.abs(md.directions)
-    aligned = bool(np.all(np.abs(D.max(axis=1) - 1.0) < 1e-9)) and len(set(D.argmax(axis=1).tolist())) == ctl.m
-    for i in range(ctl.m):
-        name = axes[int(D[i].argmax())] if aligned else str(i + 1)
-        out[f"omega_n_{name}"] = float(md.natural_frequencies[i])
-        out[f"zeta_{name}"] = float(md.damping_ratios[i])
-        if not aligned:
-            out[f"mode_{name}"] = [float(v) for v in md.directions[i]]
+    out.update(md.named(axes))
     out["in_contact"] = md.in_contact
     return out
 

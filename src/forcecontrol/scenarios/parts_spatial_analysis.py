@@ -140,12 +140,7 @@ def _spatial_impedance_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     for i in range(6):
         out[f"steady_{_AXES[i]}"] = float(x_e[i])
         out[f"steady_{_WRENCH[i]}"] = float(wrench[i])
-    D = np.abs(md.directions)
-    aligned = bool(np.all(np.abs(D.max(axis=1) - 1.0) < 1e-9)) and len(set(D.argmax(axis=1).tolist())) == 6
-    for i in range(6):
-        name = _AXES[int(D[i].argmax())] if aligned else str(i + 1)
-        out[f"omega_n_{name}"] = float(md.natural_frequencies[i])
-        out[f"zeta_{name}"] = float(md.damping_ratios[i])
+    out.update(md.named(_AXES, with_directions=False))
     out["in_contact"] = md.in_contact
     return out
 
