@@ -12,10 +12,13 @@ controller stack Safety(ContactSupervisor(impedance, inner velocity loop)), writ
 * overruns (a cycle ending after the next tick);
 * the cost of each layer alone in a tight loop (no sleeping), to see where the time goes;
 * the baseline: the same schedule with no work at all, whose late wake-ups are the OS's (on a
-  general-purpose kernel without real-time priority an overrun can come from there alone).
+  general-purpose kernel an overrun can come from there alone; in a virtual machine, from the host).
+
+The loops run under :func:`forcecontrol.realtime.realtime_priority` (SCHED_FIFO 80, memory locked)
+when the kernel grants it, as the example does; ``--no-realtime`` measures ordinary scheduling.
 
 Wall-clock numbers depend on the machine and its load (a shared machine shows long tails):
-the script asserts nothing. Run: ``python benchmarks/bench_user_loop.py [--cycles 5000]``.
+the script asserts nothing. Run: ``python benchmarks/bench_user_loop.py [--cycles 10000] [--no-realtime]``.
 """
 
 from __future__ import annotations
@@ -88,7 +91,17 @@ def layer_costs(n: int = 5000) -> dict[str, float]:
     return out
 
 
-def main(cycles: int = 5000) -> dict[str, object]:
+def main(cycles: int = 5000, realtime: bool = True) -> dict[str, object]:
+    import contextlib
+
+    from forcecontrol.realtime import realtime_priority
+
+    with realtime_priority(80) if realtime else contextlib.nullcontext() as rt:
+        print(f"scheduling: {rt.summary() if rt else 'ordinary (--no-realtime)'}")
+        return _measure(cycles)
+
+
+def _measure(cycles: int) -> dict[str, object]:
     robot = own_loop.StandInArm(fc.CHAPTER_ARM.inverse_kinematics([0.95, 0.0]), samples=cycles + 1)
     controller = own_loop.make_controller()
     reference = fc.LinearPath([0.95, 0.0], [1.05, 0.0], 0.6, accel_time=0.1, force=[10.0, 0.0])
@@ -112,7 +125,7 @@ def main(cycles: int = 5000) -> dict[str, object]:
     bare = bare_loop(cycles)
     print(f"\nbaseline, the same RateLimiter loop doing no work ({cycles} cycles, heap frozen): "
           f"wake-ups more than 0.5 ms late: {bare['late_over_500us']}, max lateness {bare['max_late_us']:.0f} µs "
-          "(what the OS alone adds on this machine, without real-time priority)")
+          "(what the OS alone adds on this machine)")
     out["bare_loop"] = bare
     return out
 
@@ -133,4 +146,6 @@ def bare_loop(cycles: int) -> dict[str, float]:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=5000)
-    main(ap.parse_args().cycles)
+    ap.add_argument("--no-realtime", dest="realtime", action="store_false", help="ordinary scheduling")
+    args = ap.parse_args()
+    main(args.cycles, args.realtime)

@@ -22,14 +22,17 @@ When the loop misses deadlines (overruns > 0, or lateness p99 a sizeable part of
 see :mod:`forcecontrol.realtime` for the full list. In short: find out whether the compute or
 the wake-up is late (the report separates them); keep logging, plotting and allocation out of
 the loop and warm up compiled code before the motors are on; lower the rate (500 Hz suffices
-for force loops of tens of Hz bandwidth; retune for the new sample time); pin the process to an
-idle core with a real-time priority on a PREEMPT_RT kernel; keep full garbage collections out of
-the loop (:func:`forcecontrol.realtime.frozen_heap`, used below);
+for force loops of tens of Hz bandwidth; retune for the new sample time); run the loop with a
+real-time priority (:func:`forcecontrol.realtime.realtime_priority`, used below: SCHED_FIFO and
+memory locked when the user may have them; the report says what was granted), on a PREEMPT_RT
+kernel; keep full garbage collections out of the loop (:func:`forcecontrol.realtime.frozen_heap`,
+used below);
 or leave the 1 kHz loop to the robot's own real-time controller (libfranka, UR RTDE,
 ros2_control) and send it set-points from Python at a lower rate. Never let an overrun go
 unnoticed: stop the arm after a few consecutive ones.
 
-Run: ``python examples/own_loop.py [--seconds 2]`` (both arms, 2 s of real time each).
+Run: ``python examples/own_loop.py [--seconds 2] [--no-realtime]`` (both arms, 2 s of real time each;
+``--no-realtime`` keeps the ordinary scheduling, to compare).
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ from typing import Protocol
 import numpy as np
 
 import forcecontrol as fc
-from forcecontrol.realtime import LoopStatistics, RateLimiter, frozen_heap
+from forcecontrol.realtime import LoopStatistics, RateLimiter, frozen_heap, realtime_priority
 from forcecontrol.safety import Safety
 from forcecontrol.sensors import RealisticForceSensor
 from forcecontrol.transitions import ContactSupervisor
@@ -198,14 +201,17 @@ def panda(cycles: int) -> dict[str, object] | None:
     return stats
 
 
-def main(seconds: float = 2.0) -> dict[str, LoopStatistics]:
+def main(seconds: float = 2.0, realtime: bool = True) -> dict[str, LoopStatistics]:
+    import contextlib
     import os
 
     cycles = int(round(seconds / PERIOD))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"machine: {os.cpu_count()} cores, load average {load:.2f} (a loaded machine shows long tails and overruns)")
-    out = {"chapter arm": report("chapter arm", chapter_arm(cycles))}
-    stats = panda(cycles)
+    with realtime_priority(80) if realtime else contextlib.nullcontext() as rt:
+        print(f"scheduling: {rt.summary() if rt else 'ordinary (--no-realtime)'}")
+        out = {"chapter arm": report("chapter arm", chapter_arm(cycles))}
+        stats = panda(cycles)
     if stats is not None:
         out["panda"] = report("panda", stats)
     for name, st in out.items():
@@ -217,4 +223,7 @@ def main(seconds: float = 2.0) -> dict[str, LoopStatistics]:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=2.0, help="real time per arm [s]")
-    main(ap.parse_args().seconds)
+    ap.add_argument("--no-realtime", dest="realtime", action="store_false",
+                    help="keep the ordinary scheduling (no SCHED_FIFO, no memory lock)")
+    args = ap.parse_args()
+    main(args.seconds, args.realtime)

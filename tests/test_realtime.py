@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -148,6 +150,22 @@ def test_own_loop_example_runs_both_arms_and_reports_statistics():
     assert st.cycles == 100
 
 
+def test_own_loop_example_as_a_user_runs_it_reports_its_scheduling():
+    """``python examples/own_loop.py``: the loops run under realtime_priority and the report says what
+    the kernel granted (or refused, and why); ``--no-realtime`` says ordinary scheduling."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "own_loop.py"
+    for flags, expect in (([], r"scheduling: (SCHED_FIFO priority 80|.*refused: )"),
+                          (["--no-realtime"], r"scheduling: ordinary \(--no-realtime\)")):
+        out = subprocess.run([sys.executable, str(path), "--seconds", "0.05", *flags], capture_output=True, text=True,
+                             check=True).stdout
+        assert re.search(expect, out), out
+        assert re.search(r"chapter arm: 50 cycles at 1000 Hz", out), out
+
+
 def test_a_read_only_reference_runs_the_same_compiled_step_no_new_specialisation():
     """A path's constant force is a read-only array: stepping with it after a writable one must not
     compile or load another specialisation mid-loop (that cost one 8 ms cycle at first contact)."""
@@ -190,3 +208,141 @@ def test_frozen_heap_freezes_for_the_loop_and_unfreezes_after():
         assert gc.get_freeze_count() > 1000  # the library's heap, out of the collector's way
         assert gc.isenabled()
     assert gc.get_freeze_count() == 0
+
+
+# --- realtime_priority: what the kernel grants, checked through the kernel's own getters --------
+
+needs_sched = pytest.mark.skipif(not hasattr(__import__("os"), "sched_setscheduler"), reason="no POSIX scheduling API")
+
+
+@pytest.mark.parametrize("priority", [0, 100, 1.5, True, "80"])
+def test_realtime_priority_refuses_a_bad_priority(priority):
+    from forcecontrol.realtime import realtime_priority
+
+    with pytest.raises(ParameterError, match="priority must be an integer in 1..99"):
+        with realtime_priority(priority):
+            pass
+
+
+@needs_sched
+def test_realtime_priority_refuses_a_cpu_the_process_cannot_use():
+    import os
+
+    from forcecontrol.realtime import realtime_priority
+
+    bad = max(os.sched_getaffinity(0)) + 1
+    with pytest.raises(ParameterError, match=rf"cpu must be one of the CPUs .*got {bad}"):
+        with realtime_priority(cpu=bad):
+            pass
+
+
+@needs_sched
+def test_realtime_priority_sets_fifo_and_pins_then_restores_or_reports_the_refusal():
+    """On a machine that grants it (root here), the kernel reports SCHED_FIFO at the priority and the
+    pinned CPU inside the block; where it is refused, the refusal is reported and nothing changed.
+    Either way the policy, priority and CPUs are back to what they were after the block."""
+    import os
+
+    from forcecontrol.realtime import realtime_priority
+
+    policy0, prio0, cpus0 = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority, os.sched_getaffinity(0)
+    cpu = min(cpus0)
+    with realtime_priority(7, cpu=cpu, lock_memory=False) as rt:
+        if "SCHED_FIFO" in " ".join(rt.refused):
+            assert os.sched_getscheduler(0) == policy0 and rt.policy != "SCHED_FIFO"
+        else:
+            assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 7
+            assert rt.policy == "SCHED_FIFO" and rt.priority == 7
+        if not any("CPU" in r for r in rt.refused):
+            assert os.sched_getaffinity(0) == {cpu} and rt.cpus == (cpu,)
+        assert not rt.memory_locked
+    assert os.sched_getscheduler(0) == policy0 and os.sched_getparam(0).sched_priority == prio0
+    assert os.sched_getaffinity(0) == cpus0
+
+
+@needs_sched
+def test_realtime_priority_reports_or_raises_a_refused_policy_and_restores_after_an_error(monkeypatch):
+    """A kernel that says EPERM (an unprivileged user): reported with the reason, or RealtimeError when
+    strict; the CPU pinning granted before the error is undone."""
+    import errno
+    import os
+
+    from forcecontrol.errors import RealtimeError
+    from forcecontrol.realtime import realtime_priority
+
+    def eperm(*_):
+        raise PermissionError(errno.EPERM, os.strerror(errno.EPERM))
+
+    monkeypatch.setattr(os, "sched_setscheduler", eperm)
+    cpus0 = os.sched_getaffinity(0)
+    with realtime_priority(50, lock_memory=False) as rt:
+        assert not rt.granted and rt.policy != "SCHED_FIFO"
+        assert rt.refused == ("SCHED_FIFO priority 50: Operation not permitted (needs root or CAP_SYS_NICE)",)
+        assert "refused: SCHED_FIFO priority 50" in rt.summary()
+    with pytest.raises(RealtimeError, match="SCHED_FIFO priority 50: Operation not permitted"):
+        with realtime_priority(50, cpu=min(cpus0), lock_memory=False, strict=True):
+            pytest.fail("the block must not run when strict and refused")
+    assert os.sched_getaffinity(0) == cpus0
+
+
+def test_realtime_priority_locks_and_unlocks_memory_through_libc(monkeypatch):
+    """mlockall(MCL_CURRENT | MCL_FUTURE) on entry, munlockall on exit (a stand-in libc records the
+    calls: locking the whole test process is not this test's business); a failing call is reported
+    with errno's text."""
+    import ctypes
+    import errno
+    import platform
+
+    import forcecontrol.realtime as rtmod
+
+    calls = []
+
+    class FakeLibc:
+        def __init__(self, result):
+            self.result = result
+
+        def mlockall(self, flags):
+            calls.append(("mlockall", flags))
+            if self.result:
+                ctypes.set_errno(errno.ENOMEM)
+            return self.result
+
+        def munlockall(self):
+            calls.append(("munlockall",))
+            return 0
+
+    monkeypatch.setattr(platform, "system", lambda: "Linux")
+    monkeypatch.setattr(platform, "machine", lambda: "x86_64")
+    monkeypatch.setattr(rtmod, "_libc", lambda: FakeLibc(0))
+    monkeypatch.setattr(rtmod.os, "sched_setscheduler", lambda *a: None, raising=False)
+    with rtmod.realtime_priority(10) as rt:
+        assert rt.memory_locked and calls == [("mlockall", 3)]
+    assert calls == [("mlockall", 3), ("munlockall",)]
+    calls.clear()
+    monkeypatch.setattr(rtmod, "_libc", lambda: FakeLibc(-1))
+    with rtmod.realtime_priority(10) as rt:
+        assert not rt.memory_locked
+        assert any(r.startswith("memory lock: Cannot allocate memory") for r in rt.refused)
+    assert calls == [("mlockall", 3)]
+
+
+@pytest.mark.skipif(__import__("platform").system() != "Linux", reason="mlockall and /proc are Linux's")
+def test_realtime_priority_memory_lock_as_the_kernel_reports_it():
+    """In a fresh process (locking the test process's heap is not this test's business): the
+    kernel's VmLck is the whole process inside the block when the lock is granted, and 0 after."""
+    import subprocess
+    import sys
+
+    code = (
+        "from forcecontrol.realtime import realtime_priority\n"
+        "def vmlck():\n"
+        "    return int(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmLck')))\n"
+        "with realtime_priority(5) as rt:\n"
+        "    inside = vmlck()\n"
+        "print(rt.memory_locked, inside, vmlck(), any(r.startswith('memory lock') for r in rt.refused))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    locked, inside, after, refused = out[0] == "True", int(out[1]), int(out[2]), out[3] == "True"
+    assert locked != refused
+    assert after == 0
+    assert (inside > 10_000) if locked else (inside == 0)  # kB: NumPy alone maps tens of MB

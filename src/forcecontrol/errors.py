@@ -18,6 +18,7 @@ __all__ = [
     "WorkspaceError",
     "FrameError",
     "SingularityError",
+    "RealtimeError",
     "DriftWarning",
     "BandwidthWarning",
 ]
@@ -79,6 +80,12 @@ class SimulationDivergedError(ForceControlError, RuntimeError):
 
 class SingularityError(ForceControlError, ArithmeticError):
     """A control law met a singular Jacobian (or another singular matrix) it must invert."""
+
+
+class RealtimeError(ForceControlError, OSError):
+    """The operating system refused a real-time setting asked for with ``strict=True``
+    (:func:`forcecontrol.realtime.realtime_priority`): scheduling policy, CPU pinning or memory locking.
+    """
 
 
 class DriftWarning(UserWarning):
