@@ -93,3 +93,21 @@ def test_force_reference_check_warns_as_before_on_a_tilted_plane():
         assert check_force_reference(10.0 * n, K, [True, True])
     with pytest.warns(DriftWarning, match="outside the range"):
         assert not check_force_reference(10.0 * n + [0.5, 0.0], K, [True, True])
+
+
+def test_closed_form_largest_eigenvalue_of_a_2x2_equals_eigvals():
+    """The 2 x 2 shortcut of choose_substeps against numpy.linalg.eigvals: products of PSD matrices
+    (the contact modes, real eigenvalues), general matrices (complex pairs: the real part), and a
+    non-finite matrix refused as eigvals refuses it."""
+    from forcecontrol.simulation import _largest_real_eigenvalue
+
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        a, b = rng.standard_normal((2, 2)), rng.standard_normal((2, 2))
+        for A in (a @ a.T @ (b @ b.T), 1e4 * a, np.diag(rng.uniform(0, 1e6, 2)) @ (a @ a.T)):
+            ref = float(np.max(np.linalg.eigvals(A).real))
+            assert _largest_real_eigenvalue(A) == pytest.approx(ref, rel=1e-9, abs=1e-9 * np.abs(A).max())
+    A3 = rng.standard_normal((3, 3))
+    assert _largest_real_eigenvalue(A3) == float(np.max(np.linalg.eigvals(A3).real))
+    with pytest.raises(np.linalg.LinAlgError):
+        _largest_real_eigenvalue(np.array([[np.nan, 0.0], [0.0, 1.0]]))

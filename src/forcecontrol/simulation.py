@@ -68,6 +68,19 @@ def contact_mobility(robot: RobotModel, q0: np.ndarray) -> np.ndarray:
     return J @ np.linalg.solve(np.asarray(robot.mass_matrix(q0)), J.T)
 
 
+def _largest_real_eigenvalue(A: np.ndarray) -> float:
+    """The largest real part among A's eigenvalues; a 2 x 2 (the planar task) in closed form,
+    ``tr/2 + sqrt((tr/2)² − det)`` (a tenth of ``numpy.linalg.eigvals``' cost: a sweep calls this
+    once per case built), larger matrices by ``eigvals``."""
+    if A.shape == (2, 2):
+        half = 0.5 * (A[0, 0] + A[1, 1])
+        disc = half * half - (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+        if not (math.isfinite(half) and math.isfinite(disc)):
+            raise np.linalg.LinAlgError("Array must not contain infs or NaNs")  # as eigvals says it
+        return float(half + math.sqrt(disc)) if disc > 0.0 else float(half)
+    return float(np.max(np.linalg.eigvals(A).real))
+
+
 def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray, sample_time: float, *,
                     mobility: np.ndarray | None = None) -> int:
     """Integration substeps per sample so that the stiffest contact mode is resolved.
@@ -89,7 +102,7 @@ def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray,
         if K is not None and K.shape == mobility.shape:
             # the contact modes themselves: ω² = eigenvalues of B_x⁻¹ K (both PSD, so real, >= 0);
             # a normal damping c acts on the same mode: rate c/m_eff = (c/k) ω²
-            w2 = max(float(np.max(np.linalg.eigvals(mobility @ K).real)), 0.0)
+            w2 = max(_largest_real_eigenvalue(mobility @ K), 0.0)
             omega, damping_rate = math.sqrt(w2), (c / k * w2 if k > 0 else 0.0)
         else:
             lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())

@@ -61,13 +61,18 @@ def _shared_reference(where: str, table: Any, ctx: dict[str, Any], memo: dict[An
     return ref
 
 
-def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] | None = None) -> dict[str, Any]:
+def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] | None = None, *,
+               sensor: ForceSensor | None = None) -> dict[str, Any]:
     """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings.
 
     ``memo`` (a dict the caller keeps, e.g. for the cases of one sweep): tables equal to ones
     already checked are not checked again, and the chapter's planar arm (immutable) with its q0
     and the built-in set-point and path references are built once per distinct table. Every
     other part (environment, controller, sensor, any URDF robot) is built anew for each case.
+
+    ``sensor``: a sensor the caller already built with :func:`build_sensor` from this case's
+    ``[sensor]`` table at its sample time, used instead of building it again (a sweep shares
+    one between the cases whose sensor values are equal).
     """
     cfg = case.config
     unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
@@ -90,7 +95,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
         robot_key = ("robot", json.dumps(rt, sort_keys=True, default=repr))
         if robot_key in memo:
             robot, q0 = memo[robot_key]
-            return _build_rest(case, where, memo, rt, robot, q0.copy())
+            return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor)
     if rt["model"] in ("panda", "ur5", "urdf"):
         from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
 
@@ -132,11 +137,11 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
         raise ScenarioError(f"{where}: [robot]: {exc}") from exc
     if robot_key is not None:
         memo[robot_key] = (robot, q0.copy())  # type: ignore[index]
-    return _build_rest(case, where, memo, rt, robot, q0)
+    return _build_rest(case, where, memo, rt, robot, q0, sensor)
 
 
 def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dict[str, Any], robot: Any,
-                q0: np.ndarray) -> dict[str, Any]:
+                q0: np.ndarray, sensor: ForceSensor | None) -> dict[str, Any]:
     """The parts after the robot: environment, controller, reference, sensor, actuator and the settings."""
     cfg = case.config
     Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
@@ -150,7 +155,7 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     ctx["environment"] = env
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx, memo)
     ref = _shared_reference(where, cfg["reference"], ctx, memo)
-    sensor = build_sensor(where, cfg.get("sensor"), Ts)
+    sensor = build_sensor(where, cfg.get("sensor"), Ts) if sensor is None else sensor
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     for name, part in (("environment", env), ("reference", ref)):
         if part.dim != robot.task_dim:

@@ -207,8 +207,6 @@ def _batch_sensor(sensor: Any) -> bool:
 
 def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor: Any, first: np.ndarray) -> CaseJob:
     """One case: the kernel's packed arrays (compiled plants and sensors) or its parts for simulate()."""
-    from ..controllers.base import Measurement, reset_prechecked
-
     p = plant.parts
     job = CaseJob(plant.Ts, plant.N, plant.nsub, plant.window, plant.d, plant.f_ref, plant.ref_key,
                   case_id=case_id, label=label, values=values, fast=False, reference=p["reference"], sensor=sensor)
@@ -216,10 +214,12 @@ def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor
         job.parts = {k: p[k] for k in ("robot", "environment", "controller", "reference", "q0", "qd0", "actuator")}
         job.parts["sensor"] = sensor
         return job
+    from ..controllers import base  # a module import: a third of a from-import's cost, once per case
+
     ctl = p["controller"]
     # the controller's reset exactly as simulate() does it (same first noise sample); the packed
     # parameters and state are copied, so the next case may reset the same controller
-    reset_prechecked(ctl, Measurement(plant.q0, plant.qd0, plant.h0 + first), plant.ref0)  # checked parts
+    base.reset_prechecked(ctl, base.Measurement(plant.q0, plant.qd0, plant.h0 + first), plant.ref0)  # checked parts
     job.fast = True
     job.K, job.env_kind, job.env_p = plant.K, int(p["environment"].kind), plant.env_p
     job.law = ctl.compiled_law

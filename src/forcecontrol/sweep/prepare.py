@@ -179,6 +179,9 @@ def prepare_sweep(
     memo: dict[Any, Any] = {}  # tables already checked, the planar arm already built (build_case)
     plant_params = [p for p in definition.parameters if p.keys[0] != "sensor"]
     sensor_params = [p for p in definition.parameters if p.keys[0] == "sensor"]
+    # the plant's and the sensor's share of each assignment, as hashable keys (once, not per case)
+    keys = [(tuple(_value_key(values[p.path]) for p in plant_params), tuple(_value_key(values[p.path]) for p in sensor_params))
+            for values in assignments]
     cid = 0
     total = len(selected) * len(assignments)
     with warnings.catch_warnings():
@@ -189,9 +192,7 @@ def prepare_sweep(
             # set of non-sensor values, the sensor once per distinct sensor values
             plants: dict[tuple[Any, ...], _Plant] = {}
             sensors: dict[tuple[Any, ...], tuple[Any, np.ndarray]] = {}
-            for values in assignments:
-                pkey = tuple(_value_key(values[p.path]) for p in plant_params)
-                skey = tuple(_value_key(values[p.path]) for p in sensor_params)
+            for values, (pkey, skey) in zip(assignments, keys):
                 try:
                     job = None
                     plant = plants.get(pkey)
@@ -210,7 +211,10 @@ def prepare_sweep(
                         cfg = copy_tree(case.config)
                         for p in definition.parameters:
                             _apply(cfg, p, values[p.path], case.label)
-                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values), memo=memo)
+                        Ts = cfg.get("sample_time", 1e-3)  # the sensor of these values at this Ts, if built
+                        known = sensors.get((skey, Ts)) if type(Ts) is float else None
+                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values), memo=memo,
+                                           sensor=None if known is None else known[0])
                         own = _plant(case.label, built, ref_keys, memo)
                         plants.setdefault(pkey, own)
                         sensor = built["sensor"]
