@@ -94,3 +94,22 @@ def test_copy_tree_is_a_deep_copy():
     assert out["a"] == data["a"] and out["a"] is not data["a"]
     assert out["b"]["c"] == data["b"]["c"] and out["b"]["c"][0] is not data["b"]["c"][0]
     assert np.array_equal(out["e"], data["e"]) and out["e"] is not data["e"]
+
+
+def test_a_sensor_handed_to_build_case_is_the_cases_sensor_and_a_sweep_shares_it_per_sensor_values():
+    """build_case(sensor=) uses the given sensor; in a sweep over stiffness x seed, the cases of
+    one seed share one sensor object across plants, and each reads the seed it was given."""
+    from forcecontrol.scenarios.build import build_sensor
+    from forcecontrol.sweep import SweepDefinition, prepare_sweep
+
+    case = load_scenario("example-9.3").cases[0]
+    s = build_sensor("x", {"noise_std": 0.3, "seed": 4}, 1e-3)
+    assert build_case(case, sensor=s)["sensor"] is s
+    d = SweepDefinition.from_options({"environment.stiffness": [1e3, 1e4, 1e5], "sensor.seed": [1, 2],
+                                      "sensor.noise_std": [0.2]}, cases=["1"])
+    jobs = prepare_sweep("example-9.3", d).jobs
+    by_seed = {}
+    for j in jobs:
+        assert j.sensor.seed == j.values["sensor.seed"] and float(j.sensor.noise_std) == 0.2
+        by_seed.setdefault(j.values["sensor.seed"], set()).add(id(j.sensor))
+    assert {k: len(v) for k, v in by_seed.items()} == {1: 1, 2: 1}
