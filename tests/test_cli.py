@@ -205,3 +205,28 @@ def test_run_does_not_import_python_control():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "False"
+
+
+def test_console_script_main_tunes_the_collector_for_the_command_and_restores_it():
+    """``forcecontrol.cli:main`` (the console script and ``python -m forcecontrol``): the command runs
+    with COMMAND_GC_THRESHOLDS, the thresholds are back to Python's after it, and the heap is
+    frozen for the interpreter's shutdown; the command's output and exit code are typer's."""
+    import subprocess
+    import sys
+
+    code = (
+        "import atexit, gc\n"
+        "from forcecontrol.cli import main\n"
+        "from forcecontrol.cli.app import COMMAND_GC_THRESHOLDS, app\n"
+        "before = gc.get_threshold()\n"
+        "seen = []\n"
+        "app.command('probe-gc')(lambda: seen.append(gc.get_threshold()))\n"
+        "atexit.register(lambda: print('gc', seen == [COMMAND_GC_THRESHOLDS], gc.get_threshold() == before,"
+        " gc.get_freeze_count() > 1000))\n"
+        "main(['probe-gc'])\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "gc True True True"
+    res = subprocess.run([sys.executable, "-m", "forcecontrol", "--version"], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and "forcecontrol" in res.stdout

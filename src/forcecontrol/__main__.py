@@ -1,5 +1,5 @@
 """``python -m forcecontrol``: the command line."""
 
-from forcecontrol.cli import app
+from forcecontrol.cli import main
 
-app(prog_name="forcecontrol")
+main()

@@ -308,5 +308,27 @@ def _print_summary(run) -> None:
         console.print(f"{k}: {v}", markup=False, highlight=False)
 
 
-def main() -> None:  # pragma: no cover
-    app()
+#: the collector's thresholds while a command runs (Python's defaults: 700, 10, 10). Start-up
+#: imports NumPy, Numba, pydantic and matplotlib: about a million long-lived objects, which the
+#: default gen-0 threshold collects hundreds of times over (0.1–0.2 s of a 1 s command).
+COMMAND_GC_THRESHOLDS = (50_000, 20, 20)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The console script ``forcecontrol``: the typer app, with the collector tuned for a command.
+
+    While the command runs, the cyclic garbage collector runs less often
+    (:data:`COMMAND_GC_THRESHOLDS`; cycles are still collected). When it ends, the heap is frozen
+    (``gc.freeze``) so that the interpreter's shutdown does not traverse it again (0.2–0.3 s after
+    a run that loaded the compiled kernels); files are closed by then, and the streams are flushed
+    by the interpreter as usual.
+    """
+    import gc
+
+    old = gc.get_threshold()
+    gc.set_threshold(*COMMAND_GC_THRESHOLDS)
+    try:
+        app(args=argv, prog_name="forcecontrol")
+    finally:
+        gc.set_threshold(*old)
+        gc.freeze()
