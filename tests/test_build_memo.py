@@ -113,3 +113,36 @@ def test_a_sensor_handed_to_build_case_is_the_cases_sensor_and_a_sweep_shares_it
         assert j.sensor.seed == j.values["sensor.seed"] and float(j.sensor.noise_std) == 0.2
         by_seed.setdefault(j.values["sensor.seed"], set()).add(id(j.sensor))
     assert {k: len(v) for k, v in by_seed.items()} == {1: 1, 2: 1}
+
+
+def test_prepare_sweep_pauses_the_collector_while_building_and_restores_it():
+    """The cyclic collector is off while the cases are built and as it was after (on or off),
+    also when a case fails."""
+    import gc
+
+    import forcecontrol.sweep.prepare as prep
+    from forcecontrol.sweep import SweepDefinition, SweepError, prepare_sweep
+
+    seen = []
+    real = prep._job
+
+    def spy(*args, **kwargs):
+        seen.append(gc.isenabled())
+        return real(*args, **kwargs)
+
+    d = SweepDefinition.from_options({"environment.stiffness": [1e3, 1e4]}, cases=["1"])
+    try:
+        prep._job = spy
+        assert gc.isenabled()
+        prepare_sweep("example-9.3", d)
+        assert seen == [False, False] and gc.isenabled()
+        gc.disable()
+        prepare_sweep("example-9.3", d)
+        assert not gc.isenabled()
+        gc.enable()
+        with pytest.raises(SweepError):
+            prepare_sweep("example-9.3", SweepDefinition.from_options({"environment.stiffness": [-1.0]}, cases=["1"]))
+        assert gc.isenabled()
+    finally:
+        prep._job = real
+        gc.enable()

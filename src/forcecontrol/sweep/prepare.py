@@ -8,9 +8,11 @@ cases go through :func:`forcecontrol.simulation.simulate` one by one (:mod:`.blo
 from __future__ import annotations
 
 import copy
+import gc
 import json
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -126,6 +128,24 @@ def _select_cases(scn: Any, wanted: tuple[str, ...]) -> list[tuple[int, Any]]:
     return out
 
 
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """The cyclic garbage collector off while the cases are built (back as it was after).
+
+    Building thousands of cases grows the heap steadily, so the collector's full passes come
+    back over an ever larger heap: measured on 5,010 cases, one pass in a few preparations
+    added 10–20 µs per case. What the cases allocate and drop is freed by reference counting
+    as usual; cycles (if any) are collected after.
+    """
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
 def _value_key(v: Any) -> tuple[str, Any]:
     """A hashable key of a swept value (its type kept: 1, 1.0 and True do not build the same case)."""
     return (type(v).__name__, v if isinstance(v, (bool, int, float, str)) else json.dumps(v, sort_keys=True))
@@ -184,7 +204,7 @@ def prepare_sweep(
             for values in assignments]
     cid = 0
     total = len(selected) * len(assignments)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _collector_paused():
         warnings.simplefilter("ignore", DriftWarning)  # reported when the case runs
         for _, case in selected:
             row_label = sweep_label(case.label, case.overrides, list(definition.parameters))
