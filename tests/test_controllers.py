@@ -200,3 +200,33 @@ def test_a_nan_sample_does_not_corrupt_the_integrator():
     with pytest.raises(ParameterError, match=r"reference.force is not finite at t = 0.003 s"):
         ctl.step(0.003, fc.Measurement(q, np.zeros(2), np.zeros(2)), fc.Reference.setpoint([1.0, 0.0], [np.nan, 0.0]))
     np.testing.assert_array_equal(ctl.state, before)  # a NaN reference leaves the integrator as it was
+
+
+@pytest.mark.parametrize("odd", ["list", "int", "float32", "view", "column"])
+def test_signals_of_another_type_give_the_same_torques_and_switch_the_controller_to_checking(odd):
+    """The one-call path does not check the signals' types until Numba's dispatcher has refused one
+    call: lists, integer, float32, strided or 2-D signals give the torques the float64 vectors
+    give (the checked path), and the controller then checks before each call. Reference: a
+    twin controller always fed float64 vectors."""
+    ctl, twin = (fc.InnerPositionForceController(ARM, 100, 5000, 2500, 0.0024, 0.01) for _ in range(2))
+    q = ARM.inverse_kinematics([1.0005, 0.05])
+    ref = fc.Reference.setpoint([1.01, 0.1], [10.0, 0.0])
+    wrench = np.array([5.0, 0.0])
+    convert = {
+        "list": lambda v: v.tolist(), "int": lambda v: np.rint(v).astype(np.int64), "float32": lambda v: v.astype(np.float32),
+        "view": lambda v: np.repeat(v, 2)[::2], "column": lambda v: v.reshape(2, 1),
+    }[odd]
+    first = fc.Measurement(q, np.zeros(2), wrench)
+    np.testing.assert_array_equal(ctl.step(0.0, first, ref), twin.step(0.0, first, ref))
+    assert "_check_signals" not in ctl.__dict__  # float64 vectors: never checked in Python
+    for k in range(1, 4):
+        w = convert(wrench)
+        if odd == "column":
+            with pytest.raises(DimensionError, match=r"measurement.wrench must have shape \(2,\); got shape \(2, 1\)"):
+                ctl.step(k * 1e-3, fc.Measurement(q, np.zeros(2), w), ref)
+            continue
+        want = twin.step(k * 1e-3, fc.Measurement(q, np.zeros(2), np.asarray(w, dtype=np.float64).copy()), ref)
+        np.testing.assert_allclose(ctl.step(k * 1e-3, fc.Measurement(q, np.zeros(2), w), ref), want, rtol=1e-12)
+        np.testing.assert_allclose(ctl.state, twin.state, rtol=1e-12)
+    assert ctl.__dict__.get("_check_signals") is True
+    np.testing.assert_allclose(ctl.step(0.005, first, ref), twin.step(0.005, first, ref), rtol=1e-12)
