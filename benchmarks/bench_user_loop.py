@@ -12,7 +12,8 @@ controller stack Safety(ContactSupervisor(impedance, inner velocity loop)), writ
 * overruns (a cycle ending after the next tick);
 * the cost of each layer alone in a tight loop (no sleeping), to see where the time goes;
 * the baseline: the same schedule with no work at all, whose late wake-ups are the OS's (on a
-  general-purpose kernel an overrun can come from there alone; in a virtual machine, from the host).
+  general-purpose kernel an overrun can come from there alone; in a virtual machine, from the host:
+  the steal time the kernel counted during the loop is printed).
 
 The loops run under :func:`forcecontrol.realtime.realtime_priority` (SCHED_FIFO 80, memory locked)
 when the kernel grants it, as the example does; ``--no-realtime`` measures ordinary scheduling.
@@ -105,7 +106,9 @@ def _measure(cycles: int) -> dict[str, object]:
     robot = own_loop.StandInArm(fc.CHAPTER_ARM.inverse_kinematics([0.95, 0.0]), samples=cycles + 1)
     controller = own_loop.make_controller()
     reference = fc.LinearPath([0.95, 0.0], [1.05, 0.0], 0.6, accel_time=0.1, force=[10.0, 0.0])
+    steal0 = steal_ms()
     stats = own_loop.run(robot, controller, reference, cycles)
+    stolen = steal_ms() - steal0
     c, ctl, lat = 1e6 * stats["compute"], 1e6 * stats["control"], 1e6 * stats["lateness"]
     print(f"1 kHz loop, {cycles} cycles, Safety(ContactSupervisor(impedance, inner velocity)), stand-in arm")
     out: dict[str, object] = {
@@ -115,6 +118,9 @@ def _measure(cycles: int) -> dict[str, object]:
         "overruns": int(stats["overrun"].sum()),
     }
     print(f"overruns (cycle ended after the next tick): {out['overruns']} of {cycles}")
+    if stolen == stolen:
+        print(f"time the hypervisor took from this machine's CPUs during the loop (steal, /proc/stat): {stolen:.0f} ms")
+    out["steal_ms"] = stolen
     histogram(c, "compute time per cycle")
     histogram(lat, "wake-up lateness against the 1 ms schedule")
     costs = layer_costs()
@@ -128,6 +134,17 @@ def _measure(cycles: int) -> dict[str, object]:
           "(what the OS alone adds on this machine)")
     out["bare_loop"] = bare
     return out
+
+
+def steal_ms() -> float:
+    """CPU time the hypervisor has taken from this (virtual) machine since boot, all CPUs [ms]
+    (``steal`` of ``/proc/stat``, in 10 ms ticks); NaN where there is no such file."""
+    try:
+        with open("/proc/stat") as f:
+            fields = f.readline().split()
+        return 10.0 * float(fields[8])
+    except (OSError, IndexError, ValueError):
+        return float("nan")
 
 
 def bare_loop(cycles: int) -> dict[str, float]:
