@@ -339,10 +339,16 @@ def test_realtime_priority_memory_lock_as_the_kernel_reports_it():
         "    return int(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmLck')))\n"
         "with realtime_priority(5) as rt:\n"
         "    inside = vmlck()\n"
-        "print(rt.memory_locked, inside, vmlck(), any(r.startswith('memory lock') for r in rt.refused))\n"
+        "    with realtime_priority(6) as inner:\n"
+        "        pass\n"
+        "    nested = (inner.memory_locked, vmlck())\n"
+        "print(rt.memory_locked, inside, vmlck(), any(r.startswith('memory lock') for r in rt.refused), *nested)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     locked, inside, after, refused = out[0] == "True", int(out[1]), int(out[2]), out[3] == "True"
+    inner_locked, after_inner = out[4] == "True", int(out[5])
     assert locked != refused
     assert after == 0
     assert (inside > 10_000) if locked else (inside == 0)  # kB: NumPy alone maps tens of MB
+    if locked:  # a nested block finds the memory locked and leaves it locked for the outer one
+        assert inner_locked and after_inner > 10_000

@@ -119,6 +119,15 @@ def _policy_name(policy: int) -> str:
     return f"policy {policy}"
 
 
+def _locked_kb() -> int:
+    """The process's locked memory [kB] (``VmLck`` of ``/proc/self/status``); 0 when unknown."""
+    try:
+        with open("/proc/self/status") as f:
+            return next((int(line.split()[1]) for line in f if line.startswith("VmLck:")), 0)
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
 def _libc() -> Any:
     return ctypes.CDLL(None, use_errno=True)
 
@@ -133,7 +142,7 @@ def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory
     ordinary process, so a wake-up is no longer queued behind them), optionally pinned to one CPU,
     and the process's memory locked in RAM (``mlockall(MCL_CURRENT | MCL_FUTURE)``: no page fault
     to disk inside the loop). Everything is restored on exit (policy, priority, CPUs; memory
-    unlocked).
+    unlocked, unless it was locked before the block).
 
     Each setting needs a privilege (root, ``CAP_SYS_NICE`` / ``CAP_IPC_LOCK``, or the
     ``rtprio`` / ``memlock`` limits of ``/etc/security/limits.conf``). One that is refused is
@@ -190,6 +199,8 @@ def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory
         if lock_memory:
             if platform.system() != "Linux" or platform.machine().lower() not in _MCL_MACHINES:
                 refused.append(f"memory lock: not available on {platform.system()} {platform.machine()}")
+            elif _locked_kb() > 0:  # locked already (an enclosing block, or the caller): left as it is
+                locked = True
             else:
                 libc = _libc()
                 if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) == 0:
