@@ -304,16 +304,17 @@ class MujocoPlant:
             f = frame.T @ buf[:3]  # force geom1 exerts on geom2... in world axes
             on_ee = f if con.geom2 == self.ee_geom else -f
             f_ee += on_ee
+            if self.task != "pose":  # the moments are read only by a pose task
+                continue
             r = con.pos - o
             mu_ee[0] += r[1] * on_ee[2] - r[2] * on_ee[1]  # r × f (np.cross costs 15 µs a call here)
             mu_ee[1] += r[2] * on_ee[0] - r[0] * on_ee[2]
             mu_ee[2] += r[0] * on_ee[1] - r[1] * on_ee[0]
-        h = -np.concatenate([f_ee, mu_ee])
         if self.task == "planar":
-            return h[:2]
+            return -f_ee[:2]
         if self.task == "position":
-            return h[:3]
-        return h
+            return -f_ee
+        return -np.concatenate([f_ee, mu_ee])
 
     # -- running
     def run(
@@ -379,23 +380,26 @@ class MujocoPlant:
         h = self.contact_wrench()
         controller.reset(Measurement(d.qpos.copy(), d.qvel.copy(), h), reference.at(0.0))
         status_k = None
+        qpos, qvel, qfrc = d.qpos, d.qvel, d.qfrc_applied  # views of MuJoCo's arrays, fetched once
         for k in range(N + 1):
-            q, qd = d.qpos.copy(), d.qvel.copy()
+            q, qd = qpos.copy(), qvel.copy()
             x, xd = self._pose_twist()
-            h = self.contact_wrench()
+            h = self.contact_wrench()  # a new array, not changed after: the measurement and the log share it
             row = refs[k]
             ref = Reference(*(row[i * mdim : (i + 1) * mdim] for i in range(len(REFERENCE_FIELDS))))
-            u = np.asarray(controller.step(k * Ts, Measurement(q, qd, h.copy()), ref), dtype=float)
+            u = np.asarray(controller.step(k * Ts, Measurement(q, qd, h), ref), dtype=float)
             logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, x, xd
             logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, h, u
             if k == N:
                 break
-            d.qfrc_applied[:] = u
+            qfrc[:] = u
             for _ in range(self.substeps):
                 if self._has_contact:
                     self._reschedule()
                 mujoco.mj_step(m, d)
-            if not math.isfinite(float(d.qpos.sum())) or not float(np.abs(d.qvel).max()) <= max_joint_speed:  # NaN fails too
+            # diverged: a non-finite state (a NaN anywhere makes the sum NaN) or a runaway joint speed
+            p_, v_ = qpos.tolist(), qvel.tolist()
+            if not (math.isfinite(sum(p_) + sum(v_)) and max(v_) <= max_joint_speed and min(v_) >= -max_joint_speed):
                 status_k = k
                 break
         return status_k
