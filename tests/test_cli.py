@@ -170,11 +170,19 @@ def test_cold_cache_compile_notice(tmp_path):
     assert warm.returncode == 0 and "compiling" not in warm.stderr, warm.stderr
 
 
-def test_import_is_lazy():
-    """`import forcecontrol` loads neither Numba, SciPy, matplotlib, python-control nor typer; names resolve on access."""
+def _python(code: str, timeout: float = 300) -> list[str]:
+    """``python -c code`` in a fresh interpreter (what a user's new process sees): its output lines,
+    after checking that it exited with 0 (else its stderr is the failure's message)."""
     import subprocess
     import sys
 
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout)
+    assert res.returncode == 0, res.stderr
+    return res.stdout.splitlines()
+
+
+def test_import_is_lazy():
+    """`import forcecontrol` loads neither Numba, SciPy, matplotlib, python-control nor typer; names resolve on access."""
     code = (
         "import sys, forcecontrol as fc\n"
         "heavy = [m for m in ('numba', 'scipy', 'matplotlib', 'control', 'typer', 'rich', 'pandas') if m in sys.modules]\n"
@@ -182,18 +190,13 @@ def test_import_is_lazy():
         "print(fc.ImpedanceController.__module__, fc.Task.__name__, fc.simulate.__name__,"
         " sorted(set(fc.__all__) - set(dir(fc))))\n"
     )
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert res.returncode == 0, res.stderr
-    lines = res.stdout.splitlines()
+    lines = _python(code)
     assert lines[0] == "none"
     assert lines[1] == "forcecontrol.controllers.impedance Task simulate []"
 
 
 def test_run_does_not_import_python_control():
     """`run example-9.2` (impedance) never imports python-control (only force analyses need it)."""
-    import subprocess
-    import sys
-
     code = (
         "import sys\n"
         "from typer.testing import CliRunner\n"
@@ -202,9 +205,7 @@ def test_run_does_not_import_python_control():
         "assert r.exit_code == 0, r.output\n"
         "print('control' in sys.modules and hasattr(sys.modules['control'], 'ss'))\n"
     )
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.strip() == "False"
+    assert _python(code, timeout=600) == ["False"]
 
 
 def test_console_script_main_tunes_the_collector_for_the_command_and_restores_it():
@@ -225,8 +226,6 @@ def test_console_script_main_tunes_the_collector_for_the_command_and_restores_it
         " gc.get_freeze_count() > 1000))\n"
         "main(['probe-gc'])\n"
     )
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert res.returncode == 0, res.stderr
-    assert res.stdout.strip().splitlines()[-1] == "gc True True True"
+    assert _python(code, timeout=120)[-1] == "gc True True True"
     res = subprocess.run([sys.executable, "-m", "forcecontrol", "--version"], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0 and "forcecontrol" in res.stdout
