@@ -222,3 +222,42 @@ def test_6d_limits_ignore_euler_angle_wrap():
         s.reset(fc.Measurement(q, np.zeros(7), np.zeros(6)), fc.Reference.setpoint(x_d))
         s.step(0.0, fc.Measurement(q, np.zeros(7), np.zeros(6)), fc.Reference.setpoint(x_d))
         assert not s.stopped and not s.events
+
+
+def test_a_stack_checks_the_inputs_once_per_step_and_still_refuses_bad_ones(monkeypatch):
+    """Safety(ContactSupervisor(impedance, force)): the outer step checks the measurement and the
+    reference, the layers inside do not check the same objects again within that call; a NaN is
+    still refused (by the outer check) and leaves no trace, and after the call a layer stepped
+    alone checks its inputs again. The torques equal those of the same stack without the skip."""
+    import forcecontrol.controllers.base as base
+    from forcecontrol.errors import MeasurementError
+    from forcecontrol.transitions import ContactSupervisor
+
+    def stack():
+        sup = ContactSupervisor(_impedance(), fc.InnerVelocityForceController(ARM, 100, 5000, 2500, [0.0024, 0.0]),
+                                [1.0, 0.0])
+        return sup, Safety(sup, max_torque=3000.0, max_torque_rate=2e5, max_force=80.0, max_speed=0.5)
+
+    (sup, safe), (_, twin) = stack(), stack()
+    calls = []
+    real = base._check_inputs
+
+    def counting(ctl, t, m, r):
+        calls.append(type(ctl).__name__)
+        return real(ctl, t, m, r)
+
+    ref = fc.Reference.setpoint([1.01, 0.0], [10.0, 0.0])
+    meas = _meas(ARM.inverse_kinematics([1.0005, 0.0]), (0.01, -0.02), (5.0, 0.0))
+    want = [twin.step(k * TS, meas, ref) for k in range(3)]
+    got = [safe.step(0.0, meas, ref)]  # the first sample switches to force control (its reset checks too)
+    monkeypatch.setattr(base, "_check_inputs", counting)
+    got += [safe.step(k * TS, meas, ref) for k in (1, 2)]
+    assert calls == ["Safety"] * 2
+    np.testing.assert_array_equal(np.array(got), np.array(want))
+    bad = _meas(meas.q, meas.qd, (np.nan, 0.0))
+    with pytest.raises(MeasurementError, match="measurement.wrench is not finite"):
+        safe.step(3 * TS, bad, ref)
+    assert base._SCOPE.checked is None
+    calls.clear()
+    sup.step(4 * TS, meas, ref)
+    assert calls == ["ContactSupervisor"]

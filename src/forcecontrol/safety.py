@@ -259,6 +259,8 @@ class Safety(Controller):
                            "deviation |S (x_d - x_e)|", "m"))
         for cause, value, limit, what, unit in checks:
             violated = value > limit
+            if not violated and cause not in self._active:
+                continue  # the usual sample: within the limit and no episode to close
             stopping = violated and not self.stopped
             if stopping:
                 self._stop(t, q)
@@ -275,7 +277,7 @@ class Safety(Controller):
         reaction = self.torque_reaction
         if self.max_torque is not None:
             tau_max = self.max_torque
-            over = bool(np.any(np.abs(u) > tau_max))
+            over = bool((np.abs(u) > tau_max).any())
             if over or "torque limit" in self._active:
                 j = int(np.argmax(np.abs(u) / tau_max))
                 value, stopping = float(abs(u[j])), over and reaction == "stop" and not self.stopped
@@ -291,7 +293,7 @@ class Safety(Controller):
             rate_max, u_prev = self.max_torque_rate, self._u_prev
             step = rate_max * self.sample_time
             du = u - u_prev
-            over = bool(np.any(np.abs(du) > step * (1.0 + 1e-12)))
+            over = bool((np.abs(du) > step * (1.0 + 1e-12)).any())
             if over or "torque rate limit" in self._active:
                 j = int(np.argmax(np.abs(du) / step))
                 rate, stopping = float(abs(du[j])) / self.sample_time, over and reaction == "stop" and not self.stopped

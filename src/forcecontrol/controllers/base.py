@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
@@ -52,6 +53,14 @@ def _frozen(ref: Reference) -> bool:
     return all(type(a) is np.ndarray and not a.flags.writeable for a in (getattr(ref, f) for f in REFERENCE_FIELDS))
 
 
+def _io_shapes(ctl: Controller) -> tuple[tuple[int], tuple[int]]:
+    """The shapes of q (and q̇) and of the wrench and references: ((n,), (m,)), kept on the controller."""
+    shapes = ctl.__dict__.get("_io_shapes")
+    if shapes is None:
+        shapes = ctl.__dict__["_io_shapes"] = ((int(ctl.robot.nq),), (int(ctl.robot.task_dim),))
+    return shapes
+
+
 def _check_inputs(ctl: Controller, t: float, measurement: Measurement | None, reference: Reference | None) -> None:
     """Shapes and finiteness of a controller's inputs, before any state is touched.
 
@@ -64,11 +73,7 @@ def _check_inputs(ctl: Controller, t: float, measurement: Measurement | None, re
         DimensionError: a signal has the wrong shape (the compiled laws do no bounds checks).
         MeasurementError: a measured signal is NaN or infinite (named, with the time).
     """
-    shapes = ctl.__dict__.get("_io_shapes")
-    if shapes is None:
-        shapes = ((int(ctl.robot.nq),), (int(ctl.robot.task_dim),))
-        ctl.__dict__["_io_shapes"] = shapes
-    ns, ms = shapes
+    ns, ms = _io_shapes(ctl)
     if measurement is not None:
         q, qd, w = measurement.q, measurement.qd, measurement.wrench
         if type(w) is not np.ndarray and hasattr(w, "frame") and hasattr(w, "vector"):
@@ -170,6 +175,12 @@ def _fast_step(self: Controller, t: float, measurement: Measurement, reference: 
     return u if ok else None
 
 
+#: per thread, while a checked ``step`` runs: the inputs it checked ``(measurement, reference, t,
+#: shapes)``, so that the controllers it wraps (a safety layer around a supervisor around a law)
+#: do not check the same objects again within the call; restored when the step returns.
+_SCOPE = threading.local()
+
+
 def _validated_step(fn: Any) -> Any:
     runs_law = getattr(fn, "_runs_law", False)
 
@@ -179,13 +190,20 @@ def _validated_step(fn: Any) -> Any:
             u = _fast_step(self, t, measurement, reference)
             if u is not None:
                 return u
-        if type(measurement) is not Measurement or type(reference) is not Reference or type(t) is not float:
-            _check_step_arguments(t, measurement, reference)
-        elif t != t or t in (math.inf, -math.inf):
-            raise ParameterError(f"t must be finite; got {t!r}")
-        _check_inputs(self, t, measurement, reference)
+        outer = getattr(_SCOPE, "checked", None)
+        shapes = _io_shapes(self)
+        if not (outer is not None and outer[0] is measurement and outer[1] is reference and outer[2] == t
+                and outer[3] == shapes):
+            if type(measurement) is not Measurement or type(reference) is not Reference or type(t) is not float:
+                _check_step_arguments(t, measurement, reference)
+            elif t != t or t in (math.inf, -math.inf):
+                raise ParameterError(f"t must be finite; got {t!r}")
+            _check_inputs(self, t, measurement, reference)
+        # else: an enclosing layer (a safety layer, a supervisor) checked these very objects, for
+        # the same shapes, within this call; nothing can have changed them since
         state = self.state
         saved = state.copy() if state.size else None
+        _SCOPE.checked = (measurement, reference, t, shapes)
         try:
             return fn(self, t, measurement, reference)
         except ForceControlError:
@@ -193,6 +211,8 @@ def _validated_step(fn: Any) -> Any:
                 state[:] = saved  # a failed sample leaves the integrators as they were
             _check_reference_finite(t, reference)
             raise
+        finally:
+            _SCOPE.checked = outer
 
     step._validates_inputs = True  # type: ignore[attr-defined]
     return step
