@@ -146,3 +146,19 @@ def test_prepare_sweep_pauses_the_collector_while_building_and_restores_it():
     finally:
         prep._job = real
         gc.enable()
+
+
+def test_a_stateful_sensor_is_never_shared_between_cases(tmp_path):
+    """A realistic sensor (delay, noise: state advanced by measure()) is built for each case even when
+    the sensor values repeat, so that cases run in parallel threads do not share it (review of
+    session 15: a shared one failed with 'measure must be called for samples ... in order')."""
+    from forcecontrol.sweep import SweepDefinition, prepare_sweep, run_sweep
+
+    d = SweepDefinition.from_options({"sensor.delay_samples": [1], "sensor.noise_std": [0.5], "duration": [0.5],
+                                      "sensor.seed": [3, 3, 3, 3]}, cases=["1"])
+    prep = prepare_sweep("example-9.3", d)
+    assert len({id(j.sensor) for j in prep.jobs}) == 4
+    res = run_sweep(prep, tmp_path / "x.parquet", workers=4, block_size=1)
+    table = res.table
+    assert list(table["status"]) == ["ok"] * 4
+    assert table["peak_force"].nunique() == 1  # equal cases, equal results

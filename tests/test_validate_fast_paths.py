@@ -98,7 +98,7 @@ def test_force_reference_check_warns_as_before_on_a_tilted_plane():
 def test_closed_form_largest_eigenvalue_of_a_2x2_equals_eigvals():
     """The 2 x 2 shortcut of choose_substeps against numpy.linalg.eigvals: products of PSD matrices
     (the contact modes, real eigenvalues), general matrices (complex pairs: the real part), and a
-    non-finite matrix refused as eigvals refuses it."""
+    non-finite matrix refused as eigvals refuses it, entries whose square overflows answered by eigvals."""
     from forcecontrol.simulation import _largest_real_eigenvalue
 
     rng = np.random.default_rng(3)
@@ -111,3 +111,5 @@ def test_closed_form_largest_eigenvalue_of_a_2x2_equals_eigvals():
     assert _largest_real_eigenvalue(A3) == float(np.max(np.linalg.eigvals(A3).real))
     with pytest.raises(np.linalg.LinAlgError):
         _largest_real_eigenvalue(np.array([[np.nan, 0.0], [0.0, 1.0]]))
+    huge = np.array([[1e200, 3e199], [2e199, 5e199]])  # the closed form's square overflows: eigvals answers
+    assert _largest_real_eigenvalue(huge) == float(np.max(np.linalg.eigvals(huge).real))

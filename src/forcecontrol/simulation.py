@@ -71,13 +71,13 @@ def contact_mobility(robot: RobotModel, q0: np.ndarray) -> np.ndarray:
 def _largest_real_eigenvalue(A: np.ndarray) -> float:
     """The largest real part among A's eigenvalues; a 2 x 2 (the planar task) in closed form,
     ``tr/2 + sqrt((tr/2)² − det)`` (a tenth of ``numpy.linalg.eigvals``' cost: a sweep calls this
-    once per case built), larger matrices by ``eigvals``."""
+    once per case built), larger matrices (and a 2 x 2 whose square overflows) by ``eigvals``."""
     if A.shape == (2, 2):
         half = 0.5 * (A[0, 0] + A[1, 1])
         disc = half * half - (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
-        if not (math.isfinite(half) and math.isfinite(disc)):
-            raise np.linalg.LinAlgError("Array must not contain infs or NaNs")  # as eigvals says it
-        return float(half + math.sqrt(disc)) if disc > 0.0 else float(half)
+        if math.isfinite(half) and math.isfinite(disc):
+            return float(half + math.sqrt(disc)) if disc > 0.0 else float(half)
+        # entries beyond 1e154 overflow the square, or a NaN: eigvals (which refuses a non-finite matrix)
     return float(np.max(np.linalg.eigvals(A).real))
 
 

@@ -233,6 +233,8 @@ def prepare_sweep(
                             _apply(cfg, p, values[p.path], case.label)
                         Ts = cfg.get("sample_time", 1e-3)  # the sensor of these values at this Ts, if built
                         known = sensors.get((skey, Ts)) if type(Ts) is float else None
+                        if known is not None and not _batch_sensor(known[0]):
+                            known = None  # a stateful sensor (simulate() runs it): each case builds its own
                         built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values), memo=memo,
                                            sensor=None if known is None else known[0])
                         own = _plant(case.label, built, ref_keys, memo)
