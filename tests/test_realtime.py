@@ -352,3 +352,79 @@ def test_realtime_priority_memory_lock_as_the_kernel_reports_it():
     assert (inside > 10_000) if locked else (inside == 0)  # kB: NumPy alone maps tens of MB
     if locked:  # a nested block finds the memory locked and leaves it locked for the outer one
         assert inner_locked and after_inner > 10_000
+
+
+@pytest.mark.skipif(__import__("platform").system() != "Linux", reason="mlockall and /proc are Linux's")
+def test_realtime_priority_memory_lock_is_held_while_any_thread_holds_it_and_a_callers_lock_is_kept():
+    """In a fresh process: thread A enters, thread B enters, A leaves: the memory stays locked for B,
+    and is unlocked when B leaves. A page the caller locked before any block stays locked after."""
+    import subprocess
+    import sys
+
+    code = (
+        "import ctypes, threading\n"
+        "from forcecontrol.realtime import realtime_priority\n"
+        "def vmlck():\n"
+        "    return int(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmLck')))\n"
+        "out, granted = [], []\n"
+        "a_in, b_in, a_out = threading.Event(), threading.Event(), threading.Event()\n"
+        "def A():\n"
+        "    with realtime_priority(5) as rt:\n"
+        "        granted.append(rt.memory_locked); a_in.set(); b_in.wait()\n"
+        "    a_out.set()\n"
+        "def B():\n"
+        "    a_in.wait()\n"
+        "    with realtime_priority(5) as rt:\n"
+        "        granted.append(rt.memory_locked); b_in.set(); a_out.wait(); out.append(vmlck())\n"
+        "    out.append(vmlck())\n"
+        "ts = [threading.Thread(target=A), threading.Thread(target=B)]\n"
+        "[t.start() for t in ts]; [t.join() for t in ts]\n"
+        "libc = ctypes.CDLL(None, use_errno=True)\n"
+        "page = ctypes.create_string_buffer(4096)\n"
+        "mine = libc.mlock(page, 4096) == 0\n"
+        "before = vmlck()\n"
+        "with realtime_priority(5):\n"
+        "    pass\n"
+        "print(all(granted), out[0], out[1], mine, before, vmlck())\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    granted, while_b, after_b, mine, before, after = res.stdout.split()
+    if granted == "True":
+        assert int(while_b) > 10_000 and int(after_b) == 0  # kB
+    if mine == "True" and granted == "True":
+        assert int(before) > 0 and int(after) >= int(before)
+
+
+@needs_sched
+def test_realtime_priority_restores_every_setting_even_when_one_restore_fails(monkeypatch):
+    """The CPUs cannot be given back (the kernel says EINVAL): the policy and priority are still
+    restored, and RealtimeError says what failed; an error of the block itself takes precedence."""
+    import errno
+    import os
+
+    from forcecontrol.errors import RealtimeError
+    from forcecontrol.realtime import realtime_priority
+
+    policy0, cpus0 = os.sched_getscheduler(0), os.sched_getaffinity(0)
+    real = os.sched_setaffinity
+    calls = []
+
+    def flaky(pid, cpus):
+        calls.append(set(cpus))
+        if len(calls) % 2 == 0:  # every give-back fails
+            raise OSError(errno.EINVAL, os.strerror(errno.EINVAL))
+        real(pid, cpus)
+
+    monkeypatch.setattr(os, "sched_setaffinity", flaky)
+    try:
+        with pytest.raises(RealtimeError, match="restoring the scheduling .* failed: .*Invalid argument"):
+            with realtime_priority(9, cpu=min(cpus0), lock_memory=False):
+                pass
+        assert os.sched_getscheduler(0) == policy0
+        with pytest.raises(KeyError, match="the block's own"):
+            with realtime_priority(9, cpu=min(cpus0), lock_memory=False):
+                raise KeyError("the block's own")
+        assert os.sched_getscheduler(0) == policy0
+    finally:
+        real(0, cpus0)

@@ -44,6 +44,8 @@ import gc
 import math
 import os
 import platform
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -132,6 +134,37 @@ def _libc() -> Any:
     return ctypes.CDLL(None, use_errno=True)
 
 
+#: the memory lock is the whole process's: the blocks holding it (any thread, nested) are
+#: counted, the first locks and the last unlocks, and only when the memory was not locked
+#: before the first (by the caller or a library: their lock is left as it was).
+_MEMORY_LOCK = threading.Lock()
+_memory_users = 0
+_memory_ours = False
+
+
+def _lock_memory() -> str | None:
+    """Hold the process's memory locked for one more block; the OS's refusal text, or None."""
+    global _memory_users, _memory_ours
+    with _MEMORY_LOCK:
+        if _memory_users == 0:
+            before = _locked_kb()
+            libc = _libc()
+            if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) != 0:
+                return os.strerror(ctypes.get_errno())
+            _memory_ours = before == 0
+        _memory_users += 1
+        return None
+
+
+def _unlock_memory() -> None:
+    """One block less; the last unlocks the memory if the first locked it."""
+    global _memory_users
+    with _MEMORY_LOCK:
+        _memory_users -= 1
+        if _memory_users == 0 and _memory_ours:
+            _libc().munlockall()
+
+
 @contextmanager
 def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory: bool = True,
                       strict: bool = False) -> Iterator[RealtimeSettings]:
@@ -141,8 +174,9 @@ def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory
     loops do): the ``SCHED_FIFO`` policy at ``priority`` for the calling thread (it preempts every
     ordinary process, so a wake-up is no longer queued behind them), optionally pinned to one CPU,
     and the process's memory locked in RAM (``mlockall(MCL_CURRENT | MCL_FUTURE)``: no page fault
-    to disk inside the loop). Everything is restored on exit (policy, priority, CPUs; memory
-    unlocked, unless it was locked before the block).
+    to disk inside the loop). Everything is restored on exit: policy, priority, CPUs, and the
+    memory unlocked when the last block holding it (in any thread; blocks nest) ends, unless
+    some of it was locked before the first (that lock is the caller's, and is left).
 
     Each setting needs a privilege (root, ``CAP_SYS_NICE`` / ``CAP_IPC_LOCK``, or the
     ``rtprio`` / ``memlock`` limits of ``/etc/security/limits.conf``). One that is refused is
@@ -199,16 +233,13 @@ def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory
         if lock_memory:
             if platform.system() != "Linux" or platform.machine().lower() not in _MCL_MACHINES:
                 refused.append(f"memory lock: not available on {platform.system()} {platform.machine()}")
-            elif _locked_kb() > 0:  # locked already (an enclosing block, or the caller): left as it is
-                locked = True
             else:
-                libc = _libc()
-                if libc.mlockall(_MCL_CURRENT | _MCL_FUTURE) == 0:
+                err = _lock_memory()
+                if err is None:
                     locked = True
-                    restore.append(libc.munlockall)
+                    restore.append(_unlock_memory)
                 else:
-                    err = ctypes.get_errno()
-                    refused.append(f"memory lock: {os.strerror(err)} (needs root, CAP_IPC_LOCK or a larger memlock limit)")
+                    refused.append(f"memory lock: {err} (needs root, CAP_IPC_LOCK or a larger memlock limit)")
         if strict and refused:
             raise RealtimeError("real-time settings refused: " + "; ".join(refused))
         if has_sched:
@@ -219,8 +250,14 @@ def realtime_priority(priority: int = 80, *, cpu: int | None = None, lock_memory
             settings = RealtimeSettings("unknown", 0, (), locked, tuple(refused))
         yield settings
     finally:
-        for undo in reversed(restore):
-            undo()
+        failed = []
+        for undo in reversed(restore):  # each one, even when another fails
+            try:
+                undo()
+            except OSError as exc:
+                failed.append(str(exc))
+        if failed and sys.exc_info()[0] is None:  # the block's own error, if any, is the one to see
+            raise RealtimeError("restoring the scheduling after the real-time block failed: " + "; ".join(failed))
 
 
 @dataclass(frozen=True)
