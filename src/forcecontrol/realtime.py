@@ -25,8 +25,9 @@ When the loop misses deadlines, in order of effect:
    ``SCHED_FIFO``, optionally pinned to an idle core, memory locked; needs privileges) on a
    PREEMPT_RT kernel; disable CPU frequency scaling. Measured here (a 2-core virtual machine,
    ``python examples/own_loop.py --seconds 10``, both arms): 6–11 overruns per 10 s with ordinary
-   scheduling, 0 in five of six 10 s runs under ``realtime_priority`` (the sixth: one wake-up
-   2 ms late, with no work to blame: the host's); keep the garbage collector out of the loop
+   scheduling; under ``realtime_priority``, none in 8 of 12 runs of 10 s and 1–2 in the others,
+   each a wake-up 2–8 ms late or one 2.9 ms cycle (the same schedule with no work at all wakes
+   up as late at times: the host's, not the loop's); keep the garbage collector out of the loop
    (:func:`frozen_heap`: ``gc.collect()`` then ``gc.freeze()`` before it — a full collection
    over the heap of NumPy, SciPy and Numba takes milliseconds and lands in whatever call
    allocates, often the sleep of ``wait``: measured here, 4–6 overruns in 10 s of the own-loop
