@@ -293,7 +293,7 @@ def test_realtime_priority_locks_and_unlocks_memory_through_libc(monkeypatch):
     import errno
     import platform
 
-    import forcecontrol.realtime as rtmod
+    import forcecontrol.scheduling as rtmod
 
     calls = []
 
