@@ -73,8 +73,9 @@ def _largest_real_eigenvalue(A: np.ndarray) -> float:
     ``tr/2 + sqrt((tr/2)² − det)`` (a tenth of ``numpy.linalg.eigvals``' cost: a sweep calls this
     once per case built), larger matrices (and a 2 x 2 whose square overflows) by ``eigvals``."""
     if A.shape == (2, 2):
-        half = 0.5 * (A[0, 0] + A[1, 1])
-        disc = half * half - (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+        a, b, c, d = A.ravel().tolist()  # Python floats: an overflow is inf, without NumPy's warning
+        half = 0.5 * (a + d)
+        disc = half * half - (a * d - b * c)
         if math.isfinite(half) and math.isfinite(disc):
             return float(half + math.sqrt(disc)) if disc > 0.0 else float(half)
         # entries beyond 1e154 overflow the square, or a NaN: eigvals (which refuses a non-finite matrix)
