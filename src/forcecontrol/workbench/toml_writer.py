@@ -14,7 +14,7 @@ from ..errors import ParameterError
 
 __all__ = ["dumps_toml"]
 
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+_BARE = re.compile(r"[A-Za-z0-9_-]+")  # used with fullmatch: "$" would accept a trailing newline
 
 
 _ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
@@ -36,7 +36,7 @@ def _string(s: str) -> str:
 def _key(k: Any) -> str:
     if not isinstance(k, str):
         raise ParameterError(f"TOML keys must be strings; got {k!r} ({type(k).__name__})")
-    return k if _BARE.match(k) else _string(k)
+    return k if _BARE.fullmatch(k) else _string(k)
 
 
 def _value(v: Any, where: str) -> str:
