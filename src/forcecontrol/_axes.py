@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["axis_names", "joint_columns"]
+__all__ = ["axis_names", "joint_columns", "REFERENCE_FIELDS"]
+
+#: the fields of a reference, in the order of a logged reference row (each ``m`` wide).
+REFERENCE_FIELDS = ("position", "velocity", "acceleration", "force", "force_rate", "force_accel")
 
 
 def axis_names(m: int) -> tuple[list[str], list[str], list[str]]:

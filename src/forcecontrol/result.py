@@ -9,9 +9,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ._axes import REFERENCE_FIELDS, joint_columns
 from ._axes import axis_names as _axis_names
-from ._axes import joint_columns
-from .controllers.base import REFERENCE_FIELDS
 from .errors import ParameterError
 
 __all__ = ["SimulationResult"]

@@ -6,12 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._axes import REFERENCE_FIELDS
 from ..errors import DimensionError
 
 __all__ = ["Measurement", "Reference", "pack_reference", "REFERENCE_FIELDS"]
-
-#: order of the blocks of a packed reference row (each block has m entries).
-REFERENCE_FIELDS = ("position", "velocity", "acceleration", "force", "force_rate", "force_accel")
 
 
 @dataclass(frozen=True, slots=True)
