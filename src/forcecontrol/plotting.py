@@ -12,7 +12,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .simulation import SimulationResult
 
 __all__ = [
-    "plot_results", "plot_run", "plot_run_figures", "finish_figure", "case_style", "panel_grid", "SIGNAL_LABELS",
+    "plot_results", "plot_run", "plot_run_figures", "figure_jobs", "finish_figure", "case_style", "panel_grid", "SIGNAL_LABELS",
     "CASE_STYLES",
 ]
 
@@ -274,20 +274,32 @@ def plot_run(run: ScenarioRun, path: str | Path | None = None) -> Any:
 
 def plot_run_figures(run: ScenarioRun, folder: str | Path, stem: str) -> list[Path]:
     """Every figure of the scenario as ``folder/stem[-name].png``; returns the paths."""
+    return [plot_results(*args, **kwargs) for args, kwargs in figure_jobs(run, folder, stem)]
+
+
+def figure_jobs(run: ScenarioRun, folder: str | Path, stem: str) -> list[tuple[tuple[Any, ...], dict[str, Any]]]:
+    """The :func:`plot_results` calls that draw every figure of the scenario into
+    ``folder/stem[-name].png``, as ``(args, kwargs)``: plain data (results, signals, marks, paths)
+    that can be sent to another process (:mod:`forcecontrol.render_process`)."""
     figs = run.scenario.figures or ({},)
-    out = []
+    jobs = []
     for fig in figs:
         name = f"{stem}-{fig['name']}" if fig.get("name") else stem
-        out.append(_plot_figure(run, fig, Path(folder) / f"{name}.png"))
-    return out
+        jobs.append(_figure_call(run, fig, Path(folder) / f"{name}.png"))
+    return jobs
 
 
 def _plot_figure(run: ScenarioRun, fig: dict[str, Any], path: str | Path | None) -> Any:
+    args, kwargs = _figure_call(run, fig, path)
+    return plot_results(*args, **kwargs)
+
+
+def _figure_call(run: ScenarioRun, fig: dict[str, Any], path: str | Path | None) -> tuple[tuple[Any, ...], dict[str, Any]]:
     signals = list(fig.get("signals") or ["x", "fx"])
     wanted = fig.get("cases")
     cases = [c for c in run.cases if not wanted or c.label in wanted]
-    return plot_results(
-        [c.result for c in cases], signals, title=fig.get("title") or run.scenario.title, t_max=fig.get("t_max"),
+    return ([c.result for c in cases], signals), dict(
+        title=fig.get("title") or run.scenario.title, t_max=fig.get("t_max"),
         expected=expected_marks(cases, signals), zoom=fig.get("zoom"), note=fig.get("note") or "", path=path,
     )
 

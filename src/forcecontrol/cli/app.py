@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .. import __version__, _numba_cache
+from .. import __version__, _numba_cache, render_process
 from ..errors import ForceControlError
 
 #: options shared by the commands.
@@ -210,6 +210,8 @@ def run_command(
     ] = False,
 ) -> None:
     """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations."""
+    # first: the figure process loads matplotlib on another core while this one loads the simulator
+    figures = render_process.start() if figure else render_process.FigureProcess(None)
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from ..scenarios import load_scenario, run_scenario
@@ -229,12 +231,16 @@ def run_command(
                 task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
                 run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
     except ForceControlError as exc:
+        figures.close()
         _fail(exc)
         return
+    except BaseException:
+        figures.close()
+        raise
     if figure:
-        from ..plotting import plot_run_figures
+        from ..plotting import figure_jobs
 
-        paths = plot_run_figures(run, folder, _slug(scn.name))
+        paths = figures.render(figure_jobs(run, folder, _slug(scn.name)))
         run.files["figure"] = str(paths[0])
         for p in paths[1:]:
             run.files[f"figure:{p.stem}"] = str(p)
