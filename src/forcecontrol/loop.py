@@ -57,7 +57,7 @@ def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
         The arm's terms, the environment, the sensor and the RK4 plant run on scalars and allocate
         nothing; the law reads them from arrays filled once per sample.
         """
-        n = q0.shape[0]
+        n = 2  # the chapter's arm (a constant: the compiler drops the laws' general-size paths)
         m = 2
         N = H.shape[0] - 1
         x = np.empty(m)

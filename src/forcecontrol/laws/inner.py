@@ -7,7 +7,7 @@ from typing import Any
 
 from numba import njit
 
-from .._linalg import solve_in_place
+from .._linalg import solve2, solve_in_place
 
 
 @njit(cache=True, inline="always")
@@ -28,9 +28,23 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
 
     Returns:
         False (and u = NaN) when J is numerically singular.
+
+    For m = n = 2 (the chapter's arm) the same operations run in the same order on scalars, with
+    no scratch: the results are those of the general path to the bit (tested), and inside the
+    compiled loop, whose sizes are constants, the compiler keeps them in registers.
     """
     m = a.shape[0]
     n = B.shape[0]
+    if m == 2 and n == 2:  # the chapter's arm: the same operations, in the same order, on scalars
+        ok, y0, y1 = solve2(J[0, 0], J[0, 1], J[1, 0], J[1, 1], a[0] - Jdq[0], a[1] - Jdq[1])
+        u0 = nv[0] + B[0, 0] * y0 + B[0, 1] * y1
+        u1 = nv[1] + B[1, 0] * y0 + B[1, 1] * y1
+        if compensate:
+            u0 += 0.0 + J[0, 0] * hc[0] + J[1, 0] * hc[1]
+            u1 += 0.0 + J[0, 1] * hc[0] + J[1, 1] * hc[1]
+        u[0] = u0 if ok else math.nan
+        u[1] = u1 if ok else math.nan
+        return ok
     y = ws[0:m]
     for i in range(m):
         y[i] = a[i] - Jdq[i]
