@@ -110,3 +110,10 @@ def test_the_process_loads_neither_numba_nor_scipy():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def test_what_the_process_warns_reaches_the_callers_stderr(tmp_path, monkeypatch, capsys):
+    code = "import sys; sys.stdin.buffer.read(); sys.stderr.write('UserWarning: a glyph is missing\\n'); print('{\"paths\": []}')"
+    monkeypatch.setattr(render_process, "COMMAND", [sys.executable, "-c", code])
+    assert render_process.start(min_cores=1).render([]) == []
+    assert "a glyph is missing" in capsys.readouterr().err

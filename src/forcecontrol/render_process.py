@@ -8,7 +8,8 @@ run (results, signals, marks, paths) and returns the paths it wrote. The PNG fil
 byte for byte, as those drawn in the calling process.
 
 Whenever the second process cannot help, the figures are drawn in the calling process: one core
-only, the process did not start, it died or its answer is not understood. An error of the figure
+only, the process did not start, it died or its answer is not understood (what it wrote on stderr
+is then dropped; after a good answer it is passed on, e.g. matplotlib's warnings). An error of the figure
 itself (an unknown signal, say) is raised by drawing again in the calling process, so the caller
 sees the very exception :func:`~forcecontrol.plotting.plot_results` raises.
 
@@ -64,15 +65,18 @@ class FigureProcess:
             except Exception:  # noqa: BLE001 - something in the results cannot be pickled: draw here
                 data = None
             answer: Any = {}
+            err = b""
             try:
                 if data is not None:
-                    out, _ = proc.communicate(data)
+                    out, err = proc.communicate(data)
                     answer = json.loads(out) if proc.returncode == 0 else {}
             except (OSError, ValueError):
                 answer = {}
             finally:
                 _reap(proc)
             if isinstance(answer, dict) and isinstance(answer.get("paths"), list):
+                if err:  # the drawing's warnings, as drawing here would have shown them
+                    sys.stderr.write(err.decode(errors="replace"))
                 return [Path(p) for p in answer["paths"]]
         from .plotting import plot_results
 
@@ -95,7 +99,7 @@ def _reap(proc: subprocess.Popen[bytes]) -> None:
     if proc.poll() is None:
         proc.kill()
     proc.wait()
-    for stream in (proc.stdin, proc.stdout):
+    for stream in (proc.stdin, proc.stdout, proc.stderr):
         if stream is not None and not stream.closed:
             stream.close()
 
@@ -106,7 +110,7 @@ def start(min_cores: int = 2) -> FigureProcess:
     if usable_cores() < min_cores:
         return FigureProcess(None)
     try:
-        proc = subprocess.Popen(COMMAND, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(COMMAND, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     except OSError:
         return FigureProcess(None)
     return FigureProcess(proc)
