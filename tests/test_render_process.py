@@ -3,8 +3,13 @@ and every way it can fail ends with the figure drawn here or the figure's own er
 
 from __future__ import annotations
 
+import json
+import os
+import pickle
 import subprocess
 import sys
+import warnings
+from pathlib import Path
 
 import pytest
 
@@ -38,7 +43,7 @@ def test_png_drawn_by_the_process_is_byte_for_byte_the_local_one(run, tmp_path, 
 
 
 def test_a_process_that_dies_leaves_the_drawing_to_the_caller(run, tmp_path, monkeypatch):
-    monkeypatch.setattr(render_process, "COMMAND", [sys.executable, "-c", "import sys; sys.exit(3)"])
+    monkeypatch.setattr(render_process, "command", lambda: [sys.executable, "-c", "import sys; sys.exit(3)"])
     fp = render_process.start(min_cores=1)
     assert fp.started
     paths = fp.render(plotting.figure_jobs(run, tmp_path, "fig"))
@@ -46,17 +51,30 @@ def test_a_process_that_dies_leaves_the_drawing_to_the_caller(run, tmp_path, mon
 
 
 def test_a_process_that_cannot_start_leaves_the_drawing_to_the_caller(run, tmp_path, monkeypatch):
-    monkeypatch.setattr(render_process, "COMMAND", [str(tmp_path / "no-such-python")])
+    monkeypatch.setattr(render_process, "command", lambda: [str(tmp_path / "no-such-python")])
     fp = render_process.start(min_cores=1)
     assert not fp.started
     assert fp.render(plotting.figure_jobs(run, tmp_path, "fig"))[0].exists()
 
 
 def test_a_process_answering_nonsense_leaves_the_drawing_to_the_caller(run, tmp_path, monkeypatch):
-    code = "import sys; sys.stdin.buffer.read(); print('[1, 2]')"
-    monkeypatch.setattr(render_process, "COMMAND", [sys.executable, "-c", code])
-    fp = render_process.start(min_cores=1)
-    assert fp.render(plotting.figure_jobs(run, tmp_path, "fig"))[0].exists()
+    jobs = plotting.figure_jobs(run, tmp_path, "fig")
+    mark = render_process.ANSWER_MARK.decode()
+    modules = json.dumps(render_process._module_files())
+    for reply in ("[1, 2]", '{"paths": [1]}', '{"paths": []}', '{"paths": ["a.png", "b.png"]}', '{"error": "x"}',
+                  '{"paths": ["a.png"], "modules": {"forcecontrol": "elsewhere", "matplotlib": null}}'):
+        code = f"import sys; sys.stdin.buffer.read(); sys.stdout.write({mark + reply!r})"
+        monkeypatch.setattr(render_process, "command", lambda code=code: [sys.executable, "-c", code])
+        fp = render_process.start(min_cores=1)
+        proc = fp._proc
+        paths = fp.render(jobs)
+        assert paths == [tmp_path / "fig.png"] and paths[0].exists(), reply
+        assert proc.returncode is not None  # reaped
+    # and a well-formed answer is taken as it is (the process's word for the path)
+    reply = '{"paths": ["drawn-there.png"], "modules": ' + modules + "}"
+    code = f"import sys; sys.stdin.buffer.read(); print('noise'); sys.stdout.write({mark + reply!r})"
+    monkeypatch.setattr(render_process, "command", lambda: [sys.executable, "-c", code])
+    assert render_process.start(min_cores=1).render(jobs) == [Path("drawn-there.png")]
 
 
 def test_one_core_draws_in_the_calling_process(monkeypatch):
@@ -96,15 +114,67 @@ def test_close_stops_the_process_and_render_then_draws_here(run, tmp_path):
 
 
 def test_the_process_exits_quietly_when_its_caller_sends_nothing():
-    done = subprocess.run(render_process.COMMAND, stdin=subprocess.DEVNULL, capture_output=True, timeout=60)
+    done = subprocess.run(render_process.command(), stdin=subprocess.DEVNULL, capture_output=True, timeout=60)
     assert done.returncode == 0 and done.stdout == b""
 
 
-def test_the_process_loads_neither_numba_nor_scipy():
-    """What the second process imports to draw (plotting, and result to unpickle the logs) stays
-    light, so it is ready before the simulation ends."""
+def test_the_process_reports_a_figures_error(run, tmp_path):
+    args, kwargs = plotting.figure_jobs(run, tmp_path, "fig")[0]
+    data = pickle.dumps([((args[0], ["no_such_signal"]), kwargs)])
+    done = subprocess.run(render_process.command(), input=data, capture_output=True, timeout=120)
+    answer = json.loads(done.stdout.rsplit(render_process.ANSWER_MARK, 1)[1])
+    assert answer["error"].startswith("KeyError")
+
+
+@pytest.mark.parametrize("why", ["no executable", "frozen", "warnings raise", "one core"])
+def test_no_process_when_it_could_not_draw_as_the_caller_would(why, monkeypatch):
+    if why == "no executable":
+        monkeypatch.setattr(sys, "executable", "")
+    elif why == "frozen":
+        monkeypatch.setattr(sys, "frozen", True, raising=False)
+    elif why == "warnings raise":
+        monkeypatch.setattr(warnings, "filters", [("error", None, Warning, None, 0), *warnings.filters])
+    else:
+        monkeypatch.setattr(render_process, "usable_cores", lambda: 1)
+    assert not render_process.start().started
+
+
+def test_usable_cores_is_a_positive_count_within_the_affinity():
+    n = render_process.usable_cores()
+    assert 1 <= n <= (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count())
+
+
+def test_run_command_draws_in_the_process_and_stops_it_when_the_run_fails(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    started = []
+    real_start = render_process.start
+
+    def recording_start(*a, **k):
+        fp = real_start(min_cores=1)
+        started.append(fp._proc)
+        return fp
+
+    monkeypatch.setattr(render_process, "start", recording_start)
+    ok = CliRunner().invoke(app, ["run", "no-such-scenario", "--out", str(tmp_path)])
+    assert ok.exit_code != 0
+    assert started and started[0] is not None and started[0].returncode is not None  # stopped
+    _no_local_drawing(monkeypatch)
+    res = CliRunner().invoke(app, ["run", "example-9.2", "--json", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "example-9.2" / "example-9.2.png").exists()
+    assert started[-1].returncode == 0
+
+
+def test_the_process_loads_neither_numba_nor_scipy(run, tmp_path):
+    """What the second process imports to draw (plotting, and result to unpickle the logs of a real
+    run) stays light, so it is ready before the simulation ends."""
+    (tmp_path / "jobs.pkl").write_bytes(pickle.dumps(plotting.figure_jobs(run, tmp_path, "fig")))
     code = (
-        "import sys, forcecontrol.render_process, forcecontrol.plotting, forcecontrol.result\n"
+        "import sys, pickle, forcecontrol.render_process, forcecontrol.plotting\n"
+        f"pickle.loads(open({str(tmp_path / 'jobs.pkl')!r}, 'rb').read())\n"
         "print(sorted(m for m in ('numba', 'scipy', 'forcecontrol.controllers') if m in sys.modules))\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
@@ -113,7 +183,9 @@ def test_the_process_loads_neither_numba_nor_scipy():
 
 
 def test_what_the_process_warns_reaches_the_callers_stderr(tmp_path, monkeypatch, capsys):
-    code = "import sys; sys.stdin.buffer.read(); sys.stderr.write('UserWarning: a glyph is missing\\n'); print('{\"paths\": []}')"
-    monkeypatch.setattr(render_process, "COMMAND", [sys.executable, "-c", code])
+    reply = render_process.ANSWER_MARK.decode() + json.dumps({"paths": [], "modules": render_process._module_files()})
+    warn = "sys.stderr.write('UserWarning: a glyph is missing\\n')"
+    code = f"import sys; sys.stdin.buffer.read(); {warn}; sys.stdout.write({reply!r})"
+    monkeypatch.setattr(render_process, "command", lambda: [sys.executable, "-c", code])
     assert render_process.start(min_cores=1).render([]) == []
     assert "a glyph is missing" in capsys.readouterr().err

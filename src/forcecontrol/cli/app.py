@@ -210,40 +210,37 @@ def run_command(
     ] = False,
 ) -> None:
     """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations."""
-    # first: the figure process loads matplotlib on another core while this one loads the simulator
-    figures = render_process.start() if figure else render_process.FigureProcess(None)
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    # first: the figure process loads matplotlib on another core while this one loads the simulator;
+    # leaving the block by any error stops it
+    with render_process.start() if figure else render_process.FigureProcess(None) as figures:
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from ..scenarios import load_scenario, run_scenario
+        from ..scenarios import load_scenario, run_scenario
 
-    compile_notice()
-    try:
-        scn = load_scenario(scenario)
-        writes = figure or animate or data is not DataFormat.none
-        folder = prepare_output(out, _slug(scn.name), force) if writes else out / _slug(scn.name)
-        if json_out:
-            run = run_scenario(scn, engine=engine.value)
-        else:
-            with Progress(
-                TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
-                TimeElapsedColumn(), console=err_console, transient=True,
-            ) as bar:
-                task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
-                run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
-    except ForceControlError as exc:
-        figures.close()
-        _fail(exc)
-        return
-    except BaseException:
-        figures.close()
-        raise
-    if figure:
-        from ..plotting import figure_jobs
+        compile_notice()
+        try:
+            scn = load_scenario(scenario)
+            writes = figure or animate or data is not DataFormat.none
+            folder = prepare_output(out, _slug(scn.name), force) if writes else out / _slug(scn.name)
+            if json_out:
+                run = run_scenario(scn, engine=engine.value)
+            else:
+                with Progress(
+                    TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
+                    TimeElapsedColumn(), console=err_console, transient=True,
+                ) as bar:
+                    task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
+                    run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
+        except ForceControlError as exc:
+            _fail(exc)
+            return
+        if figure:
+            from ..plotting import figure_jobs
 
-        paths = figures.render(figure_jobs(run, folder, _slug(scn.name)))
-        run.files["figure"] = str(paths[0])
-        for p in paths[1:]:
-            run.files[f"figure:{p.stem}"] = str(p)
+            paths = figures.render(figure_jobs(run, folder, _slug(scn.name)))
+            run.files["figure"] = str(paths[0])
+            for p in paths[1:]:
+                run.files[f"figure:{p.stem}"] = str(p)
     if animate:
         try:
             for label, p in _animate_cases(run, folder, _slug(scn.name)):
