@@ -36,12 +36,14 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
     m = a.shape[0]
     n = B.shape[0]
     if m == 2 and n == 2:  # the chapter's arm: the same operations, in the same order, on scalars
+        c0 = 0.0 + J[0, 0] * hc[0] + J[1, 0] * hc[1]  # Jᵀ h_c, off the solve's critical path
+        c1 = 0.0 + J[0, 1] * hc[0] + J[1, 1] * hc[1]
         ok, y0, y1 = solve2(J[0, 0], J[0, 1], J[1, 0], J[1, 1], a[0] - Jdq[0], a[1] - Jdq[1])
         u0 = nv[0] + B[0, 0] * y0 + B[0, 1] * y1
         u1 = nv[1] + B[1, 0] * y0 + B[1, 1] * y1
         if compensate:
-            u0 += 0.0 + J[0, 0] * hc[0] + J[1, 0] * hc[1]
-            u1 += 0.0 + J[0, 1] * hc[0] + J[1, 1] * hc[1]
+            u0 += c0
+            u1 += c1
         u[0] = u0 if ok else math.nan
         u[1] = u1 if ok else math.nan
         return ok
