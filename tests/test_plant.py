@@ -1,4 +1,4 @@
-"""The compiled plant's 2 x 2 inertia solve (``_plant.solve_inertia``) against NumPy."""
+"""The compiled plant's 2 x 2 inertia solve (``_linalg.solve2_spd``) against NumPy."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol._plant import solve_inertia
+from forcecontrol._linalg import solve2_spd as solve_inertia
 
 
 def test_solves_the_arms_inertia_like_numpy_over_its_workspace():

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["mv", "mv_into", "solve2", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
+__all__ = ["mv", "mv_into", "solve2", "solve2_spd", "solve_into", "solve_in_place", "SINGULAR_RCOND"]
 
 #: a pivot smaller than this times the matrix's largest entry counts as singular.
 SINGULAR_RCOND = 1e-10
@@ -59,6 +59,21 @@ def solve2(a00, a01, a10, a11, b0, b1):  # pragma: no cover - compiled
         return False, 0.0, 0.0
     x1 = b1 / a11
     return True, (b0 - a01 * x1) / a00, x1
+
+
+@njit(cache=True, inline="always")
+def solve2_spd(a00, a01, a11, b0, b1):  # pragma: no cover - compiled
+    """``A x = b`` for a symmetric positive definite 2×2 ``A = [[a00, a01], [a01, a11]]`` (an arm's
+    inertia), by its inverse: ``1/det`` depends on A only, so b (in the plant: the torques and the
+    contact wrench, known last) meets one multiplication and no division, where :func:`solve2`'s
+    pivoting puts two divisions in a row. Returns (ok, x0, x1); ok is False when A is not
+    numerically positive definite."""
+    scale = max(abs(a00), abs(a01), abs(a11))
+    det = a00 * a11 - a01 * a01
+    if not (det > SINGULAR_RCOND * scale * scale and np.isfinite(det)):
+        return False, 0.0, 0.0
+    inv = 1.0 / det
+    return True, (a11 * b0 - a01 * b1) * inv, (a00 * b1 - a01 * b0) * inv
 
 
 @njit(cache=True, fastmath=False, inline="always")

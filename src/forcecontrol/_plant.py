@@ -12,7 +12,7 @@ import math
 
 from numba import njit
 
-from ._linalg import SINGULAR_RCOND
+from ._linalg import solve2_spd
 
 __all__ = ["rk4_sample", "terms2", "wrench2", "fill_terms", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
@@ -81,26 +81,12 @@ def terms2(K, q0, q1, w0, w1, T):  # pragma: no cover - compiled
      T[15], T[16]) = terms2_scalars(K, q0, q1, w0, w1)
 
 
-@njit(cache=True, inline="always")
-def solve_inertia(b00, b01, b11, r0, r1):  # pragma: no cover - compiled
-    """``B q̈ = r`` for the arm's symmetric positive definite 2×2 inertia B, by its inverse:
-    ``1/det`` depends on B only, so the right-hand side (the torques and the contact wrench,
-    known last) meets one multiplication and no division. Returns (ok, q̈0, q̈1); ok is False
-    when B is not numerically positive definite."""
-    scale = max(abs(b00), abs(b01), abs(b11))
-    det = b00 * b11 - b01 * b01
-    if not (det > SINGULAR_RCOND * scale * scale and math.isfinite(det)):
-        return False, 0.0, 0.0
-    inv = 1.0 / det
-    return True, (b11 * r0 - b01 * r1) * inv, (b00 * r1 - b01 * r0) * inv
-
-
 @njit(cache=True)
 def _accel_terms2(T, h0, h1, u0, u1):  # pragma: no cover - compiled
     """q̈ = B⁻¹ (u − n − Jᵀ h_e) from filled terms T and the wrench; returns (ok, a0, a1)."""
     r0 = u0 - T[13] - T[4] * h0 - T[6] * h1
     r1 = u1 - T[14] - T[5] * h0 - T[7] * h1
-    return solve_inertia(T[10], T[11], T[12], r0, r1)
+    return solve2_spd(T[10], T[11], T[12], r0, r1)
 
 
 @njit(cache=True, inline="always")
@@ -108,7 +94,7 @@ def _accel2(K, env_kind, env_p, q0, q1, w0, w1, u0, u1):  # pragma: no cover - c
     """q̈ = B⁻¹ (u − n − Jᵀ h_e) of the arm on the environment, on scalars; returns (ok, a0, a1)."""
     x0, x1, xd0, xd1, j00, j01, j10, j11, _, _, b00, b01, b11, n0, n1, _, _ = terms2_scalars(K, q0, q1, w0, w1)
     h0, h1 = wrench2(env_kind, env_p, x0, x1, xd0, xd1)
-    return solve_inertia(b00, b01, b11, u0 - n0 - j00 * h0 - j10 * h1, u1 - n1 - j01 * h0 - j11 * h1)
+    return solve2_spd(b00, b01, b11, u0 - n0 - j00 * h0 - j10 * h1, u1 - n1 - j01 * h0 - j11 * h1)
 
 
 @njit(cache=True, inline="always")
