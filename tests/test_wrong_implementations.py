@@ -113,12 +113,16 @@ def test_resumed_sweep_table_is_sorted_by_case_id(tmp_path):
 
 def test_step_metrics_default_band_is_two_percent():
     """Slip: step_metrics' settling band 5 % instead of 2 %: y = 1 − e^(−t/τ) settles at τ ln 50 (2 %), not τ ln 20."""
-    Ts, tau = 1e-3, 0.25
-    t = np.arange(int(round(20 * tau / Ts)) + 1) * Ts
-    y = 3.0 * (1.0 - np.exp(-t / tau))
-    for m in (step_metrics(t, y), step_metrics(t, y, final=3.0)):
+    Ts, tau, y0, step = 1e-3, 0.25, 1.0, 3.0
+    t = 0.5 + np.arange(int(round(20 * tau / Ts)) + 1) * Ts  # a record that starts at t = 0.5 s, from y₀ = 1
+    y = y0 + step * (1.0 - np.exp(-(t - t[0]) / tau))
+    # the discrete definition by NumPy: the first sample after the last one outside ±2 % of the step (time from t[0])
+    first_in = np.flatnonzero(np.abs(y - (y0 + step)) > 0.02 * step)[-1] + 1
+    for m in (step_metrics(t, y), step_metrics(t, y, final=y0 + step)):
         assert m.settling_time == pytest.approx(tau * math.log(50.0), abs=1.5 * Ts)
+        assert m.settling_time == pytest.approx(t[first_in] - t[0], abs=1e-9)
         assert m.overshoot_percent == pytest.approx(0.0, abs=1e-6) and m.stable
+        assert m.steady == pytest.approx(y0 + step, abs=1e-6) and m.peak_time == pytest.approx(t[-1], abs=1e-9)
 
 
 # ----------------------------------------------------------------------------- energy tank
