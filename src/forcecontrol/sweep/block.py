@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DriftWarning, SimulationDivergedError
+from ..errors import DimensionError, DriftWarning, SimulationDivergedError
 
 if sys.version_info >= (3, 11):
     pass
@@ -113,13 +113,21 @@ def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[st
             res = exc.partial  # type: ignore[attr-defined]
             status = _CAUSE_CODES.get(exc.cause, 1)
     last = len(res.t) - 1
-    y = np.ascontiguousarray(res.wrench @ j.d)
-    norms = np.linalg.norm(res.wrench, axis=1)
+    wrench = np.asarray(res.wrench, dtype=np.float64)
+    if wrench.shape[1] != len(j.d):  # a direction built for another wrench size: a bug, said plainly
+        raise DimensionError(
+            f"sweep case {j.case_id} ('{j.label}'): the force direction of the metrics has {len(j.d)} components, "
+            f"the simulated wrench {wrench.shape[1]}"
+        )
+    y = np.ascontiguousarray(wrench @ j.d)
+    norms = np.linalg.norm(wrench, axis=1)
     touched = np.flatnonzero(norms != 0.0)
     lost = bool(touched.size and np.any(norms[touched[0]:] == 0.0))
+    # peak force [N]: the force part of a 6-D wrench (its moments are N m), the whole planar one
+    forces = np.linalg.norm(wrench[:, :3], axis=1) if wrench.shape[1] == 6 else norms
     st, ov, err, stable, yf = case_metrics(y, last, status, j.Ts, j.window, j.f_ref, settle_band, stable_band)
     return {
-        "status": float(status), "last_sample": float(last), "peak_force": float(np.nanmax(norms)),
+        "status": float(status), "last_sample": float(last), "peak_force": float(np.nanmax(forces)),
         "contact_lost": float(lost), "settling_time": st, "overshoot": ov, "steady_state_force_error": err,
         "stable": stable, "settled_force": yf,
     }

@@ -68,15 +68,36 @@ class CaseJob(_RunShape):
         return self.N * self.nsub
 
 
-def _force_direction(env: Any, ref: Any, duration: float) -> tuple[np.ndarray, float]:
-    """Unit direction d of the force metrics and the reference force along it."""
+def _force_direction(env: Any, ref: Any, duration: float, ctl: Any = None, dim: int | None = None) -> tuple[np.ndarray, float]:
+    """Unit direction d of the force metrics (as many components as the wrench: ``dim``) and the
+    reference force along it.
+
+    In order: the final reference force; when it is zero, the environment's push direction (minus
+    its normal: a plane, a table; a moment-free direction in 6-D); else, for a 6-D hybrid task,
+    its first force-controlled direction (the first column of S_f, desired frame, turned to the
+    base frame by the final reference orientation); else the first axis.
+    """
     f_d = np.asarray(ref.at(duration).force, dtype=np.float64)
+    n = int(dim) if dim is not None else len(f_d)
     norm = float(np.linalg.norm(f_d))
-    if norm > 0.0:
+    if norm > 0.0 and len(f_d) == n:
         return f_d / norm, norm
+    d = np.zeros(n)
+    if norm > 0.0:  # a force-only reference of a 6-D task (3 components): no moments
+        d[: len(f_d)] = f_d[:n] / norm
+        return d, norm
     if hasattr(env, "normal"):
-        return -np.asarray(env.normal, dtype=np.float64), 0.0
-    d = np.zeros(len(f_d))
+        normal = np.asarray(env.normal, dtype=np.float64)
+        d[: len(normal)] = -normal[:n]
+        return d, 0.0
+    S_f = getattr(ctl, "force_selection", None)
+    if n == 6 and S_f is not None and np.shape(S_f)[0] == 6:
+        from ..spatial.rotations import euler_xyz_to_rotation
+
+        R_d = euler_xyz_to_rotation(np.asarray(ref.at(duration).position, dtype=np.float64)[3:6])
+        s = np.asarray(S_f, dtype=np.float64)[:, 0]
+        d = np.concatenate([R_d @ s[:3], R_d @ s[3:]])
+        return d / float(np.linalg.norm(d)), 0.0
     d[0] = 1.0
     return d, 0.0
 
@@ -171,7 +192,7 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
                 return None
 
         nsub = choose_substeps(robot, env, q0, Ts, mobility=_per_object(memo, "mobility", robot, (q0.tobytes(),), mobility))
-    d, f_ref = _force_direction(env, ref, N * Ts)
+    d, f_ref = _force_direction(env, ref, N * Ts, ctl, int(robot.task_dim))
     window = max(1, int(round(float(parts["settle_window"]) / Ts)))
     compiled = (
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None

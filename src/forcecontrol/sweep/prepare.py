@@ -273,12 +273,14 @@ def prepare_sweep(
         "definition": definition.describe(),
         "cases": payload["cases"],
         "metrics": {
-            "direction": "force metrics use y = d · h_e, d the unit final reference force (or the plane's push "
-                         "direction when f_d = 0)",
+            "direction": "force metrics use y = d · h_e, d the unit final reference force (when f_d = 0: the "
+                         "environment's push direction, minus its normal; else a 6-D hybrid task's first force-controlled "
+                         "direction, S_f's first column turned to the base frame; else the first axis); in 6-D, d and h_e "
+                         "have 6 components (force, then moment)",
             "settling_time": "[s] first time after which |y − y_final| <= settle_band |y_final − y_0|",
             "overshoot": "[%] 100 max(0, max sign(s) (y − y_final)) / |s|, s = y_final − y_0",
             "steady_state_force_error": "[N] y_final − d · f_d",
-            "peak_force": "[N] max ||h_e||",
+            "peak_force": "[N] max ||h_e|| (6-D: max ||f_e||, the force part of the wrench)",
             "settled_force": "[N] y_final, mean of y over the scenario's settle_window",
             "stable": "no divergence, and the late residual |y − y_final| is within stable_band |s| or still decaying",
             "contact_lost": "h_e = 0 at a sample after contact was made",
