@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import warnings
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -19,7 +20,7 @@ class Design(str, Enum):
 
 
 def sweep_command(
-    scenario: Annotated[str, typer.Argument(help="built-in name or .toml file (may hold a [sweep] table)")],
+    scenario: Annotated[str, typer.Argument(help="built-in name or .toml file (may hold a \\[sweep] table)")],
     param: Annotated[list[str] | None, typer.Option(  # noqa: UP007 - typer needs Optional
         "--param", "-p",
         help="PATH=VALUES, e.g. environment.stiffness=logspace(3,6,40), controller.force_gain[0]=0.001,0.002, "
@@ -48,12 +49,13 @@ def sweep_command(
     contact loss go to a Parquet table (the sweep definition is in its metadata). Finished
     blocks are stored as they end: after Ctrl-C or a crash, the same command resumes.
     """
+    from rich.markup import escape
     from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
     from rich.text import Text
 
     from ..errors import ForceControlError
     from ..sweep.run import load_sweep_scenario, prepare_sweep, run_sweep
-    from ..sweep.spec import SweepDefinition
+    from ..sweep.spec import SweepDefinition, SweepWarning
     from .app import _fail, _slug, compile_notice, console, err_console
 
     compile_notice()
@@ -63,20 +65,39 @@ def sweep_command(
             s = task.finished_speed or task.speed
             return Text(f"{s:,.0f} cases/s" if s else "- cases/s")
 
+    notes: list[str] = []  # what the sweep does other than asked: stderr now, "notes" in --json
+
+    def note(text: str) -> None:
+        notes.append(text)
+        err_console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
     try:
         scn, file_def = load_sweep_scenario(scenario)
         if param:
             definition = SweepDefinition.from_options(
                 param, design=design.value, samples=samples, seed=seed, cases=case or []
             )
+            if file_def is not None:
+                note(f"the [sweep] table of {scn.source} is replaced by the --param options")
+            if design is Design.grid and seed != 0:
+                note(f"--seed {seed} is ignored: only the random design draws values")
         elif file_def is not None:
             definition = file_def
+            given = [o for o, v, d in (("--design", design.value, "grid"), ("--samples", samples, 0), ("--seed", seed, 0))
+                     if v != d]
+            if given:
+                note(f"{', '.join(given)} ignored: the sweep is the [sweep] table of {scn.source} "
+                     "(give --param to define it on the command line)")
             if case:
                 from dataclasses import replace
 
                 definition = replace(definition, cases=tuple(case))
         else:
             definition = None
+        if definition is not None:
+            _check_figure_axes(definition, figure, x, y, note)
+        if scheduler is not None and workers is not None:
+            note(f"--workers {workers} is ignored: the Dask cluster at {scheduler} runs the blocks on its own workers")
         with Progress(TextColumn("[bold]checking and building cases"), BarColumn(),
                       TextColumn("{task.completed}/{task.total}"), console=err_console, transient=True,
                       disable=json_out) as checking:
@@ -93,11 +114,19 @@ def sweep_command(
     )
     task = bar.add_task(f"sweep {scn.name}", total=prep.n_cases)
     try:
-        with bar:
-            result = run_sweep(
-                prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
-                progress=lambda done, total: bar.update(task, completed=done),
-            )
+        with bar, warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SweepWarning)
+            try:
+                result = run_sweep(
+                    prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
+                    progress=lambda done, total: bar.update(task, completed=done),
+                )
+            finally:
+                for w in caught:  # recoveries (a part set aside, a lock taken over, a block resubmitted)
+                    if issubclass(w.category, SweepWarning):
+                        note(str(w.message))
+                    else:
+                        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     except KeyboardInterrupt:
         err_console.print(f"[yellow]interrupted[/]: finished cases are stored in {path}.parts; run the same command "
                           "again to resume")
@@ -106,15 +135,16 @@ def sweep_command(
         _fail(exc)
         return
     files = {"table": str(result.path)}
-    params = list(prep.columns)
-    if figure and len(params) >= 2:
-        from .figures import plot_sweep_map
+    if figure:
+        from ..sweep.figures import plot_sweep
 
-        fx, fy = x or params[0], y or params[1]
         try:
-            files["figure"] = str(plot_sweep_map(result, fx, fy, path.with_suffix(".png")))
-        except ForceControlError as exc:
-            _fail(exc)
+            fig_path, fig_notes = plot_sweep(result, path.with_suffix(".png"), x, y)
+            files["figure"] = str(fig_path)
+            for text in fig_notes:
+                note(text)
+        except (ForceControlError, ImportError) as exc:  # the table is written: say what is missing, exit 0
+            note(f"no figure drawn: {exc}")
     df = result.table
     summary = {
         "scenario": scn.name,
@@ -127,11 +157,11 @@ def sweep_command(
         "stable": int(df["stable"].sum()),
         "contact_lost": int(df["contact_lost"].sum()),
         "files": files,
+        "notes": notes,
     }
     if json_out:
         print_json(summary)
         return
-    from rich.markup import escape
     from rich.table import Table
 
     t = Table(title=f"{scn.name}: {len(df)} cases ({result.ran} run now, {result.resumed} stored before)",
@@ -151,3 +181,22 @@ def sweep_command(
                       f"({summary['arm_steps_per_second']:,} per second, {result.scheduler})")
     for k, v in files.items():
         console.print(f"{k}: {v}")
+
+
+def _check_figure_axes(definition: Any, figure: bool, x: str | None, y: str | None, note: Any) -> None:
+    """--x/--y name swept parameters (checked before anything runs); with --no-figure they are ignored, said."""
+    from ..sweep.spec import SweepError
+
+    given = [(o, v) for o, v in (("--x", x), ("--y", y)) if v is not None]
+    if not figure:
+        if given:
+            note(f"{' and '.join(o for o, _ in given)} ignored: --no-figure draws no figure")
+        return
+    paths = [p.path for p in definition.parameters]
+    for o, v in given:
+        if v not in paths:
+            raise SweepError(f"{o} '{v}' is not a swept parameter; expected one of {', '.join(paths)}")
+    if x is not None and x == y:
+        raise SweepError(f"--x and --y must be two different swept parameters; got '{x}' for both")
+    if y is not None and len(paths) < 2:
+        raise SweepError(f"--y '{y}' needs a second swept parameter for the x axis; the sweep has only '{paths[0]}'")

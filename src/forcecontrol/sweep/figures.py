@@ -20,7 +20,7 @@ import numpy as np
 
 from .spec import SweepError, parse_parameter
 
-__all__ = ["analytic_spectral_radius", "stability_boundary", "plot_sweep_map"]
+__all__ = ["analytic_spectral_radius", "stability_boundary", "plot_sweep_map", "plot_sweep_curves", "plot_sweep"]
 
 
 def analytic_spectral_radius(parts: dict[str, Any]) -> float:
@@ -113,6 +113,61 @@ def _fine(values: np.ndarray, n: int) -> np.ndarray:
     return np.linspace(lo, hi, n)
 
 
+def _numeric(df: Any, p: str) -> np.ndarray:
+    """A swept column as floats, or SweepError naming it (a figure axis must be a number)."""
+    try:
+        vals = df[p].to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        vals = None
+    if vals is None or df[p].dtype == bool:
+        shown = ", ".join(str(v) for v in list(dict.fromkeys(df[p].astype(str)))[:4])
+        raise SweepError(f"figure axis '{p}' is not a number (values {shown}); expected a numeric swept parameter")
+    return vals
+
+
+def _case_config(cases: list[dict[str, Any]], row_label: str) -> dict[str, Any] | None:
+    """The scenario case of a table row: its label, or its label marked ``"<label> [<paths> swept]"``."""
+    for c in cases:
+        if c.get("label") == row_label:
+            return c.get("config")
+    for c in cases:
+        lab = str(c.get("label"))
+        if row_label.startswith(lab + " [") and row_label.endswith(" swept]"):
+            return c.get("config")
+    return None
+
+
+def _log(values: np.ndarray) -> bool:
+    v = values[np.isfinite(values)]
+    return bool(v.size and v.min() > 0 and v.max() / v.min() > 100)
+
+
+def _source(source: Any) -> tuple[Any, dict[str, Any]]:
+    from .run import read_sweep
+
+    if isinstance(source, tuple):  # (table, metadata), already read
+        return source
+    return (source.table, source.metadata) if hasattr(source, "table") else read_sweep(source)
+
+
+def _select(df: Any, meta: dict[str, Any], axes: tuple[str, ...], fixed: dict[str, Any] | None) -> tuple[Any, dict[str, Any]]:
+    """The rows the figure shows: the other swept parameters at ``fixed`` (default: their first value);
+    a random design keeps every row (its draws rarely share a value)."""
+    params = meta.get("parameters", [])
+    for p in axes:
+        if p not in params:
+            raise SweepError(f"figure axis '{p}' is not a swept parameter; expected one of {', '.join(params)}")
+    fixed = dict(fixed or {})
+    if meta.get("definition", {}).get("design") != "random":
+        for p in params:
+            if p not in axes and p not in fixed:
+                fixed[p] = _plain(df[p].iloc[0])
+    sel = np.ones(len(df), dtype=bool)
+    for p, v in fixed.items():
+        sel &= (df[p] == v).to_numpy()
+    return df[sel], fixed
+
+
 def plot_sweep_map(
     source: Any,
     x: str,
@@ -131,30 +186,24 @@ def plot_sweep_map(
 
     Args:
         source: a :class:`~forcecontrol.sweep.SweepResult` or the table's path.
-        x, y: swept parameter paths; fixed: values for the other swept parameters (default: the
-            first of each).
+        x, y: swept parameter paths (numbers); fixed: values for the other swept parameters (default:
+            the first of each; a random design shows every case).
         out: the PNG file.
+
+    Raises:
+        SweepError: an axis is not a swept parameter or not a number; x and y are the same.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .run import read_sweep
-
-    df, meta = (source.table, source.metadata) if hasattr(source, "table") else read_sweep(source)
-    params = meta.get("parameters", [])
+    df, meta = _source(source)
+    if x == y:
+        raise SweepError(f"figure axes x and y must be two different swept parameters; got '{x}' for both")
+    df, fixed = _select(df, meta, (x, y), fixed)
     for p in (x, y):
-        if p not in params:
-            raise SweepError(f"figure axis '{p}' is not a swept parameter; expected one of {', '.join(params)}")
-    fixed = dict(fixed or {})
-    for p in params:
-        if p not in (x, y) and p not in fixed:
-            fixed[p] = df[p].iloc[0]
-    sel = np.ones(len(df), dtype=bool)
-    for p, v in fixed.items():
-        sel &= (df[p] == v).to_numpy()
-    df = df[sel]
+        _numeric(df, p)
     cases = meta.get("cases", [])
     labels = list(dict.fromkeys(df["case"]))
     fig, axs = plt.subplots(len(labels), len(metrics), figsize=(4.2 * len(metrics), 3.4 * len(labels)), squeeze=False)
@@ -165,7 +214,7 @@ def plot_sweep_map(
         grid = len(xs) * len(ys) == len(sub)
         rho = None
         if boundary:
-            cfg = next((c["config"] for c in cases if c["label"] == label), None)
+            cfg = _case_config(cases, label)
             if cfg is not None:
                 fx, fy = _fine(xs, resolution), _fine(ys, resolution)
                 rho = stability_boundary(cfg, x, y, fx, fy, label, {k: _plain(v) for k, v in fixed.items()})
@@ -190,7 +239,7 @@ def plot_sweep_map(
                 ax.contour(fx, fy, rho, levels=[1.0], colors="black", linewidths=1.5)
                 ax.plot([], [], color="black", label="analytic ρ = 1")
             for vals_, axis_set in ((xs, ax.set_xscale), (ys, ax.set_yscale)):
-                if vals_.size and vals_.min() > 0 and vals_.max() / vals_.min() > 100:
+                if _log(vals_):
                     axis_set("log")
             ax.set_xlabel(x)
             ax.set_ylabel(y)
@@ -199,9 +248,137 @@ def plot_sweep_map(
                 ax.legend(fontsize=7, loc="best")
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), fontsize=10)
+    return _save(fig, plt, out)
+
+
+def _save(fig: Any, plt: Any, out: str | Path) -> Path:
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
+
+
+def plot_sweep_curves(
+    source: Any,
+    x: str,
+    out: str | Path,
+    metrics: tuple[str, ...] = ("settling_time", "overshoot", "steady_state_force_error", "peak_force"),
+    fixed: dict[str, Any] | None = None,
+    boundary: bool = True,
+    resolution: int = 80,
+) -> Path:
+    """One figure of a one-parameter view: a panel per metric, a curve per scenario case over ``x``.
+
+    A red ``×`` marks a case the simulation found unstable; a dashed vertical line marks where the
+    analytic sampled-loop spectral radius crosses 1 (``resolution`` points over the swept range),
+    drawn when the analysis applies.
+
+    Args:
+        source: a :class:`~forcecontrol.sweep.SweepResult` or the table's path.
+        x: a swept parameter path (numbers); fixed: values for the other swept parameters (default:
+            the first of each; a random design shows every case).
+        out: the PNG file.
+
+    Raises:
+        SweepError: ``x`` is not a swept parameter or not a number.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    df, meta = _source(source)
+    df, fixed = _select(df, meta, (x,), fixed)
+    _numeric(df, x)
+    cases = meta.get("cases", [])
+    fig, axs = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.6), squeeze=False)
+    for k, label in enumerate(dict.fromkeys(df["case"])):
+        sub = df[df["case"] == label]
+        order = np.argsort(sub[x].to_numpy(dtype=float), kind="stable")
+        xv = sub[x].to_numpy(dtype=float)[order]
+        bad = ~sub["stable"].to_numpy(dtype=bool)[order]
+        limits: list[float] = []
+        cfg = _case_config(cases, label) if boundary else None
+        if cfg is not None and len(xv) > 1:
+            fx = _fine(xv, resolution)
+            rho = np.full(len(fx), np.nan)
+            with np.errstate(all="ignore"):
+                for i, v in enumerate(fx):
+                    try:
+                        rho[i] = _radius(cfg, label, {**{p: _plain(w) for p, w in fixed.items()}, x: float(v)})
+                    except Exception:  # noqa: BLE001 - a point the scenario rejects stays NaN
+                        pass
+                    if i == 0 and math.isnan(rho[0]):
+                        break  # the analysis does not apply to this case
+            ok = np.isfinite(rho[:-1]) & np.isfinite(rho[1:])
+            limits = [float(fx[i]) for i in np.flatnonzero(ok & ((rho[:-1] < 1.0) != (rho[1:] < 1.0)))]
+        color = f"C{k % 10}"
+        for c, metric in enumerate(metrics):
+            ax = axs[0, c]
+            yv = sub[metric].to_numpy(dtype=float)[order]
+            ax.plot(xv, yv, "o-", color=color, markersize=3, label=str(label))
+            ax.scatter(xv[bad], yv[bad], marker="x", color="red", s=24, zorder=3,
+                       label="unstable (simulated)" if k == 0 else None)
+            for xl in limits:
+                ax.axvline(xl, color=color, linestyle="--", linewidth=1.0,
+                           label=f"analytic ρ = 1 ({label})" if c == 0 else None)
+            if _log(xv):
+                ax.set_xscale("log")
+            ax.set_xlabel(x)
+            ax.set_title(metric, fontsize=9)
+    axs[0, 0].legend(fontsize=7, loc="best")
+    title = meta.get("title") or meta.get("scenario", "")
+    fig.suptitle(f"{title}: sweep over {x}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), fontsize=10)
+    return _save(fig, plt, out)
+
+
+def plot_sweep(source: Any, out: str | Path, x: str | None = None, y: str | None = None) -> tuple[Path, list[str]]:
+    """The default figure of a sweep (what ``forcecontrol sweep`` draws) and what it leaves out.
+
+    One varied parameter (or ``x`` alone of one): curves over it (:func:`plot_sweep_curves`); two or
+    more: maps over ``x`` and ``y`` (default: the first two parameters that take more than one value,
+    :func:`plot_sweep_map`).
+
+    Returns:
+        ``(path, notes)``: notes say, in words, which cases the figure does not show (the other
+        swept parameters held at their first values) or how it shows them.
+
+    Raises:
+        SweepError: an axis is not a swept parameter or not a number.
+    """
+    df, meta = _source(source)
+    params = list(meta.get("parameters", []))
+    for p in (x, y):
+        if p is not None and p not in params:
+            raise SweepError(f"figure axis '{p}' is not a swept parameter; expected one of {', '.join(params)}")
+    if x is not None and x == y:
+        raise SweepError(f"figure axes x and y must be two different swept parameters; got '{x}' for both")
+    # default axes: the parameters the sweep varies (one given a single value is no axis)
+    varied = [p for p in params if df[p].astype(str).nunique() > 1] or params[:1]
+    if x is None and y is None:
+        axes = tuple(varied[:2])
+    elif y is None:
+        axes = (x,) + tuple(p for p in varied if p != x)[:1]
+    elif x is None:
+        rest = [p for p in varied if p != y]
+        if not rest:
+            raise SweepError(f"figure axis y = '{y}' needs a second varied parameter for x; the sweep varies only '{y}'")
+        axes = (rest[0], y)
+    else:
+        axes = (x, y)
+    notes = []
+    others = [p for p in varied if p not in axes]
+    random = meta.get("definition", {}).get("design") == "random"
+    if others and random:
+        notes.append(f"the figure over {' and '.join(axes)} shows every case; {', '.join(others)} vary between them "
+                     "(random design)")
+    elif others:
+        shown = ", ".join(f"{p} = {_plain(df[p].iloc[0])!r}" for p in others)
+        n = int(np.sum(np.all([(df[p] == df[p].iloc[0]).to_numpy() for p in others], axis=0)))
+        notes.append(f"the figure over {' and '.join(axes)} shows {n} of {len(df)} cases, those with {shown} "
+                     "(pick other axes with --x/--y)")
+    if len(axes) == 1:
+        return plot_sweep_curves((df, meta), axes[0], out), notes
+    return plot_sweep_map((df, meta), axes[0], axes[1], out), notes
