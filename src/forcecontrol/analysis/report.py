@@ -14,13 +14,30 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .._axes import axis_names
+import numpy as np
+
+from ..errors import ForceControlError
+from .verify import (
+    DERIVED_GROUPS,
+    TRANSIENT_TIMES,
+    TRANSIENT_TOLERANCE,
+    VERIFY_TOLERANCE,
+    compare_steady,
+    compare_transient,
+    no_analysis_reason,
+    no_transient_reason,
+)
 
 __all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE", "TRANSIENT_TOLERANCE"]
 
 
 def _plain(v: Any) -> Any:
-    """JSON-safe value: floats stay floats, inf and nan become None."""
+    """JSON-safe value: floats stay floats, inf and nan become None, booleans stay booleans,
+    vectors (a mode's direction) become lists of those."""
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_plain(x) for x in v]
     try:
         f = float(v)
     except (TypeError, ValueError):
@@ -28,12 +45,9 @@ def _plain(v: Any) -> Any:
     return f if math.isfinite(f) else None
 
 
-#: relative difference under which a predicted steady value agrees with the simulation.
-VERIFY_TOLERANCE = 0.01
-#: difference (of the simulated peak contact force) under which a predicted transient agrees.
-TRANSIENT_TOLERANCE = 0.02
-#: when the transient is compared [s] (those within the case's duration).
-TRANSIENT_TIMES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 1.0, 1.5, 2.0, 3.0)
+def _is_number(v: Any) -> bool:
+    """A scalar an expected value can be checked against (a boolean counts as 0 or 1)."""
+    return isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating))
 
 
 def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "auto") -> dict[str, Any]:
@@ -41,22 +55,28 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
 
     The case is simulated as the scenario says (``simulate`` on the full nonlinear arm); each
     predicted ``steady_<axis>`` (``x … rz``, ``fx … mz``) is compared with the settled value over the
-    scenario's ``settle_window``. A relative difference above :data:`VERIFY_TOLERANCE` (of the
-    largest predicted move from the start of the case among positions, among angles, or of the
-    largest predicted force, or moment — of the run's peak force or moment when the prediction
-    is zero) means the loop is outside the linear
-    regime of the analysis (lost contact, saturation, not settled) and is reported as such. When the
-    case's analysis has a linear transient model (the sampled loops of impedance on a linear
-    environment, of the 6-D hybrid force loop and of the direct force schemes), its contact force
-    at :data:`TRANSIENT_TIMES` is compared too, within :data:`TRANSIENT_TOLERANCE` of the
-    simulated peak.
+    scenario's ``settle_window``, and so are ``steady_normal_force`` and ``steady_penetration``
+    (the scenario metrics ``normal_force`` and ``penetration``, for the schemes on a plane). A
+    relative difference above :data:`VERIFY_TOLERANCE` (of the largest predicted move from the
+    start of the case among positions, among angles, or of the largest predicted force, or
+    moment — of the run's peak force or moment when the prediction is zero) means the loop is
+    outside the linear regime of the analysis (lost contact, saturation, not settled) and is
+    reported as such. When the case's analysis has a linear transient model (the sampled loops of
+    impedance on a linear environment, of the hybrid force loops and of the direct force
+    schemes), its contact force at :data:`TRANSIENT_TIMES` is compared too, within
+    :data:`TRANSIENT_TOLERANCE` of the simulated peak. What is not compared says why.
 
     Returns:
         ``{"quantities": {name: {"predicted", "simulated", "relative_difference", "agrees"}},
-        "transient": {...} | None, "agrees": bool, "warning": str | None}``.
+        "transient": {...} | None, "transient_skipped": reason | None, "unverified": {name: reason},
+        "skipped": reason | None, "agrees": bool | None, "warning": str | None}``; ``skipped`` (and
+        ``agrees`` None) when nothing at all could be compared; no simulation is run when the
+        case has no analysis.
     """
-    import numpy as np
+    if not analysis:
+        return _skipped(no_analysis_reason(parts) + ": nothing to verify")
 
+    from ..scenarios.core import METRICS
     from ..simulation import simulate
 
     res = simulate(
@@ -64,35 +84,19 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
         qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
         engine=engine,  # type: ignore[arg-type]
     )
-    settled = res.settled_values(parts["settle_window"])
-    pose_names, _, wrench_names = axis_names(res.x.shape[1])
-    start = dict(zip(pose_names, (float(v) for v in res.x[0])))
-    # four groups, each against its own scale: positions and angles (the move from the start
-    # pose), forces and moments (the predicted size)
-    groups: dict[str, dict[str, float]] = {"position": {}, "angle": {}, "force": {}, "moment": {}}
-    for key, predicted in analysis.items():
-        name = key[len("steady_"):] if key.startswith("steady_") else None
-        if name not in settled or predicted is None or not math.isfinite(float(predicted)):
-            continue
-        group = ("angle" if name.startswith("r") else "position") if name in pose_names else (
-            "moment" if name.startswith("m") else "force") if name in wrench_names else None
-        if group is not None:
-            groups[group][name] = float(predicted)
-    out: dict[str, Any] = {}
-    for group, values in groups.items():
-        if group in ("position", "angle"):
-            scale = max([abs(_difference(group, v, start[n])) for n, v in values.items()] + [1e-6])
-        else:  # a wrench predicted zero (a peg aligned in its hole) is measured against the run's peak
-            cols = [wrench_names.index(n) for n in values]
-            peak = float(np.max(np.linalg.norm(res.wrench[:, cols], axis=1))) if cols else 0.0
-            scale = max([abs(v) for v in values.values()] + [1e-6])
-            if scale <= 1e-6:
-                scale = max(peak, 1e-6)
-        for name, predicted in values.items():
-            diff = abs(_difference(group, settled[name], predicted)) / scale
-            out[f"steady_{name}"] = {"predicted": predicted, "simulated": settled[name], "relative_difference": diff,
-                                     "agrees": diff <= VERIFY_TOLERANCE}
-    transient = _verify_transient(parts, res)
+    window = parts["settle_window"]
+    derived = {}
+    for name in DERIVED_GROUPS:
+        if f"steady_{name}" in analysis and name in METRICS:
+            try:
+                settled = METRICS[name](res, parts, window)
+            except ForceControlError:
+                continue  # the metric does not apply to this case: reported as unverified
+            env = parts["environment"]  # the start value sets the scale of a penetration (its move)
+            start = float(env.penetration(res.x[0])) if name == "penetration" and hasattr(env, "penetration") else 0.0
+            derived[name] = (settled, start)
+    out, unverified = compare_steady(analysis, res, res.settled_values(window), derived)
+    transient, transient_skipped = _verify_transient(parts, res)
     bad = [k for k, v in out.items() if not v["agrees"]]
     if transient is not None and not transient["agrees"]:
         bad.append("the contact-force transient")
@@ -104,37 +108,35 @@ def verify_case(parts: dict[str, Any], analysis: dict[str, Any], engine: str = "
                    + ("; a transient alone over its tolerance can also be the arm moving far from its start "
                       "pose (the sampled-loop model is linearised there: the arm's mobility at q0)"
                       if bad == ["the contact-force transient"] else ""))
-    return {"quantities": out, "transient": transient, "agrees": not bad, "warning": warning}
+    skipped = None
+    if not out and transient is None:
+        names = ", ".join(analysis)
+        skipped = (f"none of the analysis' quantities ({names}) is a settled value the simulation gives, and "
+                   f"{transient_skipped}")
+    return {"quantities": out, "transient": transient, "transient_skipped": transient_skipped, "unverified": unverified,
+            "skipped": skipped, "agrees": None if skipped else not bad, "warning": warning}
 
 
-def _difference(group: str, a: float, b: float) -> float:
-    """a − b; for angles the shortest one (XYZ angles of ±π are one angle)."""
-    from ..spatial import wrap_angle
-
-    d = float(a) - float(b)
-    return float(wrap_angle(d)) if group == "angle" else d
+def _skipped(reason: str) -> dict[str, Any]:
+    return {"quantities": {}, "transient": None, "transient_skipped": None, "unverified": {}, "skipped": reason,
+            "agrees": None, "warning": None}
 
 
-def _verify_transient(parts: dict[str, Any], res: Any) -> dict[str, Any] | None:
-    """The linear model's contact force (:func:`forcecontrol.scenarios.case_response`) at fixed times
-    against the simulation: ``{"times", "predicted", "simulated", "difference_over_peak", "agrees"}``,
-    or None when the case has no linear transient model."""
-    import numpy as np
+def _verify_transient(parts: dict[str, Any], res: Any) -> tuple[dict[str, Any] | None, str | None]:
+    """(the comparison of :func:`~.verify.compare_transient`, None) or (None, why not)."""
+    from ..scenarios.core import _RESPONSES, case_response
 
-    from ..scenarios.core import case_response
-
-    Ts = float(parts["controller"].sample_time)
     times = np.array([t for t in TRANSIENT_TIMES if t <= res.t[-1] + 1e-12])
     if times.size == 0:
-        return None
+        return None, (f"the case lasts {res.t[-1]:g} s, less than the first time the transient is compared at "
+                      f"({TRANSIENT_TIMES[0]:g} s)")
+    if not any(applies(parts) for applies, _ in _RESPONSES):
+        return None, no_transient_reason(parts)
     predicted = case_response(parts, times)
     if predicted is None:
-        return None
-    simulated = res.wrench[np.rint(times / Ts).astype(int), : predicted.shape[1]]
-    peak = max(float(np.max(np.linalg.norm(res.wrench, axis=1))), 1e-9)
-    diff = float(np.max(np.linalg.norm(simulated - predicted, axis=1))) / peak
-    return {"times": times.tolist(), "predicted": predicted.tolist(), "simulated": simulated.tolist(),
-            "difference_over_peak": diff, "agrees": diff <= TRANSIENT_TOLERANCE}
+        return None, ("the linear transient model leaves (or does not make) the one-sided contact at one of the "
+                      "compared times, or the arm's inertia is singular at the start: no transient is claimed")
+    return compare_transient(predicted, times, res, float(parts["controller"].sample_time)), None
 
 
 def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = False) -> dict[str, Any]:
@@ -167,19 +169,23 @@ def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = Fals
             if not key.startswith("analysis."):
                 continue
             sub = key.split(".", 1)[1]
-            if sub in analysis:
+            if sub in analysis and _is_number(analysis[sub]):
                 checks.append(check_expected(key, float(analysis[sub]), spec, parts["tolerance"]))
             else:
                 want = spec["value"] if isinstance(spec, dict) else spec
+                reason = (f"the analysis gives no '{sub}' for this case" if sub not in analysis
+                          else f"the analysis' '{sub}' is not a number (a direction or a list)")
                 checks.append({"metric": key, "value": None, "expected": _plain(want),
-                               "tolerance": None, "relative_error": None, "ok": False})
+                               "tolerance": None, "relative_error": None, "ok": False, "reason": reason})
         entry = {
             "label": case.label,
             "controller": type(parts["controller"]).__name__,
             "environment": parts["environment"].describe(),
             "analysis": {k: _plain(v) for k, v in analysis.items()},
-            "checks": [{k: _plain(v) if k != "metric" and k != "ok" else v for k, v in c.items()} for c in checks],
+            "checks": [{k: _plain(v) if k not in ("metric", "ok", "reason") else v for k, v in c.items()} for c in checks],
         }
+        if not analysis:
+            entry["analysis_skipped"] = no_analysis_reason(parts)
         if verify:
             entry["verification"] = verify_case(parts, analysis)
         cases.append(entry)

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice, print_json
+from .app import JsonOut, _fail, compile_notice, err_console, print_json
 
 __all__ = ["analyze_command"]
 
@@ -34,9 +34,7 @@ def analyze_command(
     With ``--figures`` the scenario is also simulated and one figure per controller type is
     written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid.
     """
-    from rich.console import Console
     from rich.markup import escape
-    from rich.table import Table
 
     from ..errors import ForceControlError
 
@@ -55,44 +53,110 @@ def analyze_command(
             report["files"] = [str(p) for p in plot_scheme_figures(scenario, folder)]
     except ForceControlError as exc:
         _fail(exc)
+    for line in skip_notes(report):  # what was not analysed or verified, on stderr whatever the output
+        err_console.print(f"[yellow]note:[/] {escape(line)}", highlight=False)
     if json_out:
         print_json(report)
     else:
-        console = Console(width=None if sys.stdout.isatty() else 132)
-        console.print(f"[bold]{report['title'] or report['scenario']}[/]")
-        for case in report["cases"]:
-            expected = {c["metric"].split(".", 1)[1]: c for c in case["checks"]}
-            t = Table(title=f"{case['label']} ({case['controller']})", title_justify="left")
-            for col in ("quantity", "predicted", "expected", "tolerance", ""):
-                t.add_column(col, justify="left" if col == "quantity" else "right")
-            for k, v in case["analysis"].items():
-                c = expected.get(k)
-                t.add_row(
-                    k, "-" if v is None else f"{v:.6g}",
-                    "" if c is None else f"{c['expected']:.6g}",
-                    "" if c is None or c["tolerance"] is None else f"±{c['tolerance']:.3g}",
-                    "" if c is None else ("[green]ok[/]" if c["ok"] else "[red]MISSED[/]"),
-                )
-            if not case["analysis"]:
-                t.add_row("(no analysis applies to this case)", "", "", "", "")
-            console.print(t)
-            ver = case.get("verification")
-            if ver is not None and (ver["quantities"] or ver.get("transient") is not None):
-                vt = Table(title="predicted equilibrium against a simulation of the case", title_justify="left")
-                for col in ("quantity", "predicted", "simulated", "difference", ""):
-                    vt.add_column(col, justify="left" if col == "quantity" else "right")
-                for k, v in ver["quantities"].items():
-                    vt.add_row(k, f"{v['predicted']:.6g}", f"{v['simulated']:.6g}", f"{100 * v['relative_difference']:.3f} %",
-                               "[green]agrees[/]" if v["agrees"] else "[red]differs[/]")
-                tr = ver.get("transient")
-                if tr is not None:
-                    vt.add_row(f"contact force at {len(tr['times'])} times ≤ {tr['times'][-1]:g} s", "linear model",
-                               "", f"{100 * tr['difference_over_peak']:.3f} % of peak",
-                               "[green]agrees[/]" if tr["agrees"] else "[red]differs[/]")
-                console.print(vt)
-                if ver["warning"]:
-                    console.print(f"[yellow]warning:[/] {escape(ver['warning'])}", highlight=False)
-        for f in report.get("files", []):
-            console.print(f"figure: {f}")
+        _print_tables(report)
     if check and not report["all_checks_pass"]:
         raise typer.Exit(code=1)
+
+
+def format_value(v: Any) -> str:
+    """A table cell of an analysis quantity: a number to 6 significant digits, a vector (a mode's
+    direction) as ``[a, b, …]`` of those, a boolean as yes/no, None as ``-``."""
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(format_value(x) for x in v) + "]"
+    if isinstance(v, (int, float)):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def skip_notes(report: dict[str, Any]) -> list[str]:
+    """One line per case for each thing not analysed or not verified, with the reason (as the JSON has it)."""
+    out = []
+    for case in report["cases"]:
+        label = case["label"]
+        ver = case.get("verification")
+        if case.get("analysis_skipped"):
+            out.append(f"{label}: {case['analysis_skipped']}" + ("" if ver is None else " (so nothing is verified)"))
+        for c in case["checks"]:
+            if c.get("reason"):
+                out.append(f"{label}: expected '{c['metric']}' not checked: {c['reason']}")
+        if ver is None:
+            continue
+        if ver.get("skipped"):
+            if not case.get("analysis_skipped"):  # else said above
+                out.append(f"{label}: not verified: {ver['skipped']}")
+            continue
+        if ver.get("transient_skipped"):
+            out.append(f"{label}: transient not verified: {ver['transient_skipped']}")
+        for name, reason in ver.get("unverified", {}).items():
+            out.append(f"{label}: {name} not verified: {reason}")
+    return out
+
+
+def _print_tables(report: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    console = Console(width=None if sys.stdout.isatty() else 132)
+    console.print(f"[bold]{escape(report['title'] or report['scenario'])}[/]")
+    for case in report["cases"]:
+        expected = {c["metric"].split(".", 1)[1]: c for c in case["checks"]}
+        t = Table(title=escape(f"{case['label']} ({case['controller']})"), title_justify="left")
+        for col in ("quantity", "predicted", "expected", "tolerance", ""):
+            t.add_column(col, justify="left" if col == "quantity" else "right")
+        for k in list(case["analysis"]) + [k for k in expected if k not in case["analysis"]]:
+            c = expected.get(k)
+            t.add_row(
+                k, format_value(case["analysis"].get(k)),
+                "" if c is None else format_value(c["expected"]),
+                "" if c is None or c["tolerance"] is None else f"±{c['tolerance']:.3g}",
+                "" if c is None else ("[green]ok[/]" if c["ok"] else "[red]MISSED[/]"),
+            )
+        if not case["analysis"]:
+            t.add_row(escape(f"(no analysis: {case.get('analysis_skipped') or 'none applies to this case'})"), "", "", "", "")
+        console.print(t)
+        ver = case.get("verification")
+        if ver is not None:
+            _print_verification(console, ver)
+    for f in report.get("files", []):
+        console.print(f"figure: {f}")
+
+
+def _print_verification(console: Any, ver: dict[str, Any]) -> None:
+    from rich.markup import escape
+    from rich.table import Table
+
+    if ver.get("skipped"):
+        console.print(f"[yellow]not verified:[/] {escape(ver['skipped'])}", highlight=False)
+        return
+    vt = Table(title="predicted equilibrium against a simulation of the case", title_justify="left")
+    for col in ("quantity", "predicted", "simulated", "difference", ""):
+        vt.add_column(col, justify="left" if col == "quantity" else "right")
+    for k, v in ver["quantities"].items():
+        vt.add_row(k, format_value(v["predicted"]), format_value(v["simulated"]), f"{100 * v['relative_difference']:.3f} %",
+                   "[green]agrees[/]" if v["agrees"] else "[red]differs[/]")
+    tr = ver.get("transient")
+    if tr is not None:
+        vt.add_row(f"contact force at {len(tr['times'])} times ≤ {tr['times'][-1]:g} s", "linear model",
+                   "", f"{100 * tr['difference_over_peak']:.3f} % of peak",
+                   "[green]agrees[/]" if tr["agrees"] else "[red]differs[/]")
+    else:
+        vt.add_row("contact-force transient", "-", "-", "", "[yellow]not verified[/]")
+    for k in ver.get("unverified", {}):
+        vt.add_row(k, "-", "-", "", "[yellow]not verified[/]")
+    console.print(vt)
+    if ver.get("transient_skipped"):
+        console.print(f"[yellow]transient not verified:[/] {escape(ver['transient_skipped'])}", highlight=False)
+    for k, reason in ver.get("unverified", {}).items():
+        console.print(f"[yellow]{escape(k)} not verified:[/] {escape(reason)}", highlight=False)
+    if ver["warning"]:
+        console.print(f"[yellow]warning:[/] {escape(ver['warning'])}", highlight=False)

@@ -17,6 +17,7 @@ from ..simulation import simulate
 from .build import _actuator, _allow_contact_loss, _part, build_case  # noqa: F401
 from .checks import (  # noqa: F401
     _ANALYSES,
+    _RESPONSES,
     METRICS,
     _check,
     _check_expected_specs,

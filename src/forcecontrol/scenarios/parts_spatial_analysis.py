@@ -289,14 +289,22 @@ def _spatial_hybrid_analysis(parts: dict[str, Any]) -> dict[str, Any]:
 def _spatial_hybrid_response_applies(parts: dict[str, Any]) -> bool:
     if not _spatial_hybrid_applies(parts) or parts["controller"].force_selection.shape[1] != 1:
         return False
-    ref, T = parts["reference"], float(parts.get("duration", 0.0))
-    f0, f1 = ref.at(0.0), ref.at(T)  # the force loop's step response needs a constant λ_d
-    return bool(np.array_equal(f0.force, f1.force) and not np.any(f0.force_rate) and not np.any(f1.force_rate))
+    return _constant_force_reference(parts)  # the force loop's step response needs a constant λ_d
 
 
 def _spatial_hybrid_response(parts: dict[str, Any], times: Any) -> Any:
-    """h_e(t) of the force loop (9.84) from the start (at rest, contact force of the start pose),
-    along the force direction; the motion along S_v exerts nothing on the environment.
+    """h_e(t) of the 6-D force loop (9.84) along the force direction (:func:`_hybrid_force_response`)."""
+    ctl = parts["controller"]
+    L_f, lam_d, W, K_f = _spatial_hybrid_model(parts)
+    return _hybrid_force_response(parts, times, W, float(K_f[0, 0]), float(L_f[0, 0]), float(lam_d[0]),
+                                  float(ctl.force_stiffness[0, 0]), float(ctl.force_damping[0, 0]))
+
+
+def _hybrid_force_response(parts: dict[str, Any], times: Any, W: np.ndarray, kf: float, lf: float, lam_d: float,
+                           kp: float, kd: float) -> Any:
+    """h_e(t) of the hybrid force loop (9.84) from the start (at rest, contact force of the start pose),
+    along the force direction W (the base-frame wrench per unit λ); the motion along S_v exerts
+    nothing on the environment.
 
     The loop is modelled as the simulator runs it, sampled: the law reads λ_k and λ̇_k at
     t_k = k Ts and the torque is held until t_{k+1}. The inner loop (9.30) cancels the measured
@@ -309,19 +317,57 @@ def _spatial_hybrid_response(parts: dict[str, Any], times: Any) -> Any:
     from ..simulation import contact_mobility, pre_start_wrench
 
     ctl, robot = parts["controller"], parts["robot"]
-    L_f, lam_d, W, K_f = _spatial_hybrid_model(parts)
     q0 = np.asarray(parts["q0"], dtype=float)
     h0 = pre_start_wrench(robot, parts["environment"], q0, np.zeros(robot.nq))
     lam0 = float(np.linalg.lstsq(W, h0, rcond=None)[0][0])
     w = W[:, 0]
     mob = float(w @ contact_mobility(robot, q0) @ w)  # [1/kg] along the force direction
-    kf, lf, kp, kd = float(K_f[0, 0]), float(L_f[0, 0]), float(ctl.force_stiffness[0, 0]), float(ctl.force_damping[0, 0])
     A = np.array([[0.0, 1.0], [-kf * mob, 0.0]])
     B = np.array([[0.0], [1.0]])
     F = np.array([[kf * mob - lf * kp, -kd]])  # v_k = L_f (K_Pλ (λ_d − λ_k) − K_Dλ L_f⁻¹ λ̇_k) + K_f m λ_k
-    z = held_input_response(A, B, F, [lf * kp * float(lam_d[0])], ctl.sample_time, [lam0, 0.0], times)
+    z = held_input_response(A, B, F, [lf * kp * lam_d], ctl.sample_time, [lam0, 0.0], times)
     return z[:, :1] @ W.T
+
+
+def _constant_force_reference(parts: dict[str, Any]) -> bool:
+    """The reference's force is the same at the start and the end and does not ramp (a step of λ_d)."""
+    ref, T = parts["reference"], float(parts.get("duration", 0.0))
+    f0, f1 = ref.at(0.0), ref.at(T)
+    return bool(np.array_equal(f0.force, f1.force) and not np.any(f0.force_rate) and not np.any(f1.force_rate))
+
+
+# ----------------------------------------------------------------------------- planar hybrid (compliant)
+
+
+def _planar_hybrid_response_applies(parts: dict[str, Any]) -> bool:
+    """Hybrid force/velocity control (9.77) on an elastic plane, one force direction S_f along the
+    plane's normal (unit length), a constant λ_d."""
+    from ..controllers.hybrid import HybridCompliantController
+    from ..environments.elastic import ElasticPlane
+
+    ctl, env = parts["controller"], parts["environment"]
+    if not isinstance(ctl, HybridCompliantController) or not isinstance(env, ElasticPlane) or ctl.selection.m != 1:
+        return False
+    s_f = np.asarray(ctl.selection.force_selection, dtype=float)[:, 0]
+    return bool(abs(abs(float(s_f @ np.asarray(env.normal, dtype=float))) - 1.0) < 1e-9) and _constant_force_reference(parts)
+
+
+def _planar_hybrid_response(parts: dict[str, Any], times: Any) -> Any:
+    """h_e(t) of the planar force loop (9.84) (:func:`_hybrid_force_response`): ``K_f = k``,
+    ``L_f = k S_fᵀ Ĉ S_f`` (as the analysis reports it); None when the modelled λ would pull on
+    the one-sided plane at one of the times."""
+    ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
+    W = np.asarray(ctl.selection.force_selection, dtype=float)
+    s_f = W[:, 0]
+    kf = float(env.stiffness) * float(s_f @ env.normal) ** 2
+    lf = float(s_f @ ctl.compliance @ s_f) * kf
+    lam_d = float(ctl.selection.force_pinv[0] @ ref.at(float(parts.get("duration", 0.0))).force)
+    h = _hybrid_force_response(parts, times, W, kf, lf, lam_d, float(ctl.force_gain[0, 0]), float(ctl.force_rate_gain[0, 0]))
+    if np.any(h @ np.asarray(env.normal, dtype=float) > 1e-9):  # a plane only pushes
+        return None
+    return h
 
 
 register_analysis(_spatial_hybrid_applies, _spatial_hybrid_analysis)
 register_response(_spatial_hybrid_response_applies, _spatial_hybrid_response)
+register_response(_planar_hybrid_response_applies, _planar_hybrid_response)
