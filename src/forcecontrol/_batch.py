@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from ._numba_cache import kernel_identity
 from .loop import planar_loop
 from .metrics import case_metrics  # the one definition of the step-response metrics
 
@@ -48,7 +49,8 @@ def kernels(law: Any) -> tuple[Any, Any]:
     if k is None:
         k = _KERNELS[law] = _make_kernels(planar_loop(law, full_log=False))
         for name, fn in zip(("case", "one", "batch"), k[2]):
-            fn._set_uuid(f"forcecontrol:_batch.{name}:{law._uuid}")  # cacheable on disk (see stable_identities)
+            # found again on disk (see stable_identities); its own cache files, per kernel and law
+            kernel_identity(fn, f"forcecontrol:_batch.{name}:{law._uuid}")
     return k[0], k[1]
 
 

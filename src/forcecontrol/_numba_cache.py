@@ -5,6 +5,11 @@ loop that calls a dispatcher in another module keeps running the old dispatcher 
 module changes. To make stale caches impossible, every distinct version of the package's
 sources gets its own cache folder: ``<cache root>/forcecontrol-<hash of all .py files>``.
 
+Inside it, every compiled function of the package is cached by :class:`forcecontrol._kernel_cache.KernelCache`
+(one index per kernel identity, per-law for the loops; locked index updates; data files named from
+their key and checked on load), installed by :func:`install_kernel_cache` when Numba is imported;
+that module's docstring says how the cache is keyed and why Numba's own cache was not safe here.
+
 The cache root is ``$NUMBA_CACHE_DIR`` when set, else ``$XDG_CACHE_HOME/forcecontrol/numba``
 (``~/.cache/forcecontrol/numba``). This module must be imported before any module that
 decorates functions with ``@njit(cache=True)`` (the package ``__init__`` does so first).
@@ -22,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities"]
+__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "cache_root"]
 
 CACHE_DIR: str | None = None
 _notified = False
@@ -55,6 +60,7 @@ def configure() -> str | None:
     else:
         os.environ["NUMBA_CACHE_DIR"] = folder  # read by numba.config on import
     CACHE_DIR = folder
+    install_kernel_cache()
     global _cold
     _cold = _empty(folder)  # before any @njit(cache=True) decoration creates its index folders
     return folder
@@ -152,3 +158,85 @@ def stable_identities() -> None:
             if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
                 if getattr(obj, "_MemoMixin__uuid", None) is None:
                     obj._set_uuid(f"forcecontrol:{name}.{attr}")
+
+
+def cache_root() -> str:
+    """The folder holding every source version's cache folder (``forcecontrol-<hash>``)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "forcecontrol", "numba"
+    )
+    if CACHE_DIR is not None and os.path.normpath(base) == os.path.normpath(CACHE_DIR):
+        return os.path.dirname(os.path.normpath(CACHE_DIR))
+    return base
+
+
+def _ours(py_func: object) -> bool:
+    module = str(getattr(py_func, "__module__", "") or "")
+    return module == "forcecontrol" or module.startswith("forcecontrol.")
+
+
+def _patch_dispatcher(module: object) -> None:
+    """Make ``Dispatcher.enable_caching`` (``cache=True``) use :class:`KernelCache` for this package's functions."""
+    cls = getattr(module, "Dispatcher", None)
+    original = getattr(cls, "enable_caching", None)
+    if original is None or getattr(original, "_forcecontrol", False):
+        return
+
+    def enable_caching(self: object) -> None:
+        if _ours(getattr(self, "py_func", None)):
+            from ._kernel_cache import KernelCache
+
+            self._cache = KernelCache(self.py_func)  # type: ignore[attr-defined]
+        else:  # other libraries' and the user's functions keep Numba's own cache
+            original(self)
+
+    enable_caching._forcecontrol = True  # type: ignore[attr-defined]
+    cls.enable_caching = enable_caching  # type: ignore[union-attr]
+
+
+class _AfterNumbaDispatcher:
+    """A meta-path finder that patches ``numba.core.dispatcher`` right after it is first executed."""
+
+    done = False
+
+    def find_spec(self, fullname: str, path: object, target: object = None) -> object:
+        if fullname != "numba.core.dispatcher" or self.done:
+            return None
+        self.done = True
+        from importlib.machinery import PathFinder
+
+        spec = PathFinder.find_spec(fullname, path)  # type: ignore[arg-type]
+        loader = getattr(spec, "loader", None)
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        exec_module = loader.exec_module
+
+        def run(module: object) -> None:
+            exec_module(module)
+            _patch_dispatcher(module)
+            if self in sys.meta_path:
+                sys.meta_path.remove(self)
+
+        loader.exec_module = run
+        return spec
+
+
+def install_kernel_cache() -> None:
+    """Have every ``cache=True`` function of the package use :class:`~forcecontrol._kernel_cache.KernelCache`.
+
+    Without importing Numba (0.3 s): if Numba is loaded, its dispatcher is patched now, else right
+    after Numba loads it (an import hook), before any module of the package decorates a function.
+    Only functions whose module is in this package are concerned.
+    """
+    module = sys.modules.get("numba.core.dispatcher")
+    if module is not None:
+        _patch_dispatcher(module)
+    elif not any(isinstance(f, _AfterNumbaDispatcher) for f in sys.meta_path):
+        sys.meta_path.insert(0, _AfterNumbaDispatcher())  # type: ignore[arg-type]
+
+
+def kernel_identity(dispatcher: object, identity: str) -> None:
+    """Give a compiled closure (a loop built per law) its identity: its pickling uuid and its own cache files."""
+    from ._kernel_cache import set_identity
+
+    set_identity(dispatcher, identity)

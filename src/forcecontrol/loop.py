@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ._numba_cache import stable_identities
+from ._numba_cache import kernel_identity, stable_identities
 from ._plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
 
 __all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
@@ -40,7 +40,8 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
         stable_identities()
         loop = _LOOPS[(law, full_log)] = njit(cache=True)(_make_loop(law, full_log))
         tag = "" if full_log else ":h-only"
-        loop._set_uuid(f"forcecontrol:loop:{law._uuid}{tag}")  # cacheable on disk (see stable_identities)
+        # its own identity: found again on disk (see stable_identities), and its own cache files (per law and variant)
+        kernel_identity(loop, f"forcecontrol:loop:{law._uuid}{tag}")
     return loop
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 from numba import njit, types
 
-from .._numba_cache import stable_identities
+from .._numba_cache import kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]
@@ -112,7 +112,7 @@ def on_arm(law: Any) -> Any:
             return ok and arm_finish(law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
 
         step = _ON_ARM[law] = njit(_ON_ARM_SIGNATURE, cache=True)(run)
-        step._set_uuid(f"forcecontrol:laws.arm.on_arm:{law._uuid}")
+        kernel_identity(step, f"forcecontrol:laws.arm.on_arm:{law._uuid}")  # its own uuid and cache files, per law
     return step
 
 
