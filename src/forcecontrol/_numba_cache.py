@@ -27,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "cache_root"]
+__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "install_kernel_cache"]
 
 CACHE_DIR: str | None = None
 _notified = False
@@ -158,16 +158,6 @@ def stable_identities() -> None:
             if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
                 if getattr(obj, "_MemoMixin__uuid", None) is None:
                     obj._set_uuid(f"forcecontrol:{name}.{attr}")
-
-
-def cache_root() -> str:
-    """The folder holding every source version's cache folder (``forcecontrol-<hash>``)."""
-    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "forcecontrol", "numba"
-    )
-    if CACHE_DIR is not None and os.path.normpath(base) == os.path.normpath(CACHE_DIR):
-        return os.path.dirname(os.path.normpath(CACHE_DIR))
-    return base
 
 
 def _ours(py_func: object) -> bool:
