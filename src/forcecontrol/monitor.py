@@ -11,10 +11,18 @@ the window is full, so that a fast divergence is caught early):
 * the oscillation alone, band-passed around that frequency (second-order Butterworth, zero
   phase: ``scipy.signal.sosfiltfilt``): its amplitude ``A = √2 · RMS`` over the window's second
   half, and its growth rate ``σ = ln(RMS₂ / RMS₁) / (window / 2)`` [1/s] from the two halves;
-* contact losses: how often the force falls below ``contact_force`` after being above it.
+* the envelope's growth rate over the last ``growth_window`` seconds: a least-squares line
+  through ln(RMS) of the band-passed force in blocks of one period (``envelope_growth``, with its
+  coefficient of determination R²);
+* contact losses: how often the force falls below ``contact_force / 2`` after being above
+  ``contact_force`` (the hysteresis ignores sensor noise while the force rises through it).
 
-Flags, most severe first: ``"divergence"`` (a non-finite sample, or A above ``min_amplitude``
-growing faster than ``growth_rate`` in two analyses in a row), ``"chatter"`` (at least ``chatter_losses`` contact losses
+Flags, most severe first: ``"divergence"`` (a non-finite sample; A above ``min_amplitude``
+growing faster than ``growth_rate`` in two analyses in a row; or *sustained growth*: the
+envelope's fitted growth rate above ``sustained_growth`` with R² >= 0.8, over at least
+``growth_periods`` periods, with the amplitude above the noise floor ``growth_floor``, in two
+analyses in a row — this catches a slowly growing oscillation long before it reaches
+``min_amplitude``), ``"chatter"`` (at least ``chatter_losses`` contact losses
 in the window with A above ``min_amplitude``: the tool bounces), ``"limit-cycle"`` (a narrowband
 oscillation above ``min_amplitude`` that neither grows nor decays by more than ``growth_rate``,
 in ``persistence`` consecutive analyses) and ``"ok"``. A decaying transient (the chapter's
@@ -55,6 +63,10 @@ class MonitorStatus:
         growth_rate: σ [1/s] (> 0 growing, < 0 decaying).
         narrowband: share of the oscillation's power near the dominant frequency, in [0, 1].
         contact_losses: contact losses within the window.
+        envelope_growth: the envelope's growth rate [1/s] fitted over the last ``growth_window``
+            (NaN: fewer than ``growth_periods`` periods analysed yet).
+        cause: why it fired: ``"non-finite"``, ``"amplitude"`` (the amplitude path),
+            ``"sustained-growth"``, or ``""``.
     """
 
     t: float
@@ -64,6 +76,8 @@ class MonitorStatus:
     growth_rate: float
     narrowband: float
     contact_losses: int
+    envelope_growth: float = math.nan
+    cause: str = ""
 
     @property
     def fired(self) -> bool:
@@ -75,7 +89,22 @@ class MonitorStatus:
         return {
             "t": self.t, "flag": self.flag, "frequency": self.frequency, "amplitude": self.amplitude,
             "growth_rate": self.growth_rate, "narrowband": self.narrowband, "contact_losses": self.contact_losses,
+            "envelope_growth": self.envelope_growth, "cause": self.cause,
         }
+
+
+def _contact_losses(s: np.ndarray, contact_force: float) -> int:
+    """Contact losses in s: falls below contact_force / 2 after being above contact_force.
+
+    The hysteresis keeps sensor noise around ``contact_force`` (while the force rises through it)
+    from counting as losses.
+    """
+    state = np.where(s > contact_force, 1, np.where(s < 0.5 * contact_force, 0, -1))
+    known = np.flatnonzero(state >= 0)
+    if known.size < 2:
+        return 0
+    held = state[known]
+    return int(np.count_nonzero((held[:-1] == 1) & (held[1:] == 0)))
 
 
 class StabilityMonitor:
@@ -98,6 +127,15 @@ class StabilityMonitor:
         chatter_losses: contact losses per window that make chatter; default 2.
         persistence: consecutive analyses a limit cycle must last; default 3.
         direction: project the force on this direction (m,) instead of using its norm.
+        sustained_growth: σ_g [1/s] above which a steadily growing envelope (fit over
+            ``growth_window``, R² >= 0.8) is a divergence even below ``min_amplitude``;
+            default 0.25 (amplitude doubling in 2.8 s). Choose it below the slowest growth to
+            catch and above the decay rates of the stable cases (σ_g ≈ 0 on a steady oscillation).
+        growth_window: span of the envelope fit [s]; default 1.0 (at most the window).
+        growth_periods: fewest oscillation periods the fit must span; default 8.
+        growth_floor: noise floor [N]: an oscillation whose amplitude is below this is never a
+            sustained growth; default 0.05 N. Set it above the oscillation that sensor noise
+            alone excites in the closed loop (a stable loop near its limit resonates).
 
     Raises:
         ParameterError: a setting is not positive / the window holds fewer than 16 samples.
@@ -115,6 +153,10 @@ class StabilityMonitor:
         chatter_losses: int = 2,
         persistence: int = 3,
         direction: Any = None,
+        sustained_growth: float = 0.25,
+        growth_window: float = 1.0,
+        growth_periods: int = 8,
+        growth_floor: float = 0.05,
     ) -> None:
         self.sample_time = positive_scalar("sample_time", sample_time)
         self.window = positive_scalar("window", window)
@@ -122,11 +164,15 @@ class StabilityMonitor:
         self.min_amplitude = positive_scalar("min_amplitude", min_amplitude)
         self.growth_rate = positive_scalar("growth_rate", growth_rate)
         self.contact_force = positive_scalar("contact_force", contact_force)
-        for name, v in (("chatter_losses", chatter_losses), ("persistence", persistence)):
+        self.sustained_growth = positive_scalar("sustained_growth", sustained_growth)
+        self.growth_window = min(positive_scalar("growth_window", growth_window), self.window)
+        self.growth_floor = positive_scalar("growth_floor", growth_floor)
+        for name, v in (("chatter_losses", chatter_losses), ("persistence", persistence), ("growth_periods", growth_periods)):
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(f"{name} must be an integer >= 1; got {v!r}")
         self.chatter_losses = int(chatter_losses)
         self.persistence = int(persistence)
+        self.growth_periods = int(growth_periods)
         self._n = int(round(self.window / self.sample_time))
         if self._n < 16:
             raise ParameterError(
@@ -150,6 +196,7 @@ class StabilityMonitor:
         self._count = 0
         self._streak = 0
         self._growing = 0
+        self._sustained = 0
         self.status = MonitorStatus(math.nan, "ok", math.nan, 0.0, 0.0, 0.0, 0)
         self.history: list[MonitorStatus] = []
 
@@ -168,7 +215,7 @@ class StabilityMonitor:
         """
         s = self._scalar(force)
         if not math.isfinite(s):
-            self.status = MonitorStatus(float(t), "divergence", math.nan, math.inf, math.inf, 0.0, 0)
+            self.status = MonitorStatus(float(t), "divergence", math.nan, math.inf, math.inf, 0.0, 0, math.inf, "non-finite")
             self.history.append(self.status)
             return self.status
         self._buf.append(s)
@@ -190,10 +237,9 @@ class StabilityMonitor:
         f_min = 3.0 * fs / n
         power = np.where(freqs >= f_min, power, 0.0)
         total = float(power.sum())
-        touching = s > self.contact_force
-        losses = int(np.count_nonzero(touching[:-1] & ~touching[1:]))
+        losses = _contact_losses(s, self.contact_force)
         if total <= 0.0:
-            self._streak = 0
+            self._streak = self._growing = self._sustained = 0
             return MonitorStatus(t, "ok", math.nan, 0.0, 0.0, 0.0, losses)
         i = int(np.argmax(power))
         frequency = float(freqs[i])
@@ -212,15 +258,38 @@ class StabilityMonitor:
         self._streak = self._streak + 1 if cycling else 0
         growing = big and growth > self.growth_rate
         self._growing = self._growing + 1 if growing else 0
+        envelope, r2, last = self._envelope_fit(band, frequency)
+        sustained = envelope > self.sustained_growth and r2 >= 0.8 and last > self.growth_floor
+        self._sustained = self._sustained + 1 if sustained else 0
+        cause = ""
         if growing and self._growing >= 2:  # two analyses in a row: one abrupt start is not a trend
-            flag = "divergence"
+            flag, cause = "divergence", "amplitude"
+        elif sustained and self._sustained >= 2:
+            flag, cause = "divergence", "sustained-growth"
         elif losses >= self.chatter_losses and (big or float(np.ptp(s)) > 2.0 * self.min_amplitude):
             flag = "chatter"
         elif cycling and self._streak >= self.persistence:
             flag = "limit-cycle"
         else:
             flag = "ok"
-        return MonitorStatus(t, flag, frequency, amplitude, growth, narrowband, losses)
+        return MonitorStatus(t, flag, frequency, amplitude, growth, narrowband, losses, envelope, cause)
+
+    def _envelope_fit(self, band: np.ndarray, frequency: float) -> tuple[float, float, float]:
+        """σ_g [1/s], R² and the last period's amplitude [N] of ln(RMS per period) over the growth window."""
+        period = max(4, int(round(1.0 / (frequency * self.sample_time))))
+        blocks = min(band.shape[0], int(round(self.growth_window / self.sample_time))) // period
+        if blocks < max(self.growth_periods, 3):
+            return math.nan, 0.0, 0.0
+        seg = band[band.shape[0] - blocks * period :].reshape(blocks, period)
+        rms = np.sqrt(np.mean(seg * seg, axis=1))
+        if not np.all(rms > 0.0):
+            return math.nan, 0.0, 0.0
+        y = np.log(rms)
+        tk = np.arange(blocks) * (period * self.sample_time)
+        slope, icpt = np.polyfit(tk, y, 1)
+        spread = float(np.var(y))
+        r2 = 1.0 - float(np.var(y - (slope * tk + icpt))) / spread if spread > 0.0 else 0.0
+        return float(slope), r2, math.sqrt(2.0) * float(rms[-1])
 
     def scan(self, result: Any) -> list[MonitorStatus]:
         """Run the monitor over a finished simulation (its measured force) from a fresh state.
