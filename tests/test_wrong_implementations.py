@@ -63,6 +63,17 @@ def test_negative_torque_overshoot_is_clamped_and_logged():
     assert s.counts["torque limit"] == 3
 
 
+@pytest.mark.parametrize("h", [(-80.0, 0.0), (-48.0, -64.0), (0.0, -80.0)])
+def test_force_limit_acts_on_the_force_norm_in_any_direction(h):
+    """Extra slip: the force limit one-sided (a signed component, not ‖h_e‖): 80 N pushing along −x or −y stops at 60 N."""
+    s = Safety(_ConstantTorque(ARM, [0.0, 0.0]), max_force=60.0)
+    s.reset()
+    s.step(0.0, fc.Measurement(Q0, np.zeros(2), np.asarray(h)), fc.Reference.setpoint([1.0, 0.0]))
+    (e,) = s.events
+    assert s.stopped and (e["cause"], e["reaction"]) == ("force limit", "stop")
+    assert e["value"] == pytest.approx(80.0, rel=1e-12) and e["limit"] == 60.0
+
+
 # ----------------------------------------------------------------------------- sweeps
 
 

@@ -25,8 +25,12 @@ mutant is applied, so run it on a private worktree::
     git worktree add /tmp/mut-wt HEAD && python /tmp/mut-wt/tools/mutate.py --area safety
     git worktree remove --force /tmp/mut-wt
 
-Numba's cache is keyed on the package's source hash, so every mutant compiles afresh (some
-seconds); each mutant gets a temporary cache folder, removed afterwards.
+Numba's cache is keyed on the package's source hash, so a mutant compiles afresh (tens of
+seconds on a busy machine); each mutant gets a temporary cache folder, removed afterwards. A
+mutant of a file with no compiled (``njit``) code cannot change a compiled function, so its
+folder starts as a copy of the unmutated sources' kernels, compiled by a first *baseline* run of
+those mutants' tests on the unmutated sources (which must pass, or the kills would mean nothing);
+``--fresh-cache`` compiles every mutant from scratch instead.
 """
 
 from __future__ import annotations
@@ -215,6 +219,28 @@ def _env(root: Path, cache: str) -> dict[str, str]:
     return env
 
 
+def _source_hash(root: Path) -> str:
+    """The package's cache key, by the package's own function (forcecontrol._numba_cache)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_fc_numba_cache", root / "src" / "forcecontrol" / "_numba_cache.py")
+    mod = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod._source_hash(root / "src" / "forcecontrol")
+
+
+def compiles(root: Path, mutant: Mutant) -> bool:
+    """Whether the mutated file holds compiled code (then the mutant's kernels are compiled afresh)."""
+    return "njit" in (root / "src" / "forcecontrol" / mutant.file).read_text(encoding="utf-8")
+
+
+def baseline(root: Path, tests: list[str], cache: str, timeout: float) -> tuple[str, str, float]:
+    """The tests on the unmutated sources (they must pass), compiling the kernels into ``cache``."""
+    t0 = time.perf_counter()
+    verdict, failed = _pytest(root, tests, _env(root, cache), timeout)
+    return ("passed" if verdict == "SURVIVED" else verdict), failed, time.perf_counter() - t0
+
+
 def check_root(root: Path) -> str:
     """Where ``forcecontrol`` is imported from with the tool's environment; SystemExit when not under root."""
     cache = tempfile.mkdtemp(prefix="fc-mutate-check-")
@@ -246,10 +272,12 @@ def _pytest(root: Path, tests: list[str], env: dict[str, str], timeout: float) -
     return f"ERROR (pytest exit {proc.returncode})", last[-1] if last else ""
 
 
-def run(mutant: Mutant, timeout: float, root: Path = ROOT, compare: bool = False) -> list[tuple[str, str, float]]:
+def run(mutant: Mutant, timeout: float, root: Path = ROOT, compare: bool = False,
+        warm: Path | None = None) -> list[tuple[str, str, float]]:
     """Apply one mutant, run its tests (or, with ``compare``, its other tests then the slip tests), restore.
 
-    Returns one (verdict, first failing test, seconds) per pytest run.
+    ``warm``: a cache folder of the unmutated sources' kernels to start from (a mutant of a file
+    without compiled code only). Returns one (verdict, first failing test, seconds) per pytest run.
     """
     path = root / "src" / "forcecontrol" / mutant.file
     original = path.read_text(encoding="utf-8")
@@ -264,6 +292,8 @@ def run(mutant: Mutant, timeout: float, root: Path = ROOT, compare: bool = False
     out = []
     try:
         path.write_text(original.replace(mutant.old, mutant.new), encoding="utf-8")
+        if warm is not None and warm.is_dir():
+            shutil.copytree(warm, Path(cache) / f"forcecontrol-{_source_hash(root)}")
         for tests in plan:
             t0 = time.perf_counter()
             verdict, failed = _pytest(root, tests, _env(root, cache), timeout)
@@ -282,6 +312,8 @@ def main(argv: list[str] | None = None, default_area: str | None = None) -> int:
     ap.add_argument("--compare", action="store_true",
                     help=f"run a mutant's other tests and {SLIPS} separately (two columns)")
     ap.add_argument("--root", type=Path, default=ROOT, help="the checkout whose sources are mutated (default: %(default)s)")
+    ap.add_argument("--fresh-cache", action="store_true",
+                    help="compile every mutant from scratch (no baseline run, no copied kernels)")
     ap.add_argument("--timeout", type=float, default=900.0, help="seconds per pytest run")
     a = ap.parse_args(argv)
     root = a.root.resolve()
@@ -297,6 +329,25 @@ def main(argv: list[str] | None = None, default_area: str | None = None) -> int:
             print(f"{m.key:4s} {m.area:11s} {m.law}  ({m.file}){state}")
         return 0
     print(f"forcecontrol imported from {check_root(root)}", file=sys.stderr)
+    base = Path(tempfile.mkdtemp(prefix="fc-mutate-base-numba-"))
+    try:
+        return _table(chosen, root, a, base)
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
+
+
+def _table(chosen: list[Mutant], root: Path, a: argparse.Namespace, base: Path) -> int:
+    warmable = [] if a.fresh_cache else [m for m in chosen if not compiles(root, m)]
+    warm = None
+    if warmable:
+        tests = list(dict.fromkeys(t for m in warmable for t in m.tests))
+        verdict, failed, secs = baseline(root, tests, str(base), a.timeout)
+        print(f"baseline (unmutated sources, the tests of {len(warmable)} mutants): {verdict} {failed} in {secs:.0f} s",
+              file=sys.stderr, flush=True)
+        if verdict != "passed":
+            print("the unmutated sources fail their tests: no mutant can be judged", file=sys.stderr)
+            return 2
+        warm = base / f"forcecontrol-{_source_hash(root)}"
     survivors = 0
     if a.compare:
         print("| mutant | area | slip | file | other tests | first failing | slip tests | first failing | s |\n"
@@ -304,7 +355,7 @@ def main(argv: list[str] | None = None, default_area: str | None = None) -> int:
     else:
         print("| mutant | area | slip | file | verdict | first failing test | s |\n|---|---|---|---|---|---|---|")
     for m in chosen:
-        res = run(m, a.timeout, root, a.compare)
+        res = run(m, a.timeout, root, a.compare, None if m not in warmable else warm)
         killed = any(v.startswith("killed") for v, _, _ in res)
         survivors += not killed
         secs = sum(s for _, _, s in res)
