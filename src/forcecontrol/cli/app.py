@@ -77,15 +77,46 @@ def _slug(s: str) -> str:
     return slug or "case"
 
 
-def prepare_output(out: Path, name: str, force: bool) -> Path:
-    """The folder ``out/<name>`` for a run's files: created, writable, and not holding files unless ``force``.
+#: the default output folder of the commands that write files (``--out``).
+DEFAULT_OUT = Path("forcecontrol-out")
+#: the ``--out`` option of ``run``, ``replay`` and ``compare-trace``: ``None`` stands for :data:`DEFAULT_OUT`.
+OutFolder = Annotated[Path | None, typer.Option(  # noqa: UP007 - typer needs Optional
+    "--out", show_default=str(DEFAULT_OUT),
+    help="folder for the files; when left at the default, a re-run never overwrites nor fails: it writes in NAME-2, "
+         "NAME-3, ... (said on stderr and in --json notes)")]
+
+
+def _next_free(out: Path, name: str) -> Path:
+    """``out/name``, or the first of ``out/name-2``, ``out/name-3``, ... that is missing or an empty folder."""
+    for i in range(1, 10_000):
+        folder = out / (name if i == 1 else f"{name}-{i}")
+        if not folder.exists() or (folder.is_dir() and not any(folder.iterdir())):
+            return folder
+    return out / name  # pragma: no cover - 10,000 earlier runs: prepare_output refuses with the usual message
+
+
+def prepare_output(out: Path | None, name: str, force: bool) -> tuple[Path, str | None]:
+    """The folder for a run's files and a note when it is not ``out/<name>``.
+
+    ``out`` given: the folder ``out/<name>``, created, writable, and not holding files unless ``force``.
+    ``out`` None (the user left ``--out`` at its default): ``forcecontrol-out/<name>``, or when that
+    already holds an earlier run's files (and not ``force``) the next free ``<name>-2``, ``<name>-3``, ...
+    (nothing is overwritten and a re-run of the same command succeeds); the note says so.
 
     Raises:
         OutputError: the folder cannot be created or written, or already holds files (``--force``).
     """
     from ..errors import OutputError
 
-    folder = out / name
+    note = None
+    if out is None:
+        out = DEFAULT_OUT
+        folder = out / name if force else _next_free(out, name)
+        if folder != out / name:
+            note = (f"{str(out / name)!r} already holds an earlier run's files (never overwritten): this run writes in "
+                    f"{str(folder)!r}; --force overwrites them, --out DIR writes elsewhere")
+    else:
+        folder = out / name
     try:
         folder.resolve().relative_to(out.resolve())
     except ValueError as exc:  # pragma: no cover - _slug makes this impossible; kept as the rule
@@ -108,7 +139,13 @@ def prepare_output(out: Path, name: str, force: bool) -> Path:
         probe.unlink()
     except OSError as exc:
         raise OutputError(f"cannot write in {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
-    return folder
+    return folder, note
+
+
+def say_note(note: str | None) -> None:
+    """Print ``note: ...`` on stderr (a command that did something other than the plain request says so)."""
+    if note:
+        err_console.print(f"[bold]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
 
 
 def print_json(obj: Any) -> None:
@@ -199,7 +236,7 @@ def schema_command(
 def run_command(
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
     json_out: JsonOut = False,
-    out: Annotated[Path, typer.Option(help="folder for the figure and data files")] = Path("forcecontrol-out"),
+    out: OutFolder = None,
     figure: Annotated[bool, typer.Option(help="write the figure (PNG)")] = True,
     data: Annotated[DataFormat, typer.Option(help="also write each case's log (+ JSON metadata)")] = DataFormat.none,
     engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
@@ -221,7 +258,8 @@ def run_command(
         try:
             scn = load_scenario(scenario)
             writes = figure or animate or data is not DataFormat.none
-            folder = prepare_output(out, _slug(scn.name), force) if writes else out / _slug(scn.name)
+            folder, note = prepare_output(out, _slug(scn.name), force) if writes else (Path(), None)
+            say_note(note)
             if json_out:
                 run = run_scenario(scn, engine=engine.value)
             else:
@@ -253,7 +291,10 @@ def run_command(
             run.files[f"data:{c.label}"] = str(d)
             run.files[f"metadata:{c.label}"] = str(m)
     if json_out:
-        print_json(run.to_json())
+        doc = run.to_json()
+        if note:
+            doc["notes"] = [*doc.get("notes", []), note]
+        print_json(doc)
     else:
         _print_summary(run)
     if check and not run.all_checks_pass:
@@ -274,16 +315,29 @@ def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
     return out
 
 
+def _settled_z(spec, case) -> tuple[float, float] | None:
+    """A 6-D case's settled z and f_z (means over the scenario's settle window), None for a planar case."""
+    values = case.result.settled_values(float(spec.config.get("settle_window", 0.1)))
+    return (values["z"], values["fz"]) if "z" in values and "fz" in values else None
+
+
 def _print_summary(run) -> None:
     scn = run.scenario
     console.print(f"[bold]{escape(scn.title or scn.name)}[/]")
     t = Table(title="Settled values (mean of the last samples) and peak contact force", title_justify="left")
-    for col in ("case", "t_end [s]", "x [m]", "y [m]", "f_x [N]", "f_y [N]", "peak |f| [N]", "engine"):
-        t.add_column(col, justify="right" if col != "case" else "left")
-    for c in run.cases:
+    # a 6-D case (the Panda's) also has z and f_z: without them a 20 N press on a table reads f_x = f_y = 0
+    spatial = [_settled_z(spec, c) for spec, c in zip(scn.cases, run.cases)]
+    three = any(z is not None for z in spatial)
+    cols = ("case", "t_end [s]", "x [m]", "y [m]", *(("z [m]",) if three else ()), "f_x [N]", "f_y [N]",
+            *(("f_z [N]",) if three else ()), "peak |f| [N]", "engine")
+    for col in cols:  # escaped: '[m]' and '[s]' are units, not rich markup
+        t.add_column(escape(col), justify="right" if col != "case" else "left")
+    for c, zf in zip(run.cases, spatial):
         m = c.metrics
+        z, fz = (f"{zf[0]:.5f}", f"{zf[1]:.3f}") if zf is not None else ("", "")
         t.add_row(
-            escape(c.label), f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", f"{m['fx']:.3f}", f"{m['fy']:.3f}",
+            escape(c.label), f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", *((z,) if three else ()),
+            f"{m['fx']:.3f}", f"{m['fy']:.3f}", *((fz,) if three else ()),
             f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine")),
         )
     console.print(t)

@@ -7,7 +7,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output, print_json
+from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
 from .replay import CaseLabel, JointTopic, RecordedLog, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
 
 __all__ = ["compare_trace_command"]
@@ -40,7 +40,7 @@ def compare_trace_command(
     ),
     case: CaseLabel = None,
     max_shift: Annotated[float, typer.Option(help="largest time shift searched to align the traces [s]")] = 0.1,
-    out: Annotated[Path, typer.Option(help="folder for the figure")] = Path("forcecontrol-out"),
+    out: OutFolder = None,
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
     wrench_sense: WrenchSense = "by-end-effector",
@@ -59,13 +59,16 @@ def compare_trace_command(
         sim, name, m = _simulated(simulated, case, format, args)
         rec = read_log(recorded, format, m, *args)
         cmp = compare_traces(sim, rec, max_shift=max_shift)
-        folder = prepare_output(out, _slug(f"{Path(name).stem}-compare-trace"), force)
+        folder, note = prepare_output(out, _slug(f"{Path(name).stem}-compare-trace"), force)
+        say_note(note)
         figure = cmp.plot(folder / "compare-trace.png")
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
         return
     report = {"simulated": name, "recorded": str(recorded), "samples": int(cmp.t.size), "metrics": cmp.metrics,
               "files": {"figure": str(figure)}}
+    if note:
+        report["notes"] = [note]
     if json_out:
         print_json(report)
         return

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import ForceOverwrite, JsonOut, _fail, _slug, compile_notice, console, prepare_output, print_json
+from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 
@@ -61,7 +61,7 @@ def replay_command(
     data: RecordedLog,
     format: Annotated[RecordFormat, typer.Option("--format", help="format of DATA (default: from the path)")] = RecordFormat.auto,
     case: CaseLabel = None,
-    out: Annotated[Path, typer.Option(help="folder for the replay table (CSV) and figure")] = Path("forcecontrol-out"),
+    out: OutFolder = None,
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
     wrench_sense: WrenchSense = "by-end-effector",
@@ -82,7 +82,8 @@ def replay_command(
         robot = parts["robot"]
         rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense)
         result = replay(parts["controller"], rec, parts["reference"], robot)
-        folder = prepare_output(out, _slug(f"{scn.name}-replay"), force)
+        folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force)
+        say_note(note)
         stem = _slug(spec.label)
         table = folder / f"{stem}.csv"
         result.to_pandas().to_csv(table, index=False)
@@ -93,6 +94,8 @@ def replay_command(
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
               "files": {"table": str(table), "figure": str(figure)}}
+    if note:
+        report["notes"] = [note]
     if json_out:
         print_json(report)
         return
