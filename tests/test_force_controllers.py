@@ -127,8 +127,8 @@ def test_python_and_compiled_engines_agree(scheme):
 
 
 def test_inner_position_reset_puts_x_F_on_the_tip():
-    """reset(measurement, reference): ξ₀ makes x_F(0) = K_F (f_d − f_e) + ξ₀ equal the tip on integral axes."""
-    ctl = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.0], [0.0016, 0.0])
+    """reset(measurement, reference): ξ₀ makes x_F(0) = K_F (f_d − f_e) + ξ₀ equal the tip on integral axes ("tip")."""
+    ctl = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.0], [0.0016, 0.0], integrator_start="tip")
     q = ARM.inverse_kinematics([1.0, 0.2])
     h = np.array([3.0, 0.0])
     ctl.reset(fc.Measurement(q, np.zeros(2), h), fc.Reference.setpoint([0.0, 0.0], [10.0, 0.0]))
@@ -141,7 +141,7 @@ def test_inner_position_starts_at_rest_and_zero_start_pulls_away():
     """With the tip start, the first torque holds the arm still (a = 0); with ξ₀ = 0 it pulls it off the plane."""
     env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e3)
     ref = fc.Setpoint([1.0, 0.0], [10.0, 0.0])
-    tip = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.0], [0.0016, 0.0])
+    tip = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.0], [0.0016, 0.0], integrator_start="tip")
     zero = fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0.0], [0.0016, 0.0], integrator_start="zero")
     r_tip = fc.simulate(ARM, env, tip, ref, q0=Q0, duration=0.2, engine="compiled")
     r_zero = fc.simulate(ARM, env, zero, ref, q0=Q0, duration=0.2, engine="compiled")
@@ -184,7 +184,7 @@ def test_gains_report_the_parameters():
     """gains() lists the parameters by their public names (for metadata)."""
     g = _controllers()["inner-position"].gains()
     assert g["force_gain"] == K_F.tolist() and g["integral_gain"] == K_I.tolist()
-    assert g["integrator_start"] == "tip"
+    assert g["integrator_start"] == "hold"  # the default: the book's step response (issue 27)
     assert "integral_gain" not in _controllers()["inner-velocity"].gains()
 
 

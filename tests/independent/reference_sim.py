@@ -39,7 +39,8 @@ f₀ the contact force at t = 0 and the offset ``o = p₀`` (inner position loop
 * ``"hold"``: the loop held the tip still before t = 0 with no force demanded,
   ``K_F Rᵀ (0 − f₀) + ξ₀ = Rᵀ o``;
 * ``"tip"``: x_F (parallel: x̃ + x_F) equals the tip at t = 0 with the reference f_d(0) applied,
-  ``K_F Rᵀ (f_d(0) − f₀) + ξ₀ = Rᵀ o``;
+  ``K_F Rᵀ (f_d(0) − f₀) + ξ₀ = Rᵀ o``, and a later change of f_d does not move x_F (bumpless:
+  ξ ← ξ − K_F Rᵀ Δf_d on axes with K_I > 0, i.e. x_F = R (−K_F Rᵀ f_e + ξ + K_F Rᵀ f_d(0)) + …);
 * ``"zero"``: ξ₀ = 0.
 """
 
@@ -402,8 +403,13 @@ class _PIForce(Law):
         f_pre = ref.f_d(0.0) if self.start_mode == "tip" else np.zeros(2)
         xi0 = self.R.T @ offset - self.kf * (self.R.T @ (f_pre - h))
         self.xi = np.where(self.ki > 0.0, xi0, 0.0)
+        self.f_prev = ref.f_d(0.0)
 
     def x_F(self, t, h, ref, Ts):
+        if self.start_mode == "tip":  # bumpless: no proportional kick at a change of f_d
+            f = ref.f_d(t)
+            self.xi = self.xi - np.where(self.ki > 0.0, self.kf * (self.R.T @ (f - self.f_prev)), 0.0)
+            self.f_prev = f
         ef = self.R.T @ (ref.f_d(t) - h)
         xF = self.R @ (self.kf * ef + self.xi)
         self.xi = self.xi + Ts * self.ki * ef  # ξ_{k+1}, used at the next sample

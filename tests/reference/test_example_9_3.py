@@ -31,8 +31,9 @@ STIFFNESSES = [1e3, 1e4]
 
 
 def _controller(scheme: str) -> fc.Controller:
-    if scheme == "inner-position":
-        return fc.InnerPositionForceController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0])
+    if scheme == "inner-position":  # the set-up of two-link-arm.md, x_F(0) = tip: "tip" (the default is "hold")
+        return fc.InnerPositionForceController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0],
+                                               integrator_start="tip")
     if scheme == "inner-velocity":
         return fc.InnerVelocityForceController(ARM, **MOTION, force_gain=[0.0024, 0.0])
     return fc.ParallelForcePositionController(ARM, **MOTION, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0])

@@ -69,11 +69,16 @@ class ForceLoopAxis:
         force_gain: k_F [m/N], >= 0; integral_gain: k_I [m/(N s)], >= 0 (ignored by the
             inner velocity loop, whose C_F is purely proportional (9.46)).
         environment_stiffness: k along the axis [N/m], >= 0 (0: free axis).
-        integrator_start: how the simulated controller presets ξ₀ (``"hold"``, ``"tip"`` or
-            ``"zero"``, as ``integrator_start`` of the force controllers), used by
-            :meth:`response` for its default initial state; None: ``"hold"`` for the inner
-            position loop (the chapter's linear loop (9.44), its zero at −k_I/k_F) and
-            ``"zero"`` for the parallel scheme (the controllers' defaults there).
+        integrator_start: how the simulated controller presets ξ₀ and meets a change of f_d
+            (``"hold"``, ``"tip"`` or ``"zero"``, as ``integrator_start`` of the force
+            controllers, :data:`~forcecontrol.controllers.force.INTEGRATOR_STARTS`), used by
+            :meth:`response`; None: the controllers' defaults, ``"hold"`` for the inner position
+            loop (the book's step response of (9.42)–(9.43), its zero at −k_I/k_F) and
+            ``"zero"`` for the parallel scheme. The state-space models, poles, zeros and
+            transfer functions are the chapter's loop (the whole PI acting on f_d, as with
+            ``"hold"`` and ``"zero"``); with ``"tip"`` :meth:`response` also cancels the
+            proportional kick of every change of f_d (ξ moves by −k_F Δf_d), as the controller
+            does: its step response has no zero.
     """
 
     scheme: str
@@ -104,6 +109,11 @@ class ForceLoopAxis:
             )
 
     # ------------------------------------------------------------------ structure
+    @property
+    def start(self) -> str:
+        """The integrator start in effect: :attr:`integrator_start`, or the scheme's default."""
+        return self.integrator_start or ("hold" if self.scheme == "inner-position" else "zero")
+
     @property
     def has_integral(self) -> bool:
         """Whether ξ is a state (PI action (9.43) with k_I > 0)."""
@@ -279,6 +289,10 @@ class ForceLoopAxis:
                 with ξ₀ as the controller presets it (:attr:`integrator_start`), with
                 ``p = x_r`` (inner position) or ``x_r − x_d(0)`` (parallel): ``"hold"``
                 ξ₀ = p, ``"tip"`` ξ₀ = p − k_F f_d(0), ``"zero"`` ξ₀ = 0.
+
+        With ``"tip"`` every change of f_d moves ξ by −k_F Δf_d (no proportional kick, as the
+        controller does): the loop is simulated in the coordinate ``ξ + k_F f_d`` (the PI with
+        setpoint weight 0) and the returned state ξ converted back.
         """
         t = np.asarray(t, dtype=np.float64)
         U = np.vstack([
@@ -295,11 +309,21 @@ class ForceLoopAxis:
                 raise DimensionError(
                     f"initial_state must have shape ({len(self.states)},) (states {self.states}); got shape {x0.shape}"
                 )
-        return control.forced_response(self.state_space(), T=t, U=U, X0=x0)
+        if not (self.has_integral and self.start == "tip"):
+            return control.forced_response(self.state_space(), T=t, U=U, X0=x0)
+        A, B, C, D = self._continuous_matrices()
+        B = B.copy()
+        B[1, 0] -= self.stiffness * self.force_gain / self.inertia  # x_F = k_F (0 − f_e) + (ξ + k_F f_d)
+        x0 = x0.copy()
+        x0[2] += self.force_gain * U[0, 0]
+        sys = control.ss(A, B, C, D, inputs=_INPUTS, outputs=_OUTPUTS, states=self.states, name=f"{self.scheme}-tip")
+        resp = control.forced_response(sys, T=t, U=U, X0=x0)
+        resp.states[2] -= self.force_gain * U[0]
+        return resp
 
     def initial_integral(self, force: float, position: float, rest_position: float) -> float:
         """ξ₀ [m] the controller presets for a start at rest at x_r, with f_d(0), x_d(0) (see :meth:`response`)."""
-        start = self.integrator_start or ("hold" if self.scheme == "inner-position" else "zero")
+        start = self.start
         if start == "zero":
             return 0.0
         p = rest_position if self.scheme == "inner-position" else rest_position - position

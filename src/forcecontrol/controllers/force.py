@@ -23,10 +23,14 @@ chooses the operational acceleration ``a`` (for the position-only operational sp
 C_F is diagonal (9.41). With the PI action (9.43) ``C_F = K_F + K_I ∫ (·) dζ`` the integral is
 an explicit state ξ [m] (one entry per axis), so that ``x_F = K_F (f_d − f_e) + ξ`` and, per
 sample, ``ξ ← ξ + Ts K_I (f_d − f_e)`` after x_F is computed (forward Euler, the same update in
-the Python ``step`` and in the compiled loop). Along an axis with zero C_F entries the force
-loop is open: ``x_F = 0`` there and the inner position loop takes x_e to 0 (the chapter's
-remark after (9.47)), the inner velocity loop takes ẋ_e to 0, the parallel scheme takes x_e to
-x_d (9.49).
+the Python ``step`` and in the compiled loop). How ξ starts, and whether a change of f_d kicks
+x_F through K_F, is ``integrator_start`` (:data:`INTEGRATOR_STARTS`; one meaning at any time of
+the force step). Along an axis with zero C_F entries the force loop is open: in the base frame
+``x_F = 0`` there and the inner position loop takes x_e to 0 (the chapter's remark after
+(9.47)); in a task frame (``task_frame`` given) the inner position loop holds the tip's start
+position along such an axis (the task frame's origin is the start tip: on a tilted surface the
+tip does not slide along it), except with ``integrator_start = "zero"``. The inner velocity
+loop takes ẋ_e to 0 there, the parallel scheme takes x_e to x_d (9.49).
 
 A force reference with components outside R(K) is read by these schemes as a velocity reference
 and makes the end-effector drift (Sect. 9.4.3); :func:`check_force_reference` reports it with a
@@ -57,8 +61,22 @@ __all__ = [
 # --------------------------------------------------------------------------- classes
 
 
-#: how the PI integrator of (9.43) starts (see ``_DirectForceController.reset``).
-INTEGRATOR_STARTS = ("tip", "hold", "zero")
+#: how the PI integrator of (9.43) starts and meets a change of f_d, at any time of the force step
+#: (``p`` = the tip position, inner position loop, or ``p − x_d``, parallel scheme; f_e(0) the
+#: contact force at the start; in task-frame coordinates along the axes with integral action):
+#:
+#: * ``"hold"`` (default of the inner position loop): ``ξ₀ = p − K_F (0 − f_e(0))``: x_F equals the
+#:   tip as if f_d had been 0 before the start (with no contact force the loop holds the tip still
+#:   until f_d becomes non-zero); every change of f_d, at t = 0 or later, acts on the whole PI,
+#:   its proportional kick ``K_F Δf_d`` included: the step response of (9.42)–(9.43), with the
+#:   zero at −k_I/k_F (Example 9.3, Fig. 9.9);
+#: * ``"tip"`` (bumpless): ``ξ₀ = p − K_F (f_d(0) − f_e(0))``: x_F equals the tip at t = 0 with the
+#:   reference f_d(0) applied, and every later change of f_d moves ξ by ``−K_F Δf_d``: x_F never
+#:   jumps (the proportional action acts on −f_e only, setpoint weight 0; the integral still
+#:   acts on f_d − f_e, so f_e → f_d); the step response has no zero;
+#: * ``"zero"`` (default of the parallel scheme): ξ₀ = 0, the chapter's C_F literally (parallel:
+#:   x_d and f_d step from the tip and from 0 at t = 0, Fig. 9.11); the whole PI acts on changes.
+INTEGRATOR_STARTS = ("hold", "tip", "zero")
 
 
 def _task_frame(value: Any, m: int) -> np.ndarray | None:
@@ -78,19 +96,22 @@ class _DirectForceController(Controller):
 
     _has_integral: ClassVar[bool] = True
     GAINS = ("inertia", "damping", "stiffness", "force_gain")
-    _default_start: ClassVar[str] = "tip"
+    _default_start: ClassVar[str] = "hold"
+    #: along axes without force action (K_F = K_I = 0) in a task frame, x_F holds the start tip
+    _holds_free_axes: ClassVar[bool] = True
     position_task_only: ClassVar[bool] = True
 
     def __init__(
         self, robot: RobotModel, inertia: Any, damping: Any, stiffness: Any, force_gain: Any,
         integral_gain: Any = 0.0, *, integral_limit: Any = None,
-        integrator_start: Literal["tip", "hold", "zero"] | None = None, environment_stiffness: Any = None,
+        integrator_start: Literal["hold", "tip", "zero"] | None = None, environment_stiffness: Any = None,
         posture: Any = None, singularity: Any = None, sample_time: float = 1e-3, task_frame: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         m = self.m
         self._set_redundancy(posture, singularity)
         self.task_frame = _task_frame(task_frame, m)
+        self._framed = task_frame is not None  # a task frame (even I): its origin is the start tip
         self.inertia = as_gain_matrix("inertia", inertia, m)
         self.damping = as_gain_matrix("damping", damping, m)
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
@@ -120,8 +141,9 @@ class _DirectForceController(Controller):
             self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
             self.force_gain, self.integral_gain, self.integral_limit,
             (np.eye(m) if self.task_frame is None else self.task_frame).ravel(),
+            [1.0 if self._has_integral and start == "tip" else 0.0],
         ])
-        self.state = np.zeros(2 * m if self._has_integral else 0)
+        self.state = np.zeros(3 * m if self._has_integral else 0)
 
     @property
     def force_axes(self) -> np.ndarray:
@@ -141,18 +163,23 @@ class _DirectForceController(Controller):
         """Reset the integral action ξ and check the force reference.
 
         ξ₀ on every axis with integral action (see :data:`INTEGRATOR_STARTS`), with
-        ``p`` the tip position (inner position loop) or ``p − x_d`` (parallel scheme):
+        ``p`` the tip position (inner position loop) or ``p − x_d`` (parallel scheme), in
+        task-frame coordinates:
 
-        * ``"hold"``: ``ξ₀ = p − K_F (0 − f_e(0))``: before t = 0 the loop held the initial
-          position with no force demanded; the force step then acts on the whole PI, its
-          proportional kick included, as the linear model (9.44) with its zero at −k_I/k_F has it
-          (this reproduces Figs. 9.9–9.11 and the analysis' responses);
+        * ``"hold"``: ``ξ₀ = p − K_F (0 − f_e(0))``: x_F equals the tip as if f_d had been 0
+          before the start; a step of f_d (at t = 0 or later) acts on the whole PI, its
+          proportional kick included: the step response of (9.42)–(9.43) with its zero at
+          −k_I/k_F (Figs. 9.9 and the analysis' responses);
         * ``"tip"``: ``ξ₀ = p − K_F (f_d(0) − f_e(0))``: x_F (or x̃ + x_F) equals the tip at
-          t = 0 *after* the step, so the proportional kick of the step is cancelled;
+          t = 0 with f_d(0) applied, and the law cancels the proportional kick of every later
+          change of f_d (bumpless, :mod:`forcecontrol.laws.force`);
         * ``"zero"`` (or no measurement): ξ₀ = 0.
 
-        Axes without integral action keep ξ = 0 (there x_F = K_F (f_d − f_e), as the chapter
-        has it).
+        Axes with K_F > 0 and no integral action keep ξ = 0 (there x_F = K_F (f_d − f_e), as the
+        chapter has it). Axes without any force action (K_F = K_I = 0) of the inner position loop
+        in a task frame get ξ₀ = p there (with "hold" and "tip"): x_F holds the start tip along
+        them, so the tip does not slide along a tilted surface; in the base frame they keep
+        ξ = 0 (x_F = 0: the tip goes to 0 along them, the chapter's remark in Sect. 9.4.3).
 
         Warns:
             DriftWarning: the reference force has components the environment cannot balance
@@ -175,16 +202,22 @@ class _DirectForceController(Controller):
                 elif np.any(np.where(self.force_axes, 0.0, f_d)):
                     ok = _check_force_reference(f_d, np.eye(m), self.force_axes, True, 1e-9, 2)
                 self._consistent_reference = f_d.tobytes() if ok else None
-        if not self._has_integral or measurement is None or reference is None or self.integrator_start == "zero":
+        if not self._has_integral or reference is None:
             return
-        f_pre = np.asarray(reference.force, dtype=np.float64) if self.integrator_start == "tip" else np.zeros(m)
+        f_ref = np.asarray(reference.force, dtype=np.float64)
+        self.state[2 * m :] = R.T @ f_ref if turned else f_ref  # the reference the bumpless shift starts from
+        if measurement is None or self.integrator_start == "zero":
+            return
+        f_pre = f_ref if self.integrator_start == "tip" else np.zeros(m)
         target = self._position_offset(measurement, reference)
         error = f_pre - np.asarray(measurement.wrench, dtype=np.float64)
         if turned:
             target, error = R.T @ target, R.T @ error
         xi0 = np.where(self.integral_gain > 0.0, target - self.force_gain * error, 0.0)
+        if self._holds_free_axes and self._framed:
+            xi0 = np.where(self.force_axes, xi0, target)
         self.state[:m] = xi0
-        self.state[m:] = xi0
+        self.state[m : 2 * m] = xi0
 
     def gains(self) -> dict[str, Any]:
         out = super().gains()
@@ -208,7 +241,8 @@ class InnerPositionForceController(_DirectForceController):
 
     Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` f_e (m,) [N];
     ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m].
-    State: ``state = [ξ (m), ξ₀ (m)]`` [m], ξ the integral action.
+    State: ``state = [ξ (m), ξ₀ (m), f_s (m)]``, ξ the integral action [m], ξ₀ the centre of its
+    anti-windup band [m], f_s the force reference of the last sample in the task frame [N].
 
     Args:
         robot: the manipulator model (square Jacobian).
@@ -218,11 +252,13 @@ class InnerPositionForceController(_DirectForceController):
         force_gain: K_F, diagonal of C_F's proportional part, scalar, (m,) or diagonal (m, m) [m/N], >= 0.
         integral_gain: K_I, diagonal of C_F's integral part, same forms [m/(N s)], >= 0.
         integral_limit: anti-windup bound on ξ − ξ₀ [m], scalar or (m,); None = no clamping.
-        integrator_start: ``"tip"`` (default): ξ₀ makes x_F equal the tip position at t = 0,
-            the force step included (no proportional kick); ``"hold"``: ξ₀ holds the initial
-            position before the step, which then acts on the whole PI (the chapter's Example 9.3
-            and the linear model (9.44)); ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0
-            along integral axes). See :meth:`reset`.
+        integrator_start: ``"hold"`` (default): x_F equals the tip before the force step and
+            every step of f_d (at t = 0 or later) acts on the whole PI, proportional kick
+            included: the book's step response of (9.42)–(9.43) (Example 9.3, Fig. 9.9);
+            ``"tip"``: bumpless, x_F equals the tip at t = 0 with f_d(0) applied and no change of
+            f_d ever kicks x_F (no zero in the step response; about a third lower peak in
+            Example 9.3); ``"zero"``: ξ₀ = 0 (pulls the arm toward x_F ≈ 0 along integral axes).
+            See :data:`INTEGRATOR_STARTS` and :meth:`reset`.
         environment_stiffness: K of (9.38), (m, m) [N/m], optional: checks f_d ∈ R(K) at reset.
         posture: for a redundant arm (J of shape (m, n), m < n), a ``NullSpacePosture`` acting in
             the null space of J; singularity: a ``SingularityHandling`` (damped least squares).
@@ -230,6 +266,9 @@ class InnerPositionForceController(_DirectForceController):
             (K_F, K_I) is diagonal in that frame, ``x_F = R C_F Rᵀ (f_d − f_e)`` (Sect. 9.4 on a
             surface that is not aligned with the base axes; ``task.planar_rotation(angle)`` in the
             plane); None: the base frame (the chapter's case). Both run compiled (R is packed with the gains).
+            A task frame's origin is the tip at the start: along its axes without force action
+            (K_F = K_I = 0, e.g. the tangent of a tilted plane) x_F holds the start tip (with
+            ``"hold"`` and ``"tip"``), so the tip does not slide; in the base frame x_F = 0 there.
         sample_time: Ts [s].
 
     Raises:
@@ -297,16 +336,20 @@ class ParallelForcePositionController(_DirectForceController):
 
     Inputs: ``measurement.q, .qd`` (n,); ``measurement.wrench`` f_e (m,) [N];
     ``reference.position`` x_d (m,) [m]; ``reference.force`` f_d (m,) [N]. Output: torques (n,) [N m].
-    State: ``state = [ξ (m), ξ₀ (m)]`` [m].
+    State: ``state = [ξ (m), ξ₀ (m), f_s (m)]`` as for the inner position loop.
 
     Arguments are those of :class:`InnerPositionForceController`, except that ``integrator_start``
-    defaults to ``"zero"`` (x_F is a correction about x_d; the x_d step drives the transient,
-    Fig. 9.11); ``"tip"`` chooses ξ₀ so that x_d + x_F equals the tip position at t = 0.
+    defaults to ``"zero"`` (x_F is a correction about x_d; x_d steps from the tip and f_d from 0
+    at t = 0 with the whole PI acting, the book's step response of Fig. 9.11); ``"hold"`` chooses
+    ξ₀ so that x_d + x_F equals the tip before the force step, ``"tip"`` so that it equals the tip
+    at t = 0 with f_d(0) applied, bumpless afterwards. The free axes (C_F zero) go to x_d in any
+    frame.
     """
 
     law = staticmethod(laws.parallel)
     acceleration = staticmethod(laws.parallel_acceleration)
     _default_start: ClassVar[str] = "zero"
+    _holds_free_axes: ClassVar[bool] = False  # x_d is the free axes' position reference (9.49)
 
     def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
         return self.robot.forward_kinematics(measurement.q) - np.asarray(reference.position, dtype=np.float64)

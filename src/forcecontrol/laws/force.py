@@ -2,12 +2,15 @@
 
 Packed parameters shared by the three laws (m = task dimension, row-major matrices)::
 
-    p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F (m), K_I (m), anti-windup limit (m), R (m²)]
+    p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F (m), K_I (m), anti-windup limit (m), R (m²), bumpless (1)]
 
 K_F and K_I are the diagonals of C_F in the task frame whose axes are the columns of R (R = I:
-the base frame, the chapter's case). State of the PI schemes: ``s = [ξ (m), ξ₀ (m)]``, the
-integral action and its value after reset, in task-frame coordinates; the inner velocity loop
-has no state.
+the base frame, the chapter's case). State of the PI schemes: ``s = [ξ (m), ξ₀ (m), f_s (m)]``,
+the integral action, the centre of its anti-windup band (its value after reset) and the force
+reference ``Rᵀ f_d`` of the previous sample, in task-frame coordinates; the inner velocity loop
+has no state. ``bumpless`` = 1 (``integrator_start = "tip"``): along axes with integral action a
+change of f_d moves ξ and ξ₀ by ``−K_F Rᵀ Δf_d``, so x_F does not jump (the proportional action
+acts on the measured force only, setpoint weight 0); 0: the whole PI acts on the change (9.43).
 """
 
 from __future__ import annotations
@@ -25,12 +28,23 @@ def force_reference(dt, h, ref, p, s, integral, x_F, e):  # pragma: no cover - c
     ξ = K_I ∫ (f_d − f_e) is the integral action (forward Euler, one sample), clamped to
     ``[ξ₀ − limit, ξ₀ + limit]`` where the limit is positive (anti-windup). With
     ``integral`` False (the inner velocity loop, (9.46)) ``x_F = R K_F Rᵀ (f_d − f_e)``.
-    Writes x_F (m,) and uses ``e`` (m,) as scratch.
+    Bumpless (module docstring): first ``ξ, ξ₀ ← ξ, ξ₀ − K_F (Rᵀ f_d − f_s)``, ``f_s ← Rᵀ f_d``
+    along axes with K_I > 0. Writes x_F (m,) and uses ``e`` (m,) as scratch.
     """
     m = h.shape[0]
     mm = m * m
     oF = 3 * mm
     oR = 3 * mm + 3 * m
+    if integral and p[oR + mm] != 0.0:  # bumpless: a change of f_d does not move x_F
+        for i in range(m):
+            acc = 0.0
+            for j in range(m):
+                acc += p[oR + j * m + i] * ref[3 * m + j]
+            if p[oF + m + i] > 0.0:
+                shift = p[oF + i] * (acc - s[2 * m + i])
+                s[i] -= shift
+                s[m + i] -= shift
+            s[2 * m + i] = acc
     for i in range(m):  # e = Rᵀ (f_d − f_e), the force error in the task frame
         acc = 0.0
         for j in range(m):

@@ -26,7 +26,8 @@ _MOTION = {
     "stiffness": Field("gain", True, doc="K_P [N/m]"),
     "force_gain": Field("gain", True, doc="K_F, diagonal of C_F [m/N] (in the task frame)"),
     "task_frame_angle": Field("number", doc="planar task frame: its x axis at this angle to x0 [deg]; "
-                                            "C_F is diagonal there (default: the base frame)"),
+                                            "C_F is diagonal there, its origin is the start tip (the inner position "
+                                            "loop holds the start along axes without C_F) (default: the base frame)"),
 }
 
 
@@ -67,9 +68,11 @@ def _pi_builder(cls):
 
 register_controller(
     "inner-position",
-    {**_PI, "integrator_start": Field("str", default="tip", choices=("tip", "hold", "zero"),
-                                      doc="'hold': the loop holds the start before the force step (the chapter's Fig. 9.9); "
-                                          "'tip': x_F(0) = tip position after the step (no proportional kick); 'zero': ξ₀ = 0")},
+    {**_PI, "integrator_start": Field("str", default="hold", choices=("hold", "tip", "zero"),
+                                      doc="'hold' (default): x_F = tip before the force step, every step of f_d (at t = 0 or "
+                                          "later) acts on the whole PI: the book's step response (9.42)-(9.43), Fig. 9.9; "
+                                          "'tip': bumpless, x_F(0) = tip with f_d(0) applied and no proportional kick at any "
+                                          "change of f_d; 'zero': ξ₀ = 0")},
     _pi_builder(InnerPositionForceController),
     "force control with inner position loop (9.39), PI C_F (9.43)",
 )
@@ -87,8 +90,9 @@ register_controller(
 register_controller(
     "parallel",
     {**_PI, "integrator_start": Field("str", default="zero", choices=("tip", "hold", "zero"),
-                                      doc="'zero': ξ₀ = 0; 'tip': x_d + x_F(0) = tip position; "
-                                          "'hold': x_d + x_F = tip before the force step")},
+                                      doc="'zero' (default): ξ₀ = 0, x_d and f_d step at t = 0 on the whole PI (the book's "
+                                          "Fig. 9.11); 'hold': x_d + x_F = tip before the force step; 'tip': x_d + x_F(0) = "
+                                          "tip with f_d(0) applied, bumpless at later changes of f_d")},
     _pi_builder(ParallelForcePositionController),
     "parallel force/position control (9.48), PI C_F (9.43)",
 )
@@ -113,7 +117,8 @@ def force_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     """Per base axis: poles, zero, ω_n, ζ, equilibrium (9.44)/(9.49), sampled stability limit.
 
     Keys (``a`` = x, y, ...): ``pole_re_a``, ``pole_im_a`` (the complex pair, imaginary part
-    positive), ``real_pole_a`` (the third pole of the PI schemes), ``zero_a`` (of f_e/f_d),
+    positive), ``real_pole_a`` (the third pole of the PI schemes), ``zero_a`` (of f_e/f_d; none with
+    ``integrator_start = "tip"``, whose bumpless PI has no zero),
     ``omega_n_a``, ``zeta_a`` (of the complex pair, or of the slowest pole), ``steady_a``,
     ``steady_fa``, ``spectral_radius_a`` (sampled loop at Ts) and ``stability_limit_a`` (largest
     environment stiffness [N/m] keeping the sampled loop stable, with the arm's operational mass
@@ -141,7 +146,7 @@ def force_analysis(parts: dict[str, Any]) -> dict[str, Any]:
         if real and ax.has_integral:
             out[f"real_pole_{a}"] = float(max(real))
         z = ax.zeros()
-        if z.size == 1 and ax.force_gain > 0 and ax.environment_stiffness > 0:
+        if z.size == 1 and ax.force_gain > 0 and ax.environment_stiffness > 0 and not (ax.has_integral and ax.start == "tip"):
             out[f"zero_{a}"] = float(np.real(z[0]))
         wn, zeta, p = ax.damping_table()
         j = int(np.argmax(np.abs(np.imag(p)))) if np.any(np.abs(np.imag(p)) > 1e-9) else int(np.argmin(wn))
@@ -194,10 +199,13 @@ def force_response(parts: dict[str, Any], times: Any) -> Any:
         U = np.array([[r.force[i], r.position[i], rest[i]] for r in refs])
         z = np.zeros(A.shape[0])
         z[0] = rest[i]
+        bumpless = ax.has_integral and ax.start == "tip"
         if ax.has_integral:
             z[2] = ax.initial_integral(float(U[0, 0]), float(U[0, 1]), float(rest[i]))
         f = np.empty(n)
         for k in range(n):
+            if bumpless and k > 0:  # "tip": a change of f_d moves ξ by −k_F Δf_d (no kick)
+                z[2] -= ax.force_gain * (U[k, 0] - U[k - 1, 0])
             f[k] = C[0] @ z + D[0] @ U[k]
             z = A @ z + B @ U[k]
         out[:, i] = f[idx]
