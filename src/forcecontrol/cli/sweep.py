@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
@@ -71,6 +73,20 @@ def sweep_command(
         notes.append(text)
         err_console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
+    @contextmanager
+    def noting() -> Iterator[None]:
+        """SweepWarnings (a check-only key swept, a part set aside, a lock taken over, a block resubmitted) as notes."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SweepWarning)
+            try:
+                yield
+            finally:
+                for w in caught:
+                    if issubclass(w.category, SweepWarning):
+                        note(str(w.message))
+                    else:
+                        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
     try:
         scn, file_def = load_sweep_scenario(scenario)
         if param:
@@ -100,7 +116,7 @@ def sweep_command(
             note(f"--workers {workers} is ignored: the Dask cluster at {scheduler} runs the blocks on its own workers")
         with Progress(TextColumn("[bold]checking and building cases"), BarColumn(),
                       TextColumn("{task.completed}/{task.total}"), console=err_console, transient=True,
-                      disable=json_out) as checking:
+                      disable=json_out) as checking, noting():
             job = checking.add_task("build", total=None)
             prep = prepare_sweep(scn, definition, progress=lambda d, n: checking.update(job, completed=d, total=n))
     except ForceControlError as exc:
@@ -114,19 +130,11 @@ def sweep_command(
     )
     task = bar.add_task(f"sweep {scn.name}", total=prep.n_cases)
     try:
-        with bar, warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SweepWarning)
-            try:
-                result = run_sweep(
-                    prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
-                    progress=lambda done, total: bar.update(task, completed=done),
-                )
-            finally:
-                for w in caught:  # recoveries (a part set aside, a lock taken over, a block resubmitted)
-                    if issubclass(w.category, SweepWarning):
-                        note(str(w.message))
-                    else:
-                        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        with bar, noting():
+            result = run_sweep(
+                prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
+                progress=lambda done, total: bar.update(task, completed=done),
+            )
     except KeyboardInterrupt:
         err_console.print(f"[yellow]interrupted[/]: finished cases are stored in {path}.parts; run the same command "
                           "again to resume")

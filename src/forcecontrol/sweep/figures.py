@@ -125,6 +125,14 @@ def _numeric(df: Any, p: str) -> np.ndarray:
     return vals
 
 
+def _is_number(df: Any, p: str) -> bool:
+    try:
+        _numeric(df, p)
+    except SweepError:
+        return False
+    return True
+
+
 def _case_config(cases: list[dict[str, Any]], row_label: str) -> dict[str, Any] | None:
     """The scenario case of a table row: its label, or its label marked ``"<label> [<paths> swept]"``."""
     for c in cases:
@@ -355,16 +363,19 @@ def plot_sweep(source: Any, out: str | Path, x: str | None = None, y: str | None
             raise SweepError(f"figure axis '{p}' is not a swept parameter; expected one of {', '.join(params)}")
     if x is not None and x == y:
         raise SweepError(f"figure axes x and y must be two different swept parameters; got '{x}' for both")
-    # default axes: the parameters the sweep varies (one given a single value is no axis)
+    # default axes: the numeric parameters the sweep varies (one given a single value is no axis)
     varied = [p for p in params if df[p].astype(str).nunique() > 1] or params[:1]
+    numeric = [p for p in varied if _is_number(df, p)]
     if x is None and y is None:
-        axes = tuple(varied[:2])
+        if not numeric:
+            _numeric(df, varied[0])  # raises, naming the parameter and its values
+        axes = tuple(numeric[:2])
     elif y is None:
-        axes = (x,) + tuple(p for p in varied if p != x)[:1]
+        axes = (x,) + tuple(p for p in numeric if p != x)[:1]
     elif x is None:
-        rest = [p for p in varied if p != y]
+        rest = [p for p in numeric if p != y]
         if not rest:
-            raise SweepError(f"figure axis y = '{y}' needs a second varied parameter for x; the sweep varies only '{y}'")
+            raise SweepError(f"figure axis y = '{y}' needs a second varied numeric parameter for x; the sweep has none")
         axes = (rest[0], y)
     else:
         axes = (x, y)

@@ -17,6 +17,25 @@ def _sweepable_top() -> list[str]:
     return [k for k, f in TOP_FIELDS.items() if f.kind != "table" and k not in ("name", "title", "description")]
 
 
+#: keys a part uses only in a check, not in the simulated response: (table, type) -> {key: what uses it}.
+CHECK_ONLY: dict[tuple[str, str], dict[str, str]] = {
+    ("controller", "admittance"): {"environment_stiffness": "its bandwidth check (a warning when the motion loop is too slow)"},
+}
+
+
+def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str) -> str | None:
+    """What to say when ``p`` names a key that case ``label`` uses only in a check (None otherwise)."""
+    keys = p.keys
+    if len(keys) != 2:
+        return None
+    kind = (cfg.get(keys[0]) or {}).get("type")
+    use = CHECK_ONLY.get((keys[0], str(kind)), {}).get(keys[1])
+    if use is None:
+        return None
+    return (f"parameter '{p.path}' (case '{label}'): [{keys[0]}] of type '{kind}' uses '{keys[1]}' only in {use}, "
+            "not in the simulation: the swept values give the same responses")
+
+
 def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:
     """Reject a path the scenario schema does not know, naming the valid choices."""
     from ..robots import PlanarTwoLinkParameters

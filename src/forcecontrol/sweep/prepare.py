@@ -21,8 +21,8 @@ import numpy as np
 from .. import __version__
 from ..errors import DriftWarning, ForceControlError, ScenarioError
 from .cases import CaseJob, _batch_sensor, _first_sample, _job, _Plant, _plant
-from .paths import _apply, _check_path, copy_tree, sweep_label
-from .spec import SweepDefinition, SweepError, definition_hash
+from .paths import _apply, _check_path, check_only_note, copy_tree, sweep_label
+from .spec import SweepDefinition, SweepError, SweepWarning, definition_hash
 
 __all__ = ["PreparedSweep", "CaseJob", "load_sweep_scenario", "prepare_sweep", "sweep_label", "METRIC_COLUMNS", "MAX_JOINT_SPEED"]
 
@@ -192,6 +192,9 @@ def prepare_sweep(
     for _, case in selected:
         for p in definition.parameters:
             _check_path(p, case.config, case.label)
+            note = check_only_note(p, case.config, case.label)
+            if note is not None and len(p.values) != 1:
+                warnings.warn(note, SweepWarning, stacklevel=2)
     assignments = definition.assignments()
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     jobs: list[CaseJob] = []
