@@ -119,6 +119,24 @@ def test_resumed_sweep_table_is_sorted_by_case_id(tmp_path):
     pd.testing.assert_frame_equal(resumed.table, whole.table, check_exact=True)
 
 
+def test_sweep_settling_time_uses_a_two_percent_band_by_default(tmp_path):
+    """Extra slip: a sweep's default settling band 5 %: the row's settling time is NumPy's 2 % one of simulate()'s force."""
+    from forcecontrol.scenarios import CaseSpec, build_case
+    from forcecontrol.sweep import SweepDefinition, prepare_sweep, run_sweep
+
+    scn = dict(_SWEEP_SCENARIO, duration=2.0)
+    prep = prepare_sweep(scn, SweepDefinition.from_options({"environment.stiffness": [1e4]}))
+    (row,) = run_sweep(prep, tmp_path / "one.parquet", workers=1).table.to_dict("records")
+    p = build_case(CaseSpec("one", {k: v for k, v in scn.items() if k not in ("name",)}, {}))
+    res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=2.0,
+                      engine="python")
+    y = res.wrench[:, 0]
+    yf = y[-100:].mean()  # the sweep's final value: the mean over its last 100 samples (0.1 s)
+    outside = np.flatnonzero(np.abs(y - yf) > 0.02 * abs(yf - y[0]))
+    assert outside[-1] < len(y) - 1  # settled within the run
+    assert row["settling_time"] == pytest.approx((outside[-1] + 1) * 1e-3, abs=1e-12)
+
+
 # ----------------------------------------------------------------------------- metrics
 
 
@@ -160,6 +178,16 @@ def test_tank_is_filled_with_the_damping_that_acted():
             T += Ts * D_of[k - 1] * float(v[k - 1] @ v[k - 1])
         expected.append(T)
     np.testing.assert_allclose(ctl.signals()["tank_energy"], expected, rtol=1e-12, atol=0.0)
+
+
+def test_tank_never_holds_more_than_its_maximum():
+    """Extra slip: the cap compared with the deposit, not the room left: 1 + 0.75 + 0.75 J in a 2 J tank keeps 2 J, drops 0.5."""
+    tank = EnergyTank(1.0, minimum=0.0, maximum=2.0, dissipation_fraction=1.0)
+    tank.fill(0.75)
+    assert (tank.energy, tank.dropped) == (pytest.approx(1.75), 0.0)
+    tank.fill(0.75)  # each deposit is below T_max, the sum is not
+    assert tank.energy == pytest.approx(2.0) and tank.dropped == pytest.approx(0.5)
+    assert tank.pay(-0.75) == 1.0 and tank.energy == pytest.approx(2.0) and tank.dropped == pytest.approx(1.25)
 
 
 # ----------------------------------------------------------------------------- admittance
