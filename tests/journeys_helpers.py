@@ -75,8 +75,8 @@ def assert_figure(path: Path, min_side: int = 300, min_bytes: int = 10_000) -> N
 def rich_tables(text: str) -> list[list[dict[str, str]]]:
     """The tables of a command's output (rich box drawing) as lists of rows {header: cell}.
 
-    A cell that rich wrapped over several lines is joined back (a continuation line has an empty
-    first numeric cell).
+    A cell that rich wrapped over several lines is joined back (a continuation line has one
+    non-empty cell).
     """
     tables: list[list[dict[str, str]]] = []
     header: list[str] = []
@@ -91,7 +91,7 @@ def rich_tables(text: str) -> list[list[dict[str, str]]]:
         elif line.startswith("│") and tables:
             cells = [c.strip() for c in line.strip("│").split("│")]
             rows = tables[-1]
-            if rows and len(cells) > 1 and cells[1] == "":
+            if rows and len(cells) >= 3 and sum(bool(c) for c in cells) == 1:  # one wrapped cell's next line
                 for k, c in zip(header, cells):
                     if c:
                         rows[-1][k] = f"{rows[-1][k]} {c}"

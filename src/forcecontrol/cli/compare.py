@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from typing import Annotated, Any
 
 import typer
@@ -34,6 +35,7 @@ def compare_command(
 ) -> None:
     """Run a scenario on the built-in simulator and on MuJoCo; report both and why they differ."""
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from ..errors import ForceControlError
@@ -46,10 +48,10 @@ def compare_command(
     if json_out:
         print_json(report)
         return
-    console = Console()
+    console = Console(width=None if sys.stdout.isatty() else 132)  # piped: as the other commands (80 cut the numbers)
     t = Table(title=f"{report['scenario']}: contact force, built-in simulator vs MuJoCo", title_justify="left")
     for col in ("case", "axis", "engine", "steady [N]", "peak [N]", "peak time [s]", "overshoot [%]", "settling [s]"):
-        t.add_column(col, justify="left" if col in ("case", "engine") else "right")
+        t.add_column(escape(col), justify="left" if col in ("case", "engine") else "right")  # '[s]' is a unit, not markup
     for c in report["cases"]:
         for eng, key in ((c["engines"][0], "builtin"), ("mujoco", "mujoco")):
             m = c[key]

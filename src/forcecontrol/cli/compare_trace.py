@@ -15,21 +15,24 @@ __all__ = ["compare_trace_command"]
 _DATA_SUFFIXES = (".csv", ".parquet", ".pq", ".mcap", ".db3")
 
 
-def _simulated(source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str]) -> tuple[Any, str, int]:
-    """The simulated trace: a data file as it is, or a scenario's case simulated now."""
+def _simulated(
+    source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str]
+) -> tuple[Any, str, int, str]:
+    """The simulated trace: a data file as it is, or a scenario's case simulated now; its name, task dimension and
+    the stem of its output folder (the file's stem or the scenario's name; a case label such as 'k = 1e4 N/m' is no path)."""
     from ..scenarios import load_scenario
     from ..simulation import simulate
 
     p = Path(source)
     if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
         rec = read_log(p, fmt, 6, *args)
-        return rec, str(p), rec.m
+        return rec, str(p), rec.m, p.stem
     scn = load_scenario(source)
     spec, parts = pick_case(scn, case)
     res = simulate(parts["robot"], parts["environment"], parts["controller"], parts["reference"], q0=parts["q0"],
                    qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
                    label=spec.label)
-    return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim)
+    return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim), scn.name
 
 
 def compare_trace_command(
@@ -56,10 +59,10 @@ def compare_trace_command(
     compile_notice()
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
-        sim, name, m = _simulated(simulated, case, format, args)
+        sim, name, m, stem = _simulated(simulated, case, format, args)
         rec = read_log(recorded, format, m, *args)
         cmp = compare_traces(sim, rec, max_shift=max_shift)
-        folder, note = prepare_output(out, _slug(f"{Path(name).stem}-compare-trace"), force)
+        folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force)
         say_note(note)
         figure = cmp.plot(folder / "compare-trace.png")
     except (ForceControlError, ImportError) as exc:

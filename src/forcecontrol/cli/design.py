@@ -64,6 +64,7 @@ def design_command(
         print_json({**d.as_dict(), "scenario": written})
         return
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     console = Console(width=None if sys.stdout.isatty() else 132)
@@ -75,7 +76,7 @@ def design_command(
     console.print(g)
     c = Table(title="the sampled loop at the ends and the middle of the range", title_justify="left")
     for col in ("k [N/m]", "phase margin [deg]", "gain margin [dB]", "settling 2 % [s]", "spectral radius"):
-        c.add_column(col, justify="right")
+        c.add_column(escape(col), justify="right")  # '[s]', '[deg]' are units, not rich markup
     for row in d.checks:
         c.add_row(f"{row['k']:.6g}", f"{row['phase_margin_deg']:.1f}", f"{row['gain_margin_db']:.1f}",
                   f"{row['settling_time']:.4g}", f"{row['spectral_radius']:.4f}")
