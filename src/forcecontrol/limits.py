@@ -11,7 +11,7 @@ import math
 
 from .errors import ParameterError
 
-__all__ = ["MAX_LOG_BYTES", "MAX_SUBSTEPS", "MAX_STEPS", "check_run_size", "check_substeps"]
+__all__ = ["MAX_LOG_BYTES", "MAX_SUBSTEPS", "MAX_STEPS", "RK4_STABILITY", "check_run_size", "check_substeps"]
 
 #: default memory budget for a run's logs [bytes] (``simulate(max_log_bytes=...)`` changes it).
 MAX_LOG_BYTES = 2 * 1024**3
@@ -21,6 +21,11 @@ MAX_SUBSTEPS = 500
 #: RK4 steps in a whole run (samples × substeps) above which a run is refused: the compiled loop
 #: (about 0.3 µs a step: 10 minutes) and the Python loop (about 50 µs a step: 40 minutes).
 MAX_STEPS = {"compiled": 2_000_000_000, "python": 50_000_000}
+#: RK4 follows a contact mode of rate ω [rad/s] with step h while ``ω h <= RK4_STABILITY``: its
+#: stability interval is 2√2 ≈ 2.83 on the imaginary axis (an undamped spring) and 2.785 on the
+#: negative real axis (a damper); beyond it the contact is not resolved (the penetration of one
+#: step throws the tool off, or the run blows up).
+RK4_STABILITY = 2.78
 
 
 def _human(nbytes: float) -> str:
@@ -57,7 +62,8 @@ def check_run_size(duration: float, sample_time: float, n: int, m: int, max_log_
 
 
 def check_substeps(
-    nsub: int, samples: int, sample_time: float, stiffness: float, engine: str = "python", rate: float | None = None
+    nsub: int, samples: int, sample_time: float, stiffness: float, engine: str = "python", rate: float | None = None,
+    explicit: bool = False,
 ) -> None:
     """Refuse a sub-step count that would make the run hang (a contact too stiff for the sample time).
 
@@ -66,11 +72,27 @@ def check_substeps(
         stiffness: the environment's largest stiffness [N/m] (named in the message).
         engine: ``"compiled"`` or ``"python"``: the loop that will run (sets the step budget).
         rate: the fastest contact mode [rad/s] that set ``nsub``, when known.
+        explicit: ``nsub`` is the user's ``substeps`` (not chosen from ``rate``): it must at least let
+            RK4 follow the contact, ``rate · sample_time / nsub <= RK4_STABILITY``.
 
     Raises:
-        ParameterError: more than :data:`MAX_SUBSTEPS` per sample or :data:`MAX_STEPS` in all.
+        ParameterError: more than :data:`MAX_SUBSTEPS` per sample or :data:`MAX_STEPS` in all; an
+            explicit ``substeps`` that does not resolve the contact (named, with the number needed).
     """
     mode = f" (fastest contact mode {rate:.4g} rad/s)" if rate is not None else ""
+    if explicit and rate is not None and rate * sample_time / nsub > RK4_STABILITY:
+        need = int(math.ceil(rate * sample_time / RK4_STABILITY))
+        auto = int(math.ceil(rate * sample_time / 0.05))
+        fix = (f"substeps must be at least {need:,} (the automatic choice, substeps omitted, is {auto:,})"
+               if need <= MAX_SUBSTEPS else
+               f"it needs at least {need:,} substeps, more than {MAX_SUBSTEPS:,}: lower the stiffness, shorten the "
+               "sample time, or model the contact as rigid (RigidEnvironment)")
+        raise ParameterError(
+            f"substeps = {nsub} does not resolve the contact: an environment stiffness of {stiffness:.4g} N/m gives a "
+            f"contact mode of {rate:.4g} rad/s, and with the RK4 step h = sample_time / substeps = {sample_time / nsub:.4g} s "
+            f"ω·h = {rate * sample_time / nsub:.3g} is beyond RK4's stability bound {RK4_STABILITY} (the contact would be "
+            f"thrown off within a step, or blow up); {fix}"
+        )
     if nsub > MAX_SUBSTEPS:
         raise ParameterError(
             f"an environment stiffness of {stiffness:.4g} N/m at sample_time {sample_time:.4g} s needs {nsub:,} RK4 "

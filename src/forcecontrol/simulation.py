@@ -28,25 +28,29 @@ from typing import Any, Literal, cast
 import numpy as np
 
 from . import __version__
+from ._contact import _contact_guarded, _unresolved_in_log, _unresolved_note, choose_substeps, contact_rate
+from ._contact import _largest_real_eigenvalue as _largest_real_eigenvalue
+from ._contact import contact_mobility as contact_mobility
 from ._validate import as_vector, positive_scalar
 from .actuators import Actuator
 from .controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from .environments.base import Environment
 from .errors import DimensionError, ParameterError, SimulationDivergedError, SingularityError
-from .limits import MAX_LOG_BYTES, check_run_size, check_substeps
+from .limits import MAX_LOG_BYTES, RK4_STABILITY, check_run_size, check_substeps
 from .result import SimulationResult
 from .robots.base import RobotModel
 from .robots.planar_2r import PlanarTwoLink
 from .sensors import ForceSensor, RealisticForceSensor
 from .trajectories import ReferenceSignal
 
-__all__ = ["simulate", "SimulationResult", "choose_substeps", "pre_start_wrench"]
+__all__ = ["simulate", "SimulationResult", "choose_substeps", "contact_rate", "pre_start_wrench"]
 
 _CAUSES = {
     1: "non-finite state",
     2: "runaway",
     3: "singular jacobian",
     4: "non-finite torque",
+    5: "unresolved contact",
 }
 
 
@@ -59,60 +63,6 @@ def _versions() -> dict[str, str]:
         "numba": numba.__version__,
         "python": platform.python_version(),
     }
-
-
-def contact_mobility(robot: RobotModel, q0: np.ndarray) -> np.ndarray:
-    """``B_x⁻¹ = J B⁻¹ Jᵀ`` at q0 (any Jacobian shape), what :func:`choose_substeps` weighs the
-    contact stiffness with. Raises ``numpy.linalg.LinAlgError`` when B is singular."""
-    J = np.asarray(robot.jacobian(q0))
-    return J @ np.linalg.solve(np.asarray(robot.mass_matrix(q0)), J.T)
-
-
-def _largest_real_eigenvalue(A: np.ndarray) -> float:
-    """The largest real part among A's eigenvalues; a 2 x 2 (the planar task) in closed form,
-    ``tr/2 + sqrt((tr/2)² − det)`` (a tenth of ``numpy.linalg.eigvals``' cost: a sweep calls this
-    once per case built), larger matrices (and a 2 x 2 whose square overflows) by ``eigvals``."""
-    if A.shape == (2, 2):
-        a, b, c, d = A.ravel().tolist()  # Python floats: an overflow is inf, without NumPy's warning
-        half = 0.5 * (a + d)
-        disc = half * half - (a * d - b * c)
-        if math.isfinite(half) and math.isfinite(disc):
-            return float(half + math.sqrt(disc)) if disc > 0.0 else float(half)
-        # entries beyond 1e154 overflow the square, or a NaN: eigvals (which refuses a non-finite matrix)
-    return float(np.max(np.linalg.eigvals(A).real))
-
-
-def choose_substeps(robot: RobotModel, environment: Environment, q0: np.ndarray, sample_time: float, *,
-                    mobility: np.ndarray | None = None) -> int:
-    """Integration substeps per sample so that the stiffest contact mode is resolved.
-
-    ω is the fastest contact mode at q0: ``ω² = λ_max(B_x⁻¹ K)`` with ``B_x⁻¹ = J B⁻¹ Jᵀ`` (any
-    Jacobian shape) when the environment gives its stiffness matrix K, else the conservative
-    ``k_max / λ_min(B_x)``; the RK4 step h is chosen with ``ω h <= 0.05`` (relative error per
-    step below 1e-8), and at least 1. ``mobility``: :func:`contact_mobility` at q0, when the
-    caller already has it (a sweep over the environment keeps the arm and q0).
-    """
-    k = float(environment.max_stiffness())
-    c_attr = getattr(environment, "damping", 0.0)
-    c = float(c_attr) if isinstance(c_attr, (int, float)) else 0.0  # a scalar damping along the normal [N s/m]
-    try:
-        if mobility is None:
-            mobility = contact_mobility(robot, q0)
-        K = getattr(environment, "stiffness_matrix", None)
-        K = None if K is None else np.asarray(K(), dtype=np.float64)
-        if K is not None and K.shape == mobility.shape:
-            # the contact modes themselves: ω² = eigenvalues of B_x⁻¹ K (both PSD, so real, >= 0);
-            # a normal damping c acts on the same mode: rate c/m_eff = (c/k) ω²
-            w2 = max(_largest_real_eigenvalue(mobility @ K), 0.0)
-            omega, damping_rate = math.sqrt(w2), (c / k * w2 if k > 0 else 0.0)
-        else:
-            lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
-            omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
-    except (np.linalg.LinAlgError, ZeroDivisionError):
-        lam = float(np.linalg.eigvalsh(np.asarray(robot.mass_matrix(q0))).min())
-        omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
-    rate = max(omega, damping_rate)
-    return max(1, int(math.ceil(rate * sample_time / 0.05)))
 
 
 def pre_start_wrench(robot: RobotModel, environment: Environment, q0: np.ndarray, qd0: np.ndarray) -> np.ndarray:
@@ -205,6 +155,8 @@ def simulate(
         if int(substeps) != substeps or substeps < 1:
             raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
         nsub = int(substeps)
+    # the contact's fastest mode at q0: an explicit substeps must let RK4 follow it (checked below)
+    rate = contact_rate(robot, environment, q0) if substeps is not None and _contact_guarded(environment) else None
     times = np.arange(N + 1) * Ts
     refs = np.ascontiguousarray(reference.sample(times), dtype=np.float64)
     bias, noise = sensor.sequences(N + 1, m)
@@ -230,7 +182,8 @@ def simulate(
             )
         compiled_ok = False
     use_compiled = compiled_ok and engine != "python"
-    check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python")
+    check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python",
+                   rate=rate, explicit=substeps is not None)
 
     # initial measurement for controllers whose reset depends on it
     h0 = pre_start_wrench(robot, environment, q0, qd0)
@@ -279,8 +232,15 @@ def simulate(
         meta["events"] = events  # saved with the log's metadata
     signals = _controller_signals(controller, times.shape[0])
     result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, signals=signals, **logs)
+    note = ""
+    if use_compiled and status in (0, 1, 2):  # no guard inside the compiled loop: the samples in contact, after
+        unresolved, first, why = _unresolved_in_log(robot, environment, logs, Ts / nsub, int(k))
+        if unresolved:  # the cause of a blow-up or runaway that follows, or of a run that went on regardless
+            status, k, note = unresolved, first, why
+    elif status == 5:
+        note = _unresolved_note(robot, environment, logs["q"][k], Ts / nsub)
     if status != 0:
-        _raise_diverged(result, int(status), int(k), Ts, max_qd)
+        _raise_diverged(result, int(status), int(k), Ts, max_qd, note)
     return result
 
 
@@ -306,7 +266,7 @@ def _controller_signals(controller: Controller, rows: int) -> dict[str, np.ndarr
     return out
 
 
-def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, max_qd: float) -> None:
+def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, max_qd: float, note: str = "") -> None:
     cause = _CAUSES.get(status, "unknown")
     t = k * Ts
     q = result.q[k]
@@ -315,6 +275,7 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
         2: f"a joint speed exceeded max_joint_speed = {max_qd:.6g} rad/s",
         3: "the Jacobian is singular and the control law cannot invert it",
         4: "the controller returned a NaN or infinite torque",
+        5: note,
     }.get(status, "")
     sl = slice(0, k + 1)
     partial = SimulationResult(
@@ -348,12 +309,16 @@ def _python_loop(
     friction = actuator.friction if actuator is not None and actuator.has_friction else None
     line = actuator.start(robot.nq, u) if actuator is not None else None
 
-    if friction is None:
-        def accel(q, qd, u):
-            return environment.acceleration(robot, q, qd, u)[0]
-    else:  # joint friction is part of the plant: it opposes q̇ at every RK4 stage
-        def accel(q, qd, u):
-            return environment.acceleration(robot, q, qd, u - friction(qd))[0]
+    # the contact at any RK4 stage of the sample (it may come and go between two samples)
+    touched = [False]
+    guard = _contact_guarded(environment)
+    next_check = 0  # the contact mode is checked on a contact's first sample, then every 32 with a 2x margin
+
+    def accel(q, qd, u):
+        a, h = environment.acceleration(robot, q, qd, u if friction is None else u - friction(qd))
+        if h.any():
+            touched[0] = True
+        return a
 
     for k in range(N + 1):
         t = k * Ts
@@ -395,6 +360,18 @@ def _python_loop(
                 qd = qd + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
         except np.linalg.LinAlgError:
             return 1, k
+        if guard and touched[0] and k >= next_check:
+            # the contact was met within this sample: can RK4 follow it here? (status 5 if not)
+            try:
+                ratio = contact_rate(robot, environment, q if np.all(np.isfinite(q)) else logs["q"][k]) * dt
+            except np.linalg.LinAlgError:
+                ratio = 0.0
+            if ratio > RK4_STABILITY:
+                return 5, k
+            next_check = k + (1 if ratio > 0.5 * RK4_STABILITY else 32)
+        elif guard and not touched[0]:
+            next_check = 0  # out of contact: the next contact is checked at once
+        touched[0] = False
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
             return 1, k
         if np.max(np.abs(qd)) > max_qd:
