@@ -83,7 +83,10 @@ def check_substeps(
     if explicit and rate is not None and rate * sample_time / nsub > RK4_STABILITY:
         need = int(math.ceil(rate * sample_time / RK4_STABILITY))
         auto = int(math.ceil(rate * sample_time / 0.05))
-        fix = (f"substeps must be at least {need:,} (the automatic choice, substeps omitted, is {auto:,})"
+        accurate = (f"the automatic choice, substeps omitted, is {auto:,}" if auto <= MAX_SUBSTEPS else
+                    f"an accurate step, ω·h <= 0.05, would take {auto:,}, more than {MAX_SUBSTEPS:,}: the contact is too "
+                    "stiff for this sample time")
+        fix = (f"substeps must be at least {need:,} ({accurate})"
                if need <= MAX_SUBSTEPS else
                f"it needs at least {need:,} substeps, more than {MAX_SUBSTEPS:,}: lower the stiffness, shorten the "
                "sample time, or model the contact as rigid (RigidEnvironment)")
