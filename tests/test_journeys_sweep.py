@@ -101,17 +101,16 @@ def test_one_parameter_sweep_of_one_case_on_two_workers_draws_its_curves(folder)
     assert (df["steady_state_force_error"].abs() < 1e-3 * df["settled_force"]).all()
 
 
-def test_6d_admittance_sweep_runs_with_its_figure_and_matches_run_and_the_closed_form(folder):
+def test_6d_admittance_sweep_runs_with_its_figure_and_matches_the_closed_form(folder):
     """`sweep panda-admittance-contact -p environment.stiffness=2000,5000` (6-D, figures on): exit 0, a PNG, the
-    settled forces k K/(k + K) 0.02 of two springs in series (9.22), and k = 5000 equals `forcecontrol run`."""
+    settled forces k K/(k + K) 0.02 of two springs in series (9.22): the scenario's own k = 5000 gives its book
+    value 16.67 N, and a stiffer table is penetrated less."""
     _cli(folder, "sweep", "panda-admittance-contact", "-p", "environment.stiffness=2000,5000", "--out", "adm/s.parquet")
     _png(folder / "adm" / "s.png")
     df = pd.read_parquet(folder / "adm" / "s.parquet")
-    run = json.loads(_cli(folder, "run", "panda-admittance-contact", "--json", "--out", "adm-run").stdout)
     assert list(df["engine"]) == ["simulate"] * 2 and list(df["status"]) == ["ok"] * 2
     for k, f in zip((2000.0, 5000.0), df["settled_force"]):
         assert f == pytest.approx(k * 1000.0 / (k + 1000.0) * 0.02, rel=1e-4)
-    assert df["settled_force"].iloc[1] == pytest.approx(-run["cases"][0]["settled"]["fz"], rel=1e-9)
     assert (df["settled_force"] / df["environment.stiffness"]).is_monotonic_decreasing  # stiffer: less penetration
 
 

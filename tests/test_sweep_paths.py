@@ -89,17 +89,16 @@ def test_map_over_two_of_three_parameters_says_which_cases_it_shows(tmp_path):
 
 
 def test_a_non_numeric_parameter_is_no_default_axis_and_refused_by_name(tmp_path):
-    """A sweep over controller types and stiffness: the default figure is over the stiffness (a note names the
-    type it holds); asking for the type as an axis is a SweepError naming the parameter and its values."""
-    d = SweepDefinition.from_options({"controller.type": ["inner-velocity", "inner-position"],
-                                      "environment.stiffness": [5e3, 2e4]})
+    """A sweep over the elbow (a word) and stiffness: the default figure is over the stiffness (a note names the
+    elbow it holds); asking for the elbow as an axis is a SweepError naming the parameter and its values."""
+    d = SweepDefinition.from_options({"robot.elbow": ["up", "down"], "environment.stiffness": [5e3, 2e4]})
     res = run_sweep(prepare_sweep(PLANAR, d), tmp_path / "types.parquet", workers=1)
     png, notes = plot_sweep(res, tmp_path / "t.png")
     assert _png_size(png)[0] > 800
-    assert notes == ["the figure over environment.stiffness shows 2 of 4 cases, those with controller.type = "
-                     "'inner-velocity' (pick other axes with --x/--y)"]
-    with pytest.raises(SweepError, match=r"figure axis 'controller.type' is not a number \(values inner-velocity"):
-        plot_sweep(res, tmp_path / "t.png", x="controller.type")
+    assert notes == ["the figure over environment.stiffness shows 2 of 4 cases, those with robot.elbow = 'up' "
+                     "(pick other axes with --x/--y)"]
+    with pytest.raises(SweepError, match=r"figure axis 'robot.elbow' is not a number \(values up, down\)"):
+        plot_sweep(res, tmp_path / "t.png", x="robot.elbow")
 
 
 def test_cli_sweep_with_default_figure_writes_the_map_and_notes_a_non_numeric_axis(tmp_path):
@@ -115,12 +114,12 @@ def test_cli_sweep_with_default_figure_writes_the_map_and_notes_a_non_numeric_ax
     assert summary["files"]["figure"] == str(out.with_suffix(".png")) and summary["notes"] == []
     assert _png_size(out.with_suffix(".png"))[0] > 800
     out2 = tmp_path / "types.parquet"
-    r = CliRunner().invoke(app, ["sweep", str(scn), "-p", "controller.type=inner-velocity,inner-position",
+    r = CliRunner().invoke(app, ["sweep", str(scn), "-p", "robot.elbow=up,down",
                                  "--out", str(out2), "--json"])
     assert r.exit_code == 0, r.output
     summary = json.loads(r.stdout)
     assert "figure" not in summary["files"] and out2.exists() and not out2.with_suffix(".png").exists()
-    assert any("no figure drawn" in n and "controller.type" in n for n in summary["notes"])
+    assert any("no figure drawn" in n and "robot.elbow" in n for n in summary["notes"])
     assert "no figure drawn" in r.stderr
 
 
