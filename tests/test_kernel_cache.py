@@ -1,0 +1,214 @@
+"""The compiled-kernel cache under concurrency (issue 27): per-law identity, locked writes, checked loads, the CLI.
+
+Reference for the physics: a fresh single-process run from an empty cache of its own; the
+cached runs must equal it bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+# Each worker runs chosen cases of example-9.3 (inner position, inner velocity, parallel force
+# control: three laws, one loop closure each) with the compiled engine and prints one line per
+# case: label, then a hash of every log. With FC_SAVE_BARRIER set, a worker waits before saving
+# its compiled loop until FC_PARTIES workers reached that point, so their saves meet (the race).
+WORKER = textwrap.dedent(
+    r'''
+    import dataclasses, hashlib, os, sys, time
+    import numpy as np
+    import forcecontrol
+    from numba.core import caching
+
+    barrier, parties = os.environ.get("FC_SAVE_BARRIER"), int(os.environ.get("FC_PARTIES", "0"))
+    if barrier:
+        original = caching.Cache.save_overload
+
+        def save_overload(self, sig, data):
+            if "_make_loop" in self._py_func.__qualname__:
+                open(os.path.join(barrier, str(os.getpid())), "w").close()
+                deadline = time.monotonic() + 300
+                while len(os.listdir(barrier)) < parties and time.monotonic() < deadline:
+                    time.sleep(0.0005)
+            return original(self, sig, data)
+
+        caching.Cache.save_overload = save_overload
+
+    from forcecontrol.scenarios import load_scenario
+    from forcecontrol.scenarios.core import run_scenario
+
+    scn = load_scenario("example-9.3")
+    scn = dataclasses.replace(scn, cases=tuple(scn.cases[int(i)] for i in sys.argv[1:]))
+    for c in run_scenario(scn, engine="compiled").cases:
+        r = c.result
+        h = hashlib.sha256()
+        for a in (r.t, r.q, r.qd, r.x, r.xd, r.wrench, r.wrench_measured, r.torque):
+            h.update(np.ascontiguousarray(a).tobytes())
+        print(f"{c.label}|{h.hexdigest()}|{float(r.wrench[-1, 0])!r}")
+    '''
+)
+CASES = ("0", "2", "4")  # one case per law
+ROUNDS = 3
+
+
+def _env(cache: Path, **extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("FC_SAVE_BARRIER", "FC_PARTIES")}
+    return {**env, "NUMBA_CACHE_DIR": str(cache), "PYTHONHASHSEED": "0", **extra}
+
+
+def _results(stdout: str) -> dict[str, tuple[str, str]]:
+    rows = [line.split("|") for line in stdout.splitlines() if line.count("|") == 2]
+    return {label: (digest, force) for label, digest, force in rows}
+
+
+def _worker(script: Path, cache: Path, cases: tuple[str, ...], **extra: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, str(script), *cases], env=_env(cache, **extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _finish(proc: subprocess.Popen[str]) -> dict[str, tuple[str, str]]:
+    out, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err[-3000:]
+    return _results(out)
+
+
+def test_concurrent_first_compiles_give_the_fresh_single_process_results(tmp_path: Path) -> None:
+    """Three laws compiled at once by three processes into one empty cache, saves forced to meet, then all laws
+    run from that cache: every log equals a fresh single-process run's bit for bit (3 rounds)."""
+    script = tmp_path / "worker.py"
+    script.write_text(WORKER)
+    reference = _finish(_worker(script, tmp_path / "fresh", CASES))
+    assert len(reference) == 3
+    for r in range(ROUNDS):
+        cache = tmp_path / f"shared{r}"
+        barrier = tmp_path / f"barrier{r}"
+        barrier.mkdir()
+        procs = [_worker(script, cache, (c,), FC_SAVE_BARRIER=str(barrier), FC_PARTIES=str(len(CASES))) for c in CASES]
+        alone = {}
+        for p in procs:
+            alone.update(_finish(p))
+        assert alone == reference, f"round {r}: a concurrent first run differs"
+        warm = _finish(_worker(script, cache, CASES))
+        assert warm == reference, f"round {r}: the run from the concurrently filled cache differs: {warm} != {reference}"
+        verify = subprocess.run(
+            [sys.executable, "-m", "forcecontrol", "cache", "--verify", "--json"], env=_env(cache), capture_output=True,
+            text=True, timeout=300,
+        )
+        assert verify.returncode == 0, verify.stderr
+        assert json.loads(verify.stdout)["problems"] == []
+
+
+STRESS = textwrap.dedent(
+    r'''
+    import sys, time
+    from forcecontrol._kernel_cache import _LockedFiles
+    folder, me, start = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+    files = _LockedFiles(folder, "k.py311.k1", "stamp", "kernel")
+    while time.time() < start:
+        time.sleep(0.0005)
+    for i in range(40):
+        files.save(((f"sig{me}-{i}",), ("cpu",), ("code", "closure")), ("machine code of", me, i))
+    '''
+)
+
+
+def test_concurrent_saves_never_point_an_entry_at_another_entrys_data(tmp_path: Path) -> None:
+    """Four processes saving 40 different entries each into one kernel's index at the same moment: every entry is
+    kept and loads its own data (Numba's own IndexDataCacheFile loses entries and mixes data under this load)."""
+    import time
+
+    from forcecontrol._kernel_cache import _LockedFiles
+
+    script = tmp_path / "stress.py"
+    script.write_text(STRESS)
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    start = time.time() + 3.0  # all four import first, then save together
+    procs = [
+        subprocess.Popen([sys.executable, str(script), str(folder), str(me), repr(start)], env=_env(tmp_path / "nb"))
+        for me in range(4)
+    ]
+    assert all(p.wait(timeout=300) == 0 for p in procs)
+    files = _LockedFiles(str(folder), "k.py311.k1", "stamp", "kernel")
+    for me in range(4):
+        for i in range(40):
+            assert files.load(((f"sig{me}-{i}",), ("cpu",), ("code", "closure"))) == ("machine code of", me, i)
+    assert len(files._load_index()) == 160
+
+
+def _version_folder(cache: Path) -> Path:
+    out = subprocess.run(
+        [sys.executable, "-m", "forcecontrol", "cache", "--json"], env=_env(cache), capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr
+    return Path(json.loads(out.stdout)["folder"])
+
+
+def test_verify_and_load_refuse_a_swapped_entry(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A data file replaced by another kernel's (two laws' entries swapped): loading it is refused with a message,
+    and ``forcecontrol cache --verify`` exits 1 naming the file; before the swap it exits 0."""
+    import shutil
+
+    from forcecontrol._kernel_cache import _LockedFiles
+
+    folder = _version_folder(tmp_path / "nb") / "sub"
+    folder.mkdir(parents=True)
+    key = (("float64",), ("cpu",), ("code", "closure"))
+    a = _LockedFiles(str(folder), "loop_law_a.py311.k1", "stamp", "loop:law-a")
+    b = _LockedFiles(str(folder), "loop_law_b.py311.k1", "stamp", "loop:law-b")
+    a.save(key, "law a's code")
+    b.save(key, "law b's code")
+    ok = subprocess.run([sys.executable, "-m", "forcecontrol", "cache", "--verify"], env=_env(tmp_path / "nb"),
+                        capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    assert "verified: 2 entries" in ok.stdout
+    shutil.copyfile(folder / b.data_name(key), folder / a.data_name(key))
+    assert a.load(key) is None
+    assert "holds loop:law-b, not loop:law-a" in capsys.readouterr().err
+    bad = subprocess.run([sys.executable, "-m", "forcecontrol", "cache", "--verify"], env=_env(tmp_path / "nb"),
+                         capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 1
+    assert a.data_name(key) in bad.stderr and "holds kernel loop:law-b" in bad.stderr
+
+
+def test_clear_removes_only_this_librarys_folders(tmp_path: Path) -> None:
+    """``--clear`` removes every ``forcecontrol-<hash>`` folder under the cache root, says which, and nothing else."""
+    root = tmp_path / "nb"
+    current = _version_folder(root)
+    (current / "x.nbc").write_bytes(b"12345")
+    old = root / "forcecontrol-0123456789abcdef"
+    old.mkdir()
+    (old / "y.nbc").write_bytes(b"1")
+    other = root / "someone-else"
+    other.mkdir()
+    out = subprocess.run([sys.executable, "-m", "forcecontrol", "cache", "--clear", "--json"], env=_env(root),
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert sorted(json.loads(out.stdout)["removed"]) == sorted([str(current), str(old)])
+    assert not current.exists() and not old.exists() and other.exists()
+
+
+def test_each_law_has_its_own_cache_files() -> None:
+    """Two laws' loops (both variants), sweep kernels and on_arm steps have different index files (were one each)."""
+    from forcecontrol._batch import kernels
+    from forcecontrol.laws import arm
+    from forcecontrol.laws.force import inner_velocity, parallel
+    from forcecontrol.loop import planar_loop
+
+    def index(dispatcher: object) -> str:
+        return dispatcher._cache._cache_file._index_path  # type: ignore[attr-defined]
+
+    for full_log in (True, False):
+        assert index(planar_loop(inner_velocity, full_log)) != index(planar_loop(parallel, full_log))
+    assert index(planar_loop(parallel, True)) != index(planar_loop(parallel, False))
+    assert index(kernels(inner_velocity)[1]) != index(kernels(parallel)[1])
+    assert index(kernels(inner_velocity)[0]) != index(kernels(parallel)[0])
+    assert index(arm.on_arm(inner_velocity)) != index(arm.on_arm(parallel))
