@@ -150,3 +150,29 @@ def _toml(d: dict) -> str:
             lines.append(f"[{k}]")
             lines += [f"{kk} = {json.dumps(vv)}" for kk, vv in v.items()]
     return "\n".join(lines) + "\n"
+
+
+def test_a_case_stopped_by_an_unresolved_contact_says_so_in_its_row(monkeypatch):
+    """simulate()'s newer divergence cause 'unresolved contact' reaches the table as such (it read
+    'non-finite state' when the sweep did not know the cause), with the time it stopped at."""
+    import forcecontrol.simulation as simulation
+    from forcecontrol.errors import SimulationDivergedError
+    from forcecontrol.sweep.run import run_block
+
+    d = SweepDefinition.from_options({"sensor.delay_samples": [2]})  # a realistic sensor: simulate() runs it
+    job = prepare_sweep(PLANAR, d).jobs[0]
+    real = simulation.simulate
+
+    def stopped(*args, **kwargs):
+        res = real(*args, **kwargs)
+        k = 120
+        err = SimulationDivergedError("unresolved contact", time=k * 1e-3, step=k, cause="unresolved contact",
+                                      q=res.q[k])
+        err.partial = type(res)(**{f: getattr(res, f)[: k + 1] for f in ("t", "q", "qd", "x", "xd", "wrench",
+                                                                         "wrench_measured", "torque", "reference")})
+        raise err
+
+    monkeypatch.setattr(simulation, "simulate", stopped)
+    row = run_block([job], 0.02, 0.05)[0]
+    assert row["engine"] == "simulate" and row["status"] == "unresolved contact"
+    assert row["diverged_at"] == pytest.approx(0.12)

@@ -94,13 +94,13 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
     return [rows[j.case_id] for j in jobs]
 
 
-def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, float]:
+def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, Any]:
     """A case outside the kernel's reach: simulate() and the same metrics."""
     from .._batch import case_metrics
     from ..simulation import simulate
 
     p = j.parts or {}
-    status = 0
+    status, cause = 0, None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DriftWarning)
         try:
@@ -112,6 +112,7 @@ def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[st
         except SimulationDivergedError as exc:
             res = exc.partial  # type: ignore[attr-defined]
             status = _CAUSE_CODES.get(exc.cause, 1)
+            cause = str(exc.cause)  # the table names the simulator's own cause, also one this module does not list
     last = len(res.t) - 1
     wrench = np.asarray(res.wrench, dtype=np.float64)
     if wrench.shape[1] != len(j.d):  # a direction built for another wrench size: a bug, said plainly
@@ -129,11 +130,11 @@ def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[st
     return {
         "status": float(status), "last_sample": float(last), "peak_force": float(np.nanmax(forces)),
         "contact_lost": float(lost), "settling_time": st, "overshoot": ov, "steady_state_force_error": err,
-        "stable": stable, "settled_force": yf,
+        "stable": stable, "settled_force": yf, **({} if cause is None else {"cause": cause}),
     }
 
 
-def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
+def _row(j: CaseJob, r: dict[str, Any], engine: str) -> dict[str, Any]:
     status = int(r["status"])
     return {
         "case_id": j.case_id,
@@ -146,7 +147,7 @@ def _row(j: CaseJob, r: dict[str, float], engine: str) -> dict[str, Any]:
         "settled_force": r["settled_force"],
         "stable": bool(r["stable"]),
         "contact_lost": bool(r["contact_lost"]),
-        "status": _CAUSES.get(status, "unknown"),
+        "status": r.get("cause") or _CAUSES.get(status, "unknown"),
         "diverged_at": math.nan if status == 0 else int(r["last_sample"]) * j.Ts,
         "samples": j.N,
         "integration_substeps": j.nsub,

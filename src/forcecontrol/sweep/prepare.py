@@ -31,7 +31,8 @@ METRIC_COLUMNS = (
     "settling_time", "overshoot", "steady_state_force_error", "peak_force", "settled_force",
     "stable", "contact_lost",
 )
-_CAUSES = {0: "ok", 1: "non-finite state", 2: "runaway", 3: "singular jacobian", 4: "non-finite torque"}
+_CAUSES = {0: "ok", 1: "non-finite state", 2: "runaway", 3: "singular jacobian", 4: "non-finite torque",
+           5: "unresolved contact"}
 _CAUSE_CODES = {v: k for k, v in _CAUSES.items()}
 META_KEY = b"forcecontrol.sweep"
 MAX_JOINT_SPEED = 50.0  # [rad/s], simulate()'s default
