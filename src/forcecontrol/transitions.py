@@ -10,8 +10,9 @@ contact normal::
 
 with ν_f the direction along which the force is controlled (the plane's inward normal: the
 direction the end-effector pushes). On contact the force controller is reset with the current
-measurement and reference (the inner-position integrator then starts at the tip: no jump in the
-position reference, a bumpless switch); on loss the force-controlled direction is handed back
+measurement and reference (an inner-position loop with ``integrator_start="tip"`` then starts its
+integrator at the tip: no jump in the position reference, a bumpless switch; with its default
+``"hold"`` the force step acts on the whole PI, proportional kick included); on loss the force-controlled direction is handed back
 to the motion controller, reset likewise. The hysteresis (release below contact) and the
 debounce (``release_samples``) keep sensor noise from chattering the switch.
 
