@@ -154,6 +154,15 @@ def test_step_metrics_default_band_is_two_percent():
         assert m.steady == pytest.approx(y0 + step, abs=1e-6) and m.peak_time == pytest.approx(t[-1], abs=1e-9)
 
 
+def test_a_steady_ripple_within_the_stable_band_is_stable():
+    """Extra slip: 'stable' as within the band AND decaying: a steady 1 % ripple (not decaying) inside the 5 % band is stable."""
+    t = np.arange(4001) * 1e-3
+    y = 1.0 - np.exp(-t / 0.1) + 0.01 * np.sin(2 * math.pi * 5.0 * t)
+    assert step_metrics(t, y, final=1.0).stable
+    grow = 1.0 - np.exp(-t / 0.1) + 0.01 * np.exp(t) * np.sin(2 * math.pi * 5.0 * t)  # leaves the band, growing
+    assert not step_metrics(t, grow, final=1.0).stable
+
+
 # ----------------------------------------------------------------------------- energy tank
 
 
