@@ -10,6 +10,7 @@ arm's gravity torque (a loop at rest commands exactly g(q)), and the geometry of
 
 from __future__ import annotations
 
+import copy
 import math
 import textwrap
 import warnings
@@ -20,9 +21,9 @@ import scipy.signal as sig
 
 import forcecontrol as fc
 from forcecontrol.analysis import ForceLoopAxis
-from forcecontrol.scenarios import load_scenario
+from forcecontrol.scenarios import CaseSpec, load_scenario
 from forcecontrol.scenarios.build import build_case
-from forcecontrol.scenarios.checks import case_response
+from forcecontrol.scenarios.checks import case_analysis, case_response
 from forcecontrol.task import planar_rotation
 
 ARM = fc.PlanarTwoLink()
@@ -203,6 +204,18 @@ def test_the_scenario_analysis_response_matches_the_simulation_of_a_tip_step_at_
     lin = case_response(build_case(scn.cases[0]), res.t)
     assert np.abs(lin[:, 0] - res.wrench[:, 0]).max() < 0.005 * F_D
     assert res.wrench[:, 0].max() < 10.1  # bumpless: no overshoot of the kick (hold peaks at 15.9 N)
+
+
+def test_the_scenario_analysis_reports_the_zero_only_where_the_step_meets_it():
+    """analyze on Example 9.3's k_x = 10³ inner position case: zero −k_I/k_F = −2.5 with "hold", none with bumpless "tip"."""
+    scn = load_scenario("example-9.3")
+    case = next(c for c in scn.cases if c.label == "inner position, k_x = 1e3 N/m")
+    hold = case_analysis(build_case(case))
+    assert hold["zero_x"] == pytest.approx(-KI / KF, rel=1e-9)
+    cfg = copy.deepcopy(case.config)
+    cfg["controller"]["integrator_start"] = "tip"
+    tip = case_analysis(build_case(CaseSpec(case.label, cfg, {}, case.overrides)))
+    assert "zero_x" not in tip and tip["real_pole_x"] == pytest.approx(hold["real_pole_x"], rel=1e-12)
 
 
 # ---------------------------------------------------------------------------- rotated task frame
