@@ -205,7 +205,8 @@ class _DirectForceController(Controller):
         if not self._has_integral or reference is None:
             return
         f_ref = np.asarray(reference.force, dtype=np.float64)
-        self.state[2 * m :] = R.T @ f_ref if turned else f_ref  # the reference the bumpless shift starts from
+        if self.integrator_start == "tip":  # the reference the bumpless shift starts from (unused otherwise)
+            self.state[2 * m :] = R.T @ f_ref if turned else f_ref
         if measurement is None or self.integrator_start == "zero":
             return
         f_pre = f_ref if self.integrator_start == "tip" else np.zeros(m)
