@@ -30,7 +30,7 @@ PY = sys.executable
 
 _CHILD = r"""
 import json, statistics, sys, time
-from forcecontrol.analysis.report import analyze_scenario
+from forcecontrol.scenarios.report import analyze_scenario
 from forcecontrol.scenarios import list_scenarios
 repeat = int(sys.argv[1])
 out = {}

@@ -32,7 +32,7 @@ from forcecontrol.controllers.base import Measurement, Reference
 from forcecontrol.controllers.spatial import SpatialImpedanceController
 from forcecontrol.environments.spatial import ConstantWrench
 from forcecontrol.robots.pinocchio import PANDA_READY, panda
-from forcecontrol.simulation import simulate
+from forcecontrol.sim.simulation import simulate
 from forcecontrol.spatial import rotation_to_euler_xyz
 from forcecontrol.trajectories import Setpoint
 

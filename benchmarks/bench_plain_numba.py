@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 import forcecontrol as fc
-from forcecontrol.simulation import choose_substeps
+from forcecontrol.sim.simulation import choose_substeps
 from forcecontrol.sweep import SweepDefinition, prepare_sweep, run_block
 
 

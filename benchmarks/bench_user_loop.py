@@ -15,7 +15,7 @@ controller stack Safety(ContactSupervisor(impedance, inner velocity loop)), writ
   general-purpose kernel an overrun can come from there alone; in a virtual machine, from the host:
   the steal time the kernel counted during the loop is printed).
 
-The loops run under :func:`forcecontrol.realtime.realtime_priority` (SCHED_FIFO 80, memory locked)
+The loops run under :func:`forcecontrol.realarm.realtime.realtime_priority` (SCHED_FIFO 80, memory locked)
 when the kernel grants it, as the example does; ``--no-realtime`` measures ordinary scheduling.
 
 Wall-clock numbers depend on the machine and its load (a shared machine shows long tails):
@@ -36,9 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
 import own_loop  # noqa: E402
 
 import forcecontrol as fc  # noqa: E402
-from forcecontrol.safety import Safety  # noqa: E402
 from forcecontrol.sensors import RealisticForceSensor  # noqa: E402
-from forcecontrol.transitions import ContactSupervisor  # noqa: E402
+from forcecontrol.supervision.safety import Safety  # noqa: E402
+from forcecontrol.supervision.transitions import ContactSupervisor  # noqa: E402
 
 EDGES_US = [0, 25, 50, 100, 200, 300, 500, 1000, 2000, 5000, np.inf]
 
@@ -95,7 +95,7 @@ def layer_costs(n: int = 5000) -> dict[str, float]:
 def main(cycles: int = 5000, realtime: bool = True) -> dict[str, object]:
     import contextlib
 
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     with realtime_priority(80) if realtime else contextlib.nullcontext() as rt:
         print(f"scheduling: {rt.summary() if rt else 'ordinary (--no-realtime)'}")
@@ -149,7 +149,7 @@ def steal_ms() -> float:
 
 def bare_loop(cycles: int) -> dict[str, float]:
     """The OS's share: the same 1 kHz schedule with no work in the cycle."""
-    from forcecontrol.realtime import RateLimiter, frozen_heap
+    from forcecontrol.realarm.realtime import RateLimiter, frozen_heap
 
     late = np.empty(cycles)
     limiter = RateLimiter(1e-3, cycles=cycles)

@@ -68,7 +68,7 @@ def _generate() -> dict[str, Path]:
 def _interaction(path: Path) -> Path:
     """Example 9.2's arm pushing on the stiff plane under impedance control, animated."""
     import forcecontrol as fc
-    from forcecontrol.animation import animate_run
+    from forcecontrol.viz.animation import animate_run
 
     arm = fc.PlanarTwoLink()
     q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
@@ -157,8 +157,8 @@ ANIMATED = ("example-9.2", "panda-table-line")
 
 def _gallery(folder: Path) -> dict[str, Path]:
     """Run every built-in scenario; write its figures, an animation for a few, and one page each."""
-    from forcecontrol.animation import animate_run
-    from forcecontrol.plotting import plot_run_figures
+    from forcecontrol.viz.animation import animate_run
+    from forcecontrol.viz.plotting import plot_run_figures
     from forcecontrol.scenarios import build_case, list_scenarios, load_scenario, run_scenario
 
     img = folder / "img"

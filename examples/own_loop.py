@@ -1,7 +1,7 @@
 """A controller object in your own fixed-rate 1 kHz loop, as on a real arm, with its timing measured.
 
 The loop reads the joint state and the wrist wrench from an interface you supply, steps the
-controller, writes the torques, and keeps its rate with :class:`forcecontrol.realtime.RateLimiter`
+controller, writes the torques, and keeps its rate with :class:`forcecontrol.realarm.realtime.RateLimiter`
 (sleep until each deadline on ``time.perf_counter``, spin the last 0.3 ms; a cycle that runs into
 the next tick is an overrun and the missed ticks are dropped, never run in a burst). At the end
 it reports the jitter (wake-up lateness: median, p99, max), the compute time per cycle and the
@@ -19,13 +19,13 @@ work; on a real arm ``write_torque`` is a bus write):
   ``panda-table-line`` scenario's 6-D hybrid force/motion controller.
 
 When the loop misses deadlines (overruns > 0, or lateness p99 a sizeable part of the period):
-see :mod:`forcecontrol.realtime` for the full list. In short: find out whether the compute or
+see :mod:`forcecontrol.realarm.realtime` for the full list. In short: find out whether the compute or
 the wake-up is late (the report separates them); keep logging, plotting and allocation out of
 the loop and warm up compiled code before the motors are on; lower the rate (500 Hz suffices
 for force loops of tens of Hz bandwidth; retune for the new sample time); run the loop with a
-real-time priority (:func:`forcecontrol.realtime.realtime_priority`, used below: SCHED_FIFO and
+real-time priority (:func:`forcecontrol.realarm.realtime.realtime_priority`, used below: SCHED_FIFO and
 memory locked when the user may have them; the report says what was granted), on a PREEMPT_RT
-kernel; keep full garbage collections out of the loop (:func:`forcecontrol.realtime.frozen_heap`,
+kernel; keep full garbage collections out of the loop (:func:`forcecontrol.realarm.realtime.frozen_heap`,
 used below);
 or leave the 1 kHz loop to the robot's own real-time controller (libfranka, UR RTDE,
 ros2_control) and send it set-points from Python at a lower rate. Never let an overrun go
@@ -44,10 +44,10 @@ from typing import Protocol
 import numpy as np
 
 import forcecontrol as fc
-from forcecontrol.realtime import LoopStatistics, RateLimiter, frozen_heap, realtime_priority
-from forcecontrol.safety import Safety
+from forcecontrol.realarm.realtime import LoopStatistics, RateLimiter, frozen_heap, realtime_priority
 from forcecontrol.sensors import RealisticForceSensor
-from forcecontrol.transitions import ContactSupervisor
+from forcecontrol.supervision.safety import Safety
+from forcecontrol.supervision.transitions import ContactSupervisor
 
 PERIOD = 1e-3  # 1 kHz
 
@@ -131,7 +131,7 @@ def run(robot: ArmInterface, controller: fc.Controller, reference, cycles: int) 
 
     ``compute``: read state and wrench, reference, control step (what the cycle must fit on a
     real arm); ``control``: reference and control step only; ``lateness``: wake-up time after
-    the deadline; ``statistics``: :class:`~forcecontrol.realtime.LoopStatistics` of the whole
+    the deadline; ``statistics``: :class:`~forcecontrol.realarm.realtime.LoopStatistics` of the whole
     cycle's work (including the stand-in's plant integration in ``write_torque``).
 
     A cycle whose work ends after the next deadline is an overrun: the ticks it ran over are
@@ -216,7 +216,8 @@ def main(seconds: float = 2.0, realtime: bool = True) -> dict[str, LoopStatistic
         out["panda"] = report("panda", stats)
     for name, st in out.items():
         if st.overruns:
-            print(f"{name}: {st.overruns} overrun(s): see this file's docstring (and forcecontrol.realtime) for what to do")
+            print(f"{name}: {st.overruns} overrun(s): see this file's docstring "
+                  "(and forcecontrol.realarm.realtime) for what to do")
     return out
 
 

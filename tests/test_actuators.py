@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.actuators import Actuator
 from forcecontrol.controllers.base import Controller
 from forcecontrol.environments.base import Environment
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.robots.base import RobotTerms
+from forcecontrol.sim.actuators import Actuator
 
 J_ROTOR = 0.5  # [kg m²]
 

@@ -17,7 +17,7 @@ pin = pytest.importorskip("pinocchio")
 from forcecontrol.controllers.admittance import AdmittanceController, compliant_frame  # noqa: E402
 from forcecontrol.environments.spatial import ConstantWrench, Table  # noqa: E402
 from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
-from forcecontrol.simulation import simulate  # noqa: E402
+from forcecontrol.sim.simulation import simulate  # noqa: E402
 from forcecontrol.trajectories import Setpoint  # noqa: E402
 
 MT = np.diag([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])

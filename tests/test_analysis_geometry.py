@@ -173,7 +173,7 @@ def test_plane_pulled_away_gives_the_free_equilibrium():
 @pytest.mark.parametrize("name", ["example-9.1", "example-9.2", "example-9.3"])
 def test_analyze_verify_agrees_on_the_book_scenarios(name):
     """analyze --verify: every predicted equilibrium of the chapter's examples agrees with the simulation within 1 %."""
-    from forcecontrol.analysis.report import analyze_scenario
+    from forcecontrol.scenarios.report import analyze_scenario
 
     rep = analyze_scenario(name, verify=True)
     checked = [q for c in rep["cases"] for q in c["verification"]["quantities"].values()]
@@ -198,8 +198,8 @@ def test_analyze_verify_flags_a_loop_outside_its_linear_regime(tmp_path):
     assert res.exit_code == 0, res.output
     text = " ".join(res.output.split())  # the table's width wraps lines
     assert "differs" in text and "outside the analysis' linear regime" in text
-    from forcecontrol.analysis.report import analyze_scenario
     from forcecontrol.scenarios import build_case, case_response, load_scenario
+    from forcecontrol.scenarios.report import analyze_scenario
 
     # the continuous (9.32) would settle in contact; the analysis' transient is the sampled loop,
     # which bounces off the plane as the simulation does: no linear transient is claimed

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from forcecontrol.analysis.report import analyze_scenario
 from forcecontrol.cli import app
+from forcecontrol.scenarios.report import analyze_scenario
 
 MD, KD, KP, K = 100.0, 500.0, 2500.0, 1e4
 X_P = np.array([1.0, 0.0])

@@ -8,9 +8,9 @@ from PIL import Image, ImageChops
 from typer.testing import CliRunner
 
 import forcecontrol as fc
-from forcecontrol.animation import animate_run, frame_indices
 from forcecontrol.cli import app
 from forcecontrol.errors import ParameterError
+from forcecontrol.viz.animation import animate_run, frame_indices
 
 
 def _frames(path) -> list[Image.Image]:
@@ -118,7 +118,7 @@ def test_cli_run_animate(tmp_path):
 def test_panda_stick_figure_gif(tmp_path):
     """A 6-D run is drawn in 3-D through the Panda's joint origins (last point: the TCP); frames differ."""
     from forcecontrol.robots.pinocchio import panda
-    from forcecontrol.simulation import SimulationResult
+    from forcecontrol.sim.simulation import SimulationResult
 
     robot = panda()
     qa = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from forcecontrol.calibration import (
+from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
+from forcecontrol.realarm.calibration import (
     CalibrationResult,
     DriftDetector,
     calibrate,
@@ -22,7 +23,6 @@ from forcecontrol.calibration import (
     regressor_condition,
     tare,
 )
-from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
 from forcecontrol.robots import CHAPTER_ARM
 from forcecontrol.sensors import RealisticForceSensor, ToolGravity, identify_tool_gravity, planar_sensor_rotation
 

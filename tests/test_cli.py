@@ -151,7 +151,7 @@ def test_cold_cache_compile_notice(tmp_path):
     )
     probe = tmp_path / "probe.py"
     probe.write_text(  # the probe's module stands in for forcecontrol's kernels (a real cold compile takes ~40 s)
-        "from forcecontrol import _numba_cache\n"
+        "from forcecontrol.core import numba_cache as _numba_cache\n"
         "_numba_cache.WATCHED = ('probe_kernels',)\n"
         "_numba_cache.install_notice()\n"
         "import probe_kernels\n"

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from forcecontrol.conventions import (
+from forcecontrol.errors import FrameError, ParameterError
+from forcecontrol.realarm.conventions import (
     BY_END_EFFECTOR,
     ON_END_EFFECTOR,
     SensedWrench,
@@ -30,7 +31,6 @@ from forcecontrol.conventions import (
     wrench_from_ros,
     wrench_to_ros,
 )
-from forcecontrol.errors import FrameError, ParameterError
 from forcecontrol.spatial import Transform, Twist
 
 RZ90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90° about z
@@ -219,7 +219,7 @@ def test_mujoco_force_torque_sensor_reads_the_parent_on_the_child():
 
 def test_convention_errors_name_what_is_wrong():
     """Each refused conversion says which frame, point or sense was expected and what was given."""
-    from forcecontrol.conventions.ros import seconds_to_stamp
+    from forcecontrol.realarm.conventions.ros import seconds_to_stamp
     from forcecontrol.spatial import Wrench
 
     w = SensedWrench.from_vector([1, 2, 3, 4, 5, 6], frame="base", point="flange", sense=ON_END_EFFECTOR)

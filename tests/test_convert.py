@@ -16,9 +16,9 @@ from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
 from forcecontrol.cli import app
-from forcecontrol.conventions import CONVENTIONS, ON_END_EFFECTOR, SensedWrench, convert_wrenches
 from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
-from forcecontrol.io import read_recording
+from forcecontrol.realarm.conventions import CONVENTIONS, ON_END_EFFECTOR, SensedWrench, convert_wrenches
+from forcecontrol.realarm.io import read_recording
 from forcecontrol.spatial import Transform
 from rosfiles_helpers import write_bag, write_mcap
 

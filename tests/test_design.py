@@ -20,7 +20,7 @@ from forcecontrol.analysis import ForceLoopAxis, operational_mass, sampled_stabi
 from forcecontrol.analysis.design import loop_model
 from forcecontrol.analysis.gain_design import design_gains
 from forcecontrol.errors import DimensionError, ParameterError
-from forcecontrol.estimation import StiffnessEstimator
+from forcecontrol.supervision.estimation import StiffnessEstimator
 
 control = pytest.importorskip("control")
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from forcecontrol.analysis.report import analyze_scenario
 from forcecontrol.cli import app
 from forcecontrol.errors import DriftWarning, ScenarioError
 from forcecontrol.scenarios import load_scenario, run_scenario
+from forcecontrol.scenarios.report import analyze_scenario
 
 runner = CliRunner()
 

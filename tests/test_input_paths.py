@@ -13,8 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 import forcecontrol as fc
-from forcecontrol._json import json_safe
 from forcecontrol.cli import app
+from forcecontrol.core.jsonsafe import json_safe
 from forcecontrol.errors import ParameterError, ScenarioError
 from forcecontrol.scenarios import load_scenario, scenario_source
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from forcecontrol.conventions import ON_END_EFFECTOR
 from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
-from forcecontrol.io import RecordedRun, read_bag, read_mcap, read_recording, read_table
+from forcecontrol.realarm.conventions import ON_END_EFFECTOR
+from forcecontrol.realarm.io import RecordedRun, read_bag, read_mcap, read_recording, read_table
 from rosfiles_helpers import write_bag, write_mcap
 
 

@@ -109,7 +109,7 @@ def test_concurrent_first_compiles_give_the_fresh_single_process_results(tmp_pat
 STRESS = textwrap.dedent(
     r'''
     import sys, time
-    from forcecontrol._kernel_cache import _LockedFiles
+    from forcecontrol.core.kernel_cache import _LockedFiles
     folder, me, start = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
     files = _LockedFiles(folder, "k.py311.k1", "stamp", "kernel")
     while time.time() < start:
@@ -125,7 +125,7 @@ def test_concurrent_saves_never_point_an_entry_at_another_entrys_data(tmp_path: 
     kept and loads its own data (Numba's own IndexDataCacheFile loses entries and mixes data under this load)."""
     import time
 
-    from forcecontrol._kernel_cache import _LockedFiles
+    from forcecontrol.core.kernel_cache import _LockedFiles
 
     script = tmp_path / "stress.py"
     script.write_text(STRESS)
@@ -157,7 +157,7 @@ def test_verify_and_load_refuse_a_swapped_entry(tmp_path: Path, capsys: pytest.C
     and ``forcecontrol cache --verify`` exits 1 naming the file; before the swap it exits 0."""
     import shutil
 
-    from forcecontrol._kernel_cache import _LockedFiles
+    from forcecontrol.core.kernel_cache import _LockedFiles
 
     folder = _version_folder(tmp_path / "nb") / "sub"
     folder.mkdir(parents=True)
@@ -198,10 +198,10 @@ def test_clear_removes_only_this_librarys_folders(tmp_path: Path) -> None:
 
 def test_each_law_has_its_own_cache_files() -> None:
     """Two laws' loops (both variants), sweep kernels and on_arm steps have different index files (were one each)."""
-    from forcecontrol._batch import kernels
     from forcecontrol.laws import arm
     from forcecontrol.laws.force import inner_velocity, parallel
-    from forcecontrol.loop import planar_loop
+    from forcecontrol.sim.batch import kernels
+    from forcecontrol.sim.loop import planar_loop
 
     def index(dispatcher: object) -> str:
         return dispatcher._cache._cache_file._index_path  # type: ignore[attr-defined]

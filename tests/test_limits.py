@@ -7,7 +7,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import ParameterError
-from forcecontrol.limits import MAX_SUBSTEPS, check_run_size, check_substeps
+from forcecontrol.sim.limits import MAX_SUBSTEPS, check_run_size, check_substeps
 
 ARM = fc.PlanarTwoLink()
 Q0 = ARM.inverse_kinematics([1.0, 0.0], elbow="up")

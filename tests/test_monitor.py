@@ -15,7 +15,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import DimensionError, ParameterError
-from forcecontrol.monitor import MonitoredController, StabilityMonitor
+from forcecontrol.supervision.monitor import MonitoredController, StabilityMonitor
 
 TS = 1e-3
 

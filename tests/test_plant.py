@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol._linalg import solve2_spd as solve_inertia
+from forcecontrol.core.linalg import solve2_spd as solve_inertia
 
 
 def test_solves_the_arms_inertia_like_numpy_over_its_workspace():

@@ -13,7 +13,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import ParameterError, ScenarioError
-from forcecontrol.plotting import CASE_STYLES, SIGNAL_LABELS, case_style, panel_grid, plot_results
+from forcecontrol.viz.plotting import CASE_STYLES, SIGNAL_LABELS, case_style, panel_grid, plot_results
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from forcecontrol.errors import DimensionError, ParameterError
-from forcecontrol.realtime import RateLimiter, loop_statistics
+from forcecontrol.realarm.realtime import RateLimiter, loop_statistics
 
 T = 1e-3
 
@@ -201,7 +201,7 @@ def test_a_read_only_reference_runs_the_same_compiled_step_no_new_specialisation
 def test_frozen_heap_freezes_for_the_loop_and_unfreezes_after():
     import gc
 
-    from forcecontrol.realtime import frozen_heap
+    from forcecontrol.realarm.realtime import frozen_heap
 
     assert gc.get_freeze_count() == 0
     with frozen_heap():
@@ -217,7 +217,7 @@ needs_sched = pytest.mark.skipif(not hasattr(__import__("os"), "sched_setschedul
 
 @pytest.mark.parametrize("priority", [0, 100, 1.5, True, "80"])
 def test_realtime_priority_refuses_a_bad_priority(priority):
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     with pytest.raises(ParameterError, match="priority must be an integer in 1..99"):
         with realtime_priority(priority):
@@ -228,7 +228,7 @@ def test_realtime_priority_refuses_a_bad_priority(priority):
 def test_realtime_priority_refuses_a_cpu_the_process_cannot_use():
     import os
 
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     bad = max(os.sched_getaffinity(0)) + 1
     with pytest.raises(ParameterError, match=rf"cpu must be one of the CPUs .*got {bad}"):
@@ -243,7 +243,7 @@ def test_realtime_priority_sets_fifo_and_pins_then_restores_or_reports_the_refus
     Either way the policy, priority and CPUs are back to what they were after the block."""
     import os
 
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     policy0, prio0, cpus0 = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority, os.sched_getaffinity(0)
     cpu = min(cpus0)
@@ -268,7 +268,7 @@ def test_realtime_priority_reports_or_raises_a_refused_policy_and_restores_after
     import os
 
     from forcecontrol.errors import RealtimeError
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     def eperm(*_):
         raise PermissionError(errno.EPERM, os.strerror(errno.EPERM))
@@ -293,7 +293,7 @@ def test_realtime_priority_locks_and_unlocks_memory_through_libc(monkeypatch):
     import errno
     import platform
 
-    import forcecontrol.scheduling as rtmod
+    import forcecontrol.realarm.scheduling as rtmod
 
     calls = []
 
@@ -334,7 +334,7 @@ def test_realtime_priority_memory_lock_as_the_kernel_reports_it():
     import sys
 
     code = (
-        "from forcecontrol.realtime import realtime_priority\n"
+        "from forcecontrol.realarm.realtime import realtime_priority\n"
         "def vmlck():\n"
         "    return int(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmLck')))\n"
         "with realtime_priority(5) as rt:\n"
@@ -363,7 +363,7 @@ def test_realtime_priority_memory_lock_is_held_while_any_thread_holds_it_and_a_c
 
     code = (
         "import ctypes, threading\n"
-        "from forcecontrol.realtime import realtime_priority\n"
+        "from forcecontrol.realarm.realtime import realtime_priority\n"
         "def vmlck():\n"
         "    return int(next(l.split()[1] for l in open('/proc/self/status') if l.startswith('VmLck')))\n"
         "out, granted = [], []\n"
@@ -404,7 +404,7 @@ def test_realtime_priority_restores_every_setting_even_when_one_restore_fails(mo
     import os
 
     from forcecontrol.errors import RealtimeError
-    from forcecontrol.realtime import realtime_priority
+    from forcecontrol.realarm.realtime import realtime_priority
 
     policy0, cpus0 = os.sched_getscheduler(0), os.sched_getaffinity(0)
     real = os.sched_setaffinity

@@ -1,4 +1,4 @@
-"""The figure process (forcecontrol.render_process): same PNG bytes as drawing in the calling process,
+"""The figure process (forcecontrol.viz.render_process): same PNG bytes as drawing in the calling process,
 and every way it can fail ends with the figure drawn here or the figure's own error."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from forcecontrol import plotting, render_process
 from forcecontrol.scenarios import load_scenario, run_scenario
+from forcecontrol.viz import plotting, render_process
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_the_process_loads_neither_numba_nor_scipy(run, tmp_path):
     run) stays light, so it is ready before the simulation ends."""
     (tmp_path / "jobs.pkl").write_bytes(pickle.dumps(plotting.figure_jobs(run, tmp_path, "fig")))
     code = (
-        "import sys, pickle, forcecontrol.render_process, forcecontrol.plotting\n"
+        "import sys, pickle, forcecontrol.viz.render_process, forcecontrol.viz.plotting\n"
         f"pickle.loads(open({str(tmp_path / 'jobs.pkl')!r}, 'rb').read())\n"
         "print(sorted(m for m in ('numba', 'scipy', 'forcecontrol.controllers') if m in sys.modules))\n"
     )

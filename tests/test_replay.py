@@ -7,8 +7,8 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import DimensionError, FrameError, MeasurementError
-from forcecontrol.io import RecordedRun, read_bag, read_recording
-from forcecontrol.replay import compare_traces, recorded_from_simulation, replay
+from forcecontrol.realarm.io import RecordedRun, read_bag, read_recording
+from forcecontrol.realarm.replay import compare_traces, recorded_from_simulation, replay
 from forcecontrol.scenarios import build_case
 from rosfiles_helpers import write_bag
 

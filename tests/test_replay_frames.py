@@ -12,10 +12,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import forcecontrol as fc
-from forcecontrol.conventions import ON_END_EFFECTOR
 from forcecontrol.errors import DimensionError, FrameError
-from forcecontrol.io import RecordedRun
-from forcecontrol.replay import recorded_from_simulation, replay, wrench_to_base
+from forcecontrol.realarm.conventions import ON_END_EFFECTOR
+from forcecontrol.realarm.io import RecordedRun
+from forcecontrol.realarm.replay import recorded_from_simulation, replay, wrench_to_base
 from forcecontrol.scenarios import build_case
 from forcecontrol.spatial import Transform
 

@@ -7,7 +7,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import DimensionError, ParameterError
-from forcecontrol.safety import SAFETY_CAUSES, Safety
+from forcecontrol.supervision.safety import SAFETY_CAUSES, Safety
 
 ARM = fc.CHAPTER_ARM
 Q0 = ARM.inverse_kinematics([1.0, 0.0])
@@ -231,7 +231,7 @@ def test_a_stack_checks_the_inputs_once_per_step_and_still_refuses_bad_ones(monk
     alone checks its inputs again. The torques equal those of the same stack without the skip."""
     import forcecontrol.controllers.base as base
     from forcecontrol.errors import MeasurementError
-    from forcecontrol.transitions import ContactSupervisor
+    from forcecontrol.supervision.transitions import ContactSupervisor
 
     def stack():
         sup = ContactSupervisor(_impedance(), fc.InnerVelocityForceController(ARM, 100, 5000, 2500, [0.0024, 0.0]),

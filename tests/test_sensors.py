@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.encoders import EncoderFeedback, JointEncoder
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.sensors import (
     RealisticForceSensor,
@@ -16,6 +15,7 @@ from forcecontrol.sensors import (
     identify_tool_gravity,
     planar_sensor_rotation,
 )
+from forcecontrol.sim.encoders import EncoderFeedback, JointEncoder
 
 ARM = fc.CHAPTER_ARM
 Q0 = ARM.inverse_kinematics([1.0, 0.0])

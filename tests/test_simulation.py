@@ -58,7 +58,7 @@ def test_substeps_grow_with_environment_stiffness():
     inv_mass = nu @ ARM.jacobian(Q0) @ np.linalg.solve(ARM.mass_matrix(Q0), ARM.jacobian(Q0).T) @ nu
     counts = []
     for k in (1e3, 1e5, 1e7, 1e8):
-        n = fc.simulation.choose_substeps(ARM, fc.ElasticPlane([1, 0], [-1, 0], k), Q0, 1e-3)
+        n = fc.sim.simulation.choose_substeps(ARM, fc.ElasticPlane([1, 0], [-1, 0], k), Q0, 1e-3)
         assert 1e-3 / n * math.sqrt(k * inv_mass) <= 0.05
         counts.append(n)
     assert counts[0] == 1 and counts == sorted(counts) and counts[-1] > counts[1]
@@ -172,6 +172,6 @@ def test_substeps_resolve_the_contact_mode_of_a_redundant_arm():
     nu[2] = 1.0
     inv_mass = nu @ J @ np.linalg.solve(B, J.T) @ nu  # 1 / m_eff along the normal
     omega = math.sqrt(k * inv_mass)
-    nsub = fc.simulation.choose_substeps(robot, table, q, 1e-3)
+    nsub = fc.sim.simulation.choose_substeps(robot, table, q, 1e-3)
     assert 1e-3 / nsub * max(omega, c * inv_mass) <= 0.05
     assert 1e-3 / (nsub - 1 if nsub > 1 else 0.5) * max(omega, c * inv_mass) > 0.05  # and not more than needed

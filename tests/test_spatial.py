@@ -40,7 +40,7 @@ from forcecontrol.controllers.spatial import (  # noqa: E402
 )
 from forcecontrol.environments.spatial import ConstantWrench, SpatialSpring, Table  # noqa: E402
 from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
-from forcecontrol.simulation import simulate  # noqa: E402
+from forcecontrol.sim.simulation import simulate  # noqa: E402
 from forcecontrol.trajectories import Setpoint  # noqa: E402
 
 RNG = np.random.default_rng(7)

@@ -18,12 +18,12 @@ import pytest
 from typer.testing import CliRunner
 
 import forcecontrol as fc
-from forcecontrol._batch import case_metrics, run_case
 from forcecontrol.analysis import force_loop_axes
 from forcecontrol.analysis.force_design import operational_mass, sampled_stability_limit
 from forcecontrol.cli import app
 from forcecontrol.controllers.base import Measurement
 from forcecontrol.errors import ScenarioError
+from forcecontrol.sim.batch import case_metrics, run_case
 from forcecontrol.sweep import (
     SweepDefinition,
     SweepError,

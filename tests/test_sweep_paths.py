@@ -155,7 +155,7 @@ def _toml(d: dict) -> str:
 def test_a_case_stopped_by_an_unresolved_contact_says_so_in_its_row(monkeypatch):
     """simulate()'s newer divergence cause 'unresolved contact' reaches the table as such (it read
     'non-finite state' when the sweep did not know the cause), with the time it stopped at."""
-    import forcecontrol.simulation as simulation
+    import forcecontrol.sim.simulation as simulation
     from forcecontrol.errors import SimulationDivergedError
     from forcecontrol.sweep.run import run_block
 

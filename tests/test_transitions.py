@@ -9,9 +9,9 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import ParameterError, ScenarioError
-from forcecontrol.safety import Safety
 from forcecontrol.scenarios import load_scenario, run_scenario
-from forcecontrol.transitions import ContactSupervisor, critical_damping, impact_report
+from forcecontrol.supervision.safety import Safety
+from forcecontrol.supervision.transitions import ContactSupervisor, critical_damping, impact_report
 
 ARM = fc.CHAPTER_ARM
 TS = 1e-3

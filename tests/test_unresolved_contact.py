@@ -14,7 +14,7 @@ import pytest
 
 import forcecontrol as fc
 from forcecontrol.errors import ParameterError, SimulationDivergedError
-from forcecontrol.limits import RK4_STABILITY
+from forcecontrol.sim.limits import RK4_STABILITY
 
 
 def _normal_mode(robot, q, normal, k):
@@ -79,7 +79,7 @@ def test_panda_contact_entered_and_left_within_a_sample_is_caught_in_the_loop():
     pytest.importorskip("pinocchio")
     from forcecontrol.controllers.base import Measurement
     from forcecontrol.scenarios.build import build_case
-    from forcecontrol.simulation import _python_loop, pre_start_wrench
+    from forcecontrol.sim.simulation import _python_loop, pre_start_wrench
 
     scn = fc.scenario("panda-table-line").with_({"environment.stiffness": 1e12})
     p = build_case(scn.cases[0])

@@ -12,8 +12,8 @@ import warnings
 import numpy as np
 import pytest
 
-from forcecontrol._validate import as_gain_matrix
 from forcecontrol.controllers.force_checks import _diagonal_gain, _range_projector, check_force_reference
+from forcecontrol.core.validate import as_gain_matrix
 from forcecontrol.errors import DriftWarning, ParameterError
 
 
@@ -99,7 +99,7 @@ def test_closed_form_largest_eigenvalue_of_a_2x2_equals_eigvals():
     """The 2 x 2 shortcut of choose_substeps against numpy.linalg.eigvals: products of PSD matrices
     (the contact modes, real eigenvalues), general matrices (complex pairs: the real part), and a
     non-finite matrix refused as eigvals refuses it, entries whose square overflows answered by eigvals."""
-    from forcecontrol.simulation import _largest_real_eigenvalue
+    from forcecontrol.sim.simulation import _largest_real_eigenvalue
 
     rng = np.random.default_rng(3)
     for _ in range(500):

@@ -16,12 +16,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import forcecontrol as fc
-from forcecontrol.calibration import calibrate
 from forcecontrol.controllers import EnergyTank, VariableImpedanceController
 from forcecontrol.controllers.base import Controller
 from forcecontrol.errors import BandwidthWarning
-from forcecontrol.metrics import step_metrics
-from forcecontrol.safety import Safety
+from forcecontrol.realarm.calibration import calibrate
+from forcecontrol.sim.metrics import step_metrics
+from forcecontrol.supervision.safety import Safety
 
 ARM = fc.CHAPTER_ARM
 Q0 = ARM.inverse_kinematics([1.0, 0.0])

@@ -2,7 +2,7 @@
 
 A simulated sensor with known payload, centre of mass, biases and Gaussian noise (readings from
 the hand-written physics: f_S = −m R_Sᵀ g + b_f, τ_S = −c × (m R_Sᵀ g) + b_τ) is calibrated with
-:func:`forcecontrol.calibration.calibrate`; each parameter is printed with its estimate, its
+:func:`forcecontrol.realarm.calibration.calibrate`; each parameter is printed with its estimate, its
 standard uncertainty σ and the error in units of σ; then, over 1000 noise draws, whether σ is the
 actual scatter (the error/σ has standard deviation 1 when it is).
 
@@ -16,7 +16,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from forcecontrol.calibration import calibrate
+from forcecontrol.realarm.calibration import calibrate
 
 G = 9.81
 

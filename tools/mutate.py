@@ -132,19 +132,19 @@ MUTANTS = [
     Mutant("M12", "6-D hybrid (9.77): C replaced by C⁻¹ in the force term", "controllers/spatial_hybrid.py",
            "(Q @ self.compliance).ravel()", "(Q @ np.linalg.inv(self.compliance)).ravel()"),
     # ------------------------------------------------------------------ safety layer
-    Mutant("S1", "torque limit one-sided (u > τ_max): a negative overshoot neither clamped nor logged", "safety.py",
+    Mutant("S1", "torque limit one-sided (u > τ_max): a negative overshoot neither clamped nor logged", "supervision/safety.py",
            "over = bool((np.abs(u) > tau_max).any())", "over = bool((u > tau_max).any())", "safety", _SAFETY),
-    Mutant("S2", "force limit one-sided (largest signed component instead of ‖h_e‖)", "safety.py",
+    Mutant("S2", "force limit one-sided (largest signed component instead of ‖h_e‖)", "supervision/safety.py",
            'checks.append(("force limit", math.sqrt(float(w @ w)),', 'checks.append(("force limit", float(np.max(w)),',
            "safety", _SAFETY),
-    Mutant("S3", "rate limit: the clamp's bounds swapped (u_prev ∓ τ̇_max Ts)", "safety.py",
+    Mutant("S3", "rate limit: the clamp's bounds swapped (u_prev ∓ τ̇_max Ts)", "supervision/safety.py",
            "u = np.clip(u, u_prev - step, u_prev + step)", "u = np.clip(u, u_prev + step, u_prev - step)", "safety", _SAFETY),
-    Mutant("S4", "speed limit on the joint speeds q̇ instead of the tip speed J q̇", "safety.py",
+    Mutant("S4", "speed limit on the joint speeds q̇ instead of the tip speed J q̇", "supervision/safety.py",
            "v = (self.robot.jacobian(q) @ np.asarray(measurement.qd, dtype=np.float64))[lin]",
            "v = np.asarray(measurement.qd, dtype=np.float64)[lin]", "safety", _SAFETY),
-    Mutant("S5", "path deviation measured on every axis (S ignored)", "safety.py",
+    Mutant("S5", "path deviation measured on every axis (S ignored)", "supervision/safety.py",
            "e = np.where(self.deviation_axes[lin], d, 0.0)", "e = d", "safety", _SAFETY),
-    Mutant("S6", "safe stop's hold law: sign of the damping", "safety.py",
+    Mutant("S6", "safe stop's hold law: sign of the damping", "supervision/safety.py",
            "K @ (q_hold - q) - D @ qd", "K @ (q_hold - q) + D @ qd", "safety", _SAFETY),
     # ------------------------------------------------------------------ sweeps
     Mutant("W1", "resumed sweep's parts not re-sorted by case_id", "sweep/store.py",
@@ -156,19 +156,19 @@ MUTANTS = [
     Mutant("W4", "resume runs every case again (the stored parts not skipped)", "sweep/run.py",
            "todo = [j for j in prep.jobs if j.case_id not in done]", "todo = list(prep.jobs)", "sweeps", _SWEEPS),
     # ------------------------------------------------------------------ step-response metrics
-    Mutant("X1", "step_metrics' settling band 5 % instead of 2 %", "metrics.py",
+    Mutant("X1", "step_metrics' settling band 5 % instead of 2 %", "sim/metrics.py",
            "window: float = 0.1, band: float = 0.02,", "window: float = 0.1, band: float = 0.05,", "metrics", _METRICS),
-    Mutant("X2", "overshoot measured from the reference instead of the final value", "metrics.py",
+    Mutant("X2", "overshoot measured from the reference instead of the final value", "sim/metrics.py",
            "v = sign * (y[k] - yf)", "v = sign * (y[k] - f_ref)", "metrics", _METRICS),
-    Mutant("X3", "the step measured from 0 instead of y_0", "metrics.py",
+    Mutant("X3", "the step measured from 0 instead of y_0", "sim/metrics.py",
            "s = yf - y[0]", "s = yf", "metrics", _METRICS),
-    Mutant("X4", "settling time one sample early (the last sample outside the band)", "metrics.py",
+    Mutant("X4", "settling time one sample early (the last sample outside the band)", "sim/metrics.py",
            "settling = nan if k_out >= n - 1 else (k_out + 1) * Ts", "settling = nan if k_out >= n - 1 else k_out * Ts",
            "metrics", _METRICS),
-    Mutant("X5", "final value averaged over one sample fewer than the window", "metrics.py",
+    Mutant("X5", "final value averaged over one sample fewer than the window", "sim/metrics.py",
            "    for k in range(n - w, n):\n        acc += y[k]", "    for k in range(n - w + 1, n):\n        acc += y[k]",
            "metrics", _METRICS),
-    Mutant("X6", "stable: 'within the band AND still decaying' instead of OR", "metrics.py",
+    Mutant("X6", "stable: 'within the band AND still decaying' instead of OR", "sim/metrics.py",
            "late <= stable_band * mag or late < 0.9 * early", "late <= stable_band * mag and late < 0.9 * early",
            "metrics", _METRICS),
     # ------------------------------------------------------------------ energy tanks
@@ -197,15 +197,15 @@ MUTANTS = [
            "w_mot = math.sqrt(float(np.linalg.eigvalsh(self.motion_stiffness)[0]))",
            "w_mot = float(np.linalg.eigvalsh(self.motion_stiffness)[0])", "admittance", _ADMITTANCE),
     # ------------------------------------------------------------------ F/T sensor calibration
-    Mutant("C1", "CoM σ: the mass term with m³ instead of m⁴", "calibration/core.py",
+    Mutant("C1", "CoM σ: the mass term with m³ instead of m⁴", "realarm/calibration/core.py",
            "np.outer(p, p) * cov_f[0, 0] / mass**4", "np.outer(p, p) * cov_f[0, 0] / mass**3", "calibration", _CALIBRATION),
     Mutant("C2", "sign of gravity (+z / +y)", "sensors/gravity.py",
            "out[1 if dim == 2 else 2] = -g", "out[1 if dim == 2 else 2] = g", "calibration", _CALIBRATION),
-    Mutant("C3", "noise variance RSS / rows instead of RSS / (rows − unknowns)", "calibration/core.py",
+    Mutant("C3", "noise variance RSS / rows instead of RSS / (rows − unknowns)", "realarm/calibration/core.py",
            "dof = A.shape[0] - A.shape[1]", "dof = A.shape[0]", "calibration", _CALIBRATION),
-    Mutant("C4", "CoM σ: the first-moment term over m instead of m²", "calibration/core.py",
+    Mutant("C4", "CoM σ: the first-moment term over m instead of m²", "realarm/calibration/core.py",
            "cov_c = cov_t[:d, :d] / mass**2", "cov_c = cov_t[:d, :d] / mass", "calibration", _CALIBRATION),
-    Mutant("C5", "tare: the payload added to the mean reading instead of subtracted", "calibration/core.py",
+    Mutant("C5", "tare: the payload added to the mean reading instead of subtracted", "realarm/calibration/core.py",
            "b_f = F.mean(axis=0) - payload_f", "b_f = F.mean(axis=0) + payload_f", "calibration", _CALIBRATION),
 ]
 
@@ -220,10 +220,10 @@ def _env(root: Path, cache: str) -> dict[str, str]:
 
 
 def _source_hash(root: Path) -> str:
-    """The package's cache key, by the package's own function (forcecontrol._numba_cache)."""
+    """The package's cache key, by the package's own function (forcecontrol.core.numba_cache)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("_fc_numba_cache", root / "src" / "forcecontrol" / "_numba_cache.py")
+    spec = importlib.util.spec_from_file_location("_fc_numba_cache", root / "src" / "forcecontrol" / "core" / "numba_cache.py")
     mod = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
     spec.loader.exec_module(mod)  # type: ignore[union-attr]
     return mod._source_hash(root / "src" / "forcecontrol")

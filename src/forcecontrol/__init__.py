@@ -17,18 +17,18 @@ from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-from . import _numba_cache  # noqa: E402  (must precede every @njit(cache=True) module)
+from .core import numba_cache as _numba_cache  # noqa: E402  (must precede every @njit(cache=True) module)
 
 _numba_cache.configure()
 
 # public name -> submodule that defines it (resolved by __getattr__ on first access)
 _LAZY: dict[str, str] = {
-    "Actuator": ".actuators",
-    "SensedWrench": ".conventions",
-    "RecordedRun": ".io",
-    "read_recording": ".io",
-    "replay": ".replay",
-    "compare_traces": ".replay",
+    "Actuator": ".sim.actuators",
+    "SensedWrench": ".realarm.conventions",
+    "RecordedRun": ".realarm.io",
+    "read_recording": ".realarm.io",
+    "replay": ".realarm.replay",
+    "compare_traces": ".realarm.replay",
     "AdmittanceController": ".controllers",
     "Controller": ".controllers",
     "HybridCompliantController": ".controllers",
@@ -49,15 +49,15 @@ _LAZY: dict[str, str] = {
     "EnergyTank": ".controllers",
     "DirectionalStiffness": ".controllers",
     "SinusoidalStiffness": ".controllers",
-    "StabilityMonitor": ".monitor",
-    "StiffnessEstimator": ".estimation",
-    "MonitoredController": ".monitor",
-    "CalibrationResult": ".calibration",
-    "DriftDetector": ".calibration",
-    "calibrate": ".calibration",
-    "plan_calibration_poses": ".calibration",
-    "EncoderFeedback": ".encoders",
-    "JointEncoder": ".encoders",
+    "StabilityMonitor": ".supervision.monitor",
+    "StiffnessEstimator": ".supervision.estimation",
+    "MonitoredController": ".supervision.monitor",
+    "CalibrationResult": ".realarm.calibration",
+    "DriftDetector": ".realarm.calibration",
+    "calibrate": ".realarm.calibration",
+    "plan_calibration_poses": ".realarm.calibration",
+    "EncoderFeedback": ".sim.encoders",
+    "JointEncoder": ".sim.encoders",
     "ConstantWrench": ".environments",
     "ElasticPlane": ".environments",
     "Environment": ".environments",
@@ -81,15 +81,15 @@ _LAZY: dict[str, str] = {
     "PlanarTwoLink": ".robots",
     "PlanarTwoLinkParameters": ".robots",
     "RobotModel": ".robots",
-    "RateLimiter": ".realtime",
-    "Safety": ".safety",
+    "RateLimiter": ".realarm.realtime",
+    "Safety": ".supervision.safety",
     "ForceSensor": ".sensors",
     "RealisticForceSensor": ".sensors",
     "ToolGravity": ".sensors",
     "identify_tool_gravity": ".sensors",
     "scenario": ".scenarios",
-    "SimulationResult": ".simulation",
-    "simulate": ".simulation",
+    "SimulationResult": ".sim.simulation",
+    "simulate": ".sim.simulation",
     "Transform": ".spatial",
     "Twist": ".spatial",
     "Wrench": ".spatial",
@@ -99,14 +99,12 @@ _LAZY: dict[str, str] = {
     "ReferenceSignal": ".trajectories",
     "Setpoint": ".trajectories",
     "SampledReference": ".trajectories",
-    "ContactSupervisor": ".transitions",
-    "critical_damping": ".transitions",
-    "impact_report": ".transitions",
+    "ContactSupervisor": ".supervision.transitions",
+    "critical_damping": ".supervision.transitions",
+    "impact_report": ".supervision.transitions",
 }
 
 if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
-    from .actuators import Actuator
-    from .calibration import CalibrationResult, DriftDetector, calibrate, plan_calibration_poses
     from .controllers import (
         AdmittanceController,
         Controller,
@@ -129,8 +127,6 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SpatialImpedanceController,
         VariableImpedanceController,
     )
-    from .conventions import SensedWrench
-    from .encoders import EncoderFeedback, JointEncoder
     from .environments import (
         ConstantWrench,
         ElasticPlane,
@@ -154,20 +150,24 @@ if TYPE_CHECKING:  # pragma: no cover - static names for type checkers and IDEs
         SingularityError,
         WorkspaceError,
     )
-    from .estimation import StiffnessEstimator
-    from .io import RecordedRun, read_recording
-    from .monitor import MonitoredController, StabilityMonitor
-    from .realtime import RateLimiter
-    from .replay import compare_traces, replay
+    from .realarm.calibration import CalibrationResult, DriftDetector, calibrate, plan_calibration_poses
+    from .realarm.conventions import SensedWrench
+    from .realarm.io import RecordedRun, read_recording
+    from .realarm.realtime import RateLimiter
+    from .realarm.replay import compare_traces, replay
     from .robots import CHAPTER_ARM, PlanarTwoLink, PlanarTwoLinkParameters, RobotModel
-    from .safety import Safety
     from .scenarios import scenario
     from .sensors import ForceSensor, RealisticForceSensor, ToolGravity, identify_tool_gravity
-    from .simulation import SimulationResult, simulate
+    from .sim.actuators import Actuator
+    from .sim.encoders import EncoderFeedback, JointEncoder
+    from .sim.simulation import SimulationResult, simulate
     from .spatial import Transform, Twist, Wrench
+    from .supervision.estimation import StiffnessEstimator
+    from .supervision.monitor import MonitoredController, StabilityMonitor
+    from .supervision.safety import Safety
+    from .supervision.transitions import ContactSupervisor, critical_damping, impact_report
     from .task import SelectionMatrices, Task
     from .trajectories import LinearPath, ReferenceSignal, SampledReference, Setpoint
-    from .transitions import ContactSupervisor, critical_damping, impact_report
 
 
 def __getattr__(name: str) -> Any:

@@ -84,7 +84,7 @@ class SingularityError(ForceControlError, ArithmeticError):
 
 class RealtimeError(ForceControlError, OSError):
     """The operating system refused a real-time setting asked for with ``strict=True``
-    (:func:`forcecontrol.realtime.realtime_priority`): scheduling policy, CPU pinning or memory locking.
+    (:func:`forcecontrol.realarm.realtime.realtime_priority`): scheduling policy, CPU pinning or memory locking.
     """
 
 

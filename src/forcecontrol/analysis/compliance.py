@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_gain_matrix, as_vector
+from ..core.validate import as_gain_matrix, as_vector
 
 __all__ = ["ComplianceEquilibrium", "compliance_equilibrium", "joint_space_compliance"]
 

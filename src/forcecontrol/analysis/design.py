@@ -44,8 +44,8 @@ from typing import Any
 
 import numpy as np
 
-from .._lazy import lazy_import
-from .._validate import positive_scalar
+from ..core.lazy import lazy_import
+from ..core.validate import positive_scalar
 from ..errors import ParameterError
 
 control = lazy_import("control")
@@ -154,12 +154,12 @@ class LoopModel:
         return np.arange(n) * self.sample_time, f[:n]
 
     def settling_time(self, band: float = 0.02, horizon: float | None = None) -> float:
-        """The 2 % settling time of the true force's step response [s] (:func:`forcecontrol.metrics.step_metrics`).
+        """The 2 % settling time of the true force's step response [s] (:func:`forcecontrol.sim.metrics.step_metrics`).
 
         The final value is exact (``F (I − A_cl)⁻¹ E``); ``inf`` when unstable or not settled
         within the horizon (default: 20 time constants of the slowest pole, at most 60 s).
         """
-        from ..metrics import step_metrics
+        from ..sim.metrics import step_metrics
 
         Acl = self.closed
         rho = float(np.max(np.abs(np.linalg.eigvals(Acl))))

@@ -36,8 +36,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._lazy import lazy_import
-from .._validate import nonnegative_scalar, positive_scalar
+from ..core.lazy import lazy_import
+from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, DriftWarning, ParameterError
 
 control = lazy_import("control")  # python-control costs 1-5 s to import: loaded on first use

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_square, positive_scalar
+from ..core.validate import as_square, positive_scalar
 from ..errors import ParameterError
 from .force import ForceLoopAxis, _scheme
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import nonnegative_scalar, positive_scalar
+from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
 from .design import DESIGN_SCHEMES, loop_model
 from .force_design import design_force_gains

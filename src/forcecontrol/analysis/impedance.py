@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_gain_matrix, as_matrix, as_vector, nonnegative_scalar, positive_scalar
+from ..core.validate import as_gain_matrix, as_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response",

@@ -1,9 +1,9 @@
 """Comparing a case's analysis with a simulation of it (``forcecontrol analyze --verify``).
 
 The pieces that need no scenario machinery: the tolerances, the comparison of the predicted
-settled values and of the contact-force transient with a :class:`~forcecontrol.result.SimulationResult`,
+settled values and of the contact-force transient with a :class:`~forcecontrol.sim.result.SimulationResult`,
 and the reasons given when something is not compared (silence is a defect: a verification not
-done says why). :func:`forcecontrol.analysis.report.verify_case` runs the simulation and puts
+done says why). :func:`forcecontrol.scenarios.report.verify_case` runs the simulation and puts
 them together.
 """
 
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .._axes import axis_names
+from ..core.axes import axis_names
 
 __all__ = [
     "VERIFY_TOLERANCE",
@@ -129,7 +129,7 @@ def _kind(obj: Any) -> str:
 
 def no_analysis_reason(parts: dict[str, Any]) -> str:
     """Why no analysis applies to a built case (its controller, environment and reference)."""
-    from ..transitions import ContactSupervisor
+    from ..supervision.transitions import ContactSupervisor
 
     ctl = parts["controller"]
     text = (f"no analysis applies to a {type(ctl).__name__} with environment '{_kind(parts['environment'])}' and "

@@ -1,7 +1,7 @@
 """The ``forcecontrol analyze`` command (registered in :mod:`forcecontrol.cli`).
 
 Kept apart from the analysis package so that the CLI starts without importing python-control;
-the work is done by :func:`forcecontrol.analysis.report.analyze_scenario`.
+the work is done by :func:`forcecontrol.scenarios.report.analyze_scenario`.
 """
 
 from __future__ import annotations
@@ -39,13 +39,13 @@ def analyze_command(
     from ..errors import ForceControlError
 
     try:
-        from ..analysis.report import analyze_scenario
+        from ..scenarios.report import analyze_scenario
 
         if verify:
             compile_notice()
         report = analyze_scenario(scenario, verify=verify)
         if figures:
-            from ..analysis.report import plot_scheme_figures
+            from ..scenarios.report import plot_scheme_figures
 
             compile_notice()
 

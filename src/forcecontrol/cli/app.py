@@ -18,8 +18,10 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .. import __version__, _numba_cache, render_process
+from .. import __version__
+from ..core import numba_cache as _numba_cache
 from ..errors import ForceControlError
+from ..viz import render_process
 
 #: options shared by the commands.
 JsonOut = Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")]
@@ -150,7 +152,7 @@ def say_note(note: str | None) -> None:
 
 def print_json(obj: Any) -> None:
     """Print one JSON object (NaN and infinity as null, NumPy values as numbers) for ``--json``."""
-    from .._json import json_safe
+    from ..core.jsonsafe import json_safe
 
     sys.stdout.write(json.dumps(json_safe(obj), indent=2, allow_nan=False) + "\n")
 
@@ -273,7 +275,7 @@ def run_command(
             _fail(exc)
             return
         if figure:
-            from ..plotting import figure_jobs
+            from ..viz.plotting import figure_jobs
 
             paths = figures.render(figure_jobs(run, folder, _slug(scn.name)))
             run.files["figure"] = str(paths[0])
@@ -303,8 +305,8 @@ def run_command(
 
 def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
     """One GIF per case, ``folder/stem-<case>.gif`` (the robot and environment rebuilt from the scenario)."""
-    from ..animation import animate_run
     from ..scenarios import build_case
+    from ..viz.animation import animate_run
 
     out = []
     for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):

@@ -1,6 +1,6 @@
 """``forcecontrol cache``: where the compiled kernels are cached, how big the cache is; ``--verify``, ``--clear``.
 
-The cache is keyed as :mod:`forcecontrol._kernel_cache` says: one folder per version of the
+The cache is keyed as :mod:`forcecontrol.core.kernel_cache` says: one folder per version of the
 package's sources (``<root>/forcecontrol-<hash>``), one index per kernel (per law for the loops),
 data files named from their entry's key and holding the kernel's identity. ``--verify`` checks
 every index entry of this version's folder against its data file; ``--clear`` removes every
@@ -17,7 +17,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .. import _numba_cache
+from ..core import numba_cache as _numba_cache
 from .app import JsonOut, _fail, console, err_console, print_json
 
 __all__ = ["cache_command", "cache_report"]
@@ -55,7 +55,7 @@ def cache_report(verify: bool = False, clear: bool = False) -> dict[str, Any]:
         versions = []
     out: dict[str, Any] = {"root": root, "folder": folder, "versions": versions}
     if verify:
-        from .._kernel_cache import scan
+        from ..core.kernel_cache import scan
 
         info = scan(folder)
         out.update({k: info[k] for k in ("entries", "files", "bytes", "problems")})

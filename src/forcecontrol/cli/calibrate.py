@@ -4,9 +4,9 @@
 quaternion ``qx, qy, qz, qw``, a rotation matrix ``r11 … r33`` or a planar ``angle``, and
 ``fx, fy, fz`` [, ``tx, ty, tz``]) and prints the identified tool mass, centre of mass and
 sensor biases with their standard uncertainties and the condition number of the poses
-(:func:`forcecontrol.calibration.calibrate`). ``calibrate-plan`` prints (or writes as CSV) joint
+(:func:`forcecontrol.realarm.calibration.calibrate`). ``calibrate-plan`` prints (or writes as CSV) joint
 configurations that make a well-conditioned calibration for a robot
-(:func:`forcecontrol.calibration.plan_calibration_poses`).
+(:func:`forcecontrol.realarm.calibration.plan_calibration_poses`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
 def calibration_report(path: Path, gravity: float = 9.81, max_condition: float | None = None) -> dict[str, Any]:
     """The calibration of a data file as plain data (the ``--json`` output)."""
-    from ..calibration import MAX_CONDITION, calibrate, read_calibration_data
+    from ..realarm.calibration import MAX_CONDITION, calibrate, read_calibration_data
 
     R, F, T = read_calibration_data(path)
     limit = MAX_CONDITION if max_condition is None else max_condition
@@ -90,7 +90,7 @@ class RobotChoice(str, Enum):
 
 def plan_report(robot: str, n_poses: int, seed: int = 0, torques: bool = True) -> dict[str, Any]:
     """A calibration plan for a named robot as plain data."""
-    from ..calibration import plan_calibration_poses
+    from ..realarm.calibration import plan_calibration_poses
 
     if robot == "chapter-arm":
         from ..robots import CHAPTER_ARM as model

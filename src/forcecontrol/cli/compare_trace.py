@@ -21,7 +21,7 @@ def _simulated(
     """The simulated trace: a data file as it is, or a scenario's case simulated now; its name, task dimension and
     the stem of its output folder (the file's stem or the scenario's name; a case label such as 'k = 1e4 N/m' is no path)."""
     from ..scenarios import load_scenario
-    from ..simulation import simulate
+    from ..sim.simulation import simulate
 
     p = Path(source)
     if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
@@ -54,7 +54,7 @@ def compare_trace_command(
     from rich.table import Table
 
     from ..errors import ForceControlError
-    from ..replay import compare_traces
+    from ..realarm.replay import compare_traces
 
     compile_notice()
     args = (joint_topic, wrench_topic, wrench_sense)

@@ -1,8 +1,8 @@
 """``forcecontrol convert DATA --from CONVENTION --to CONVENTION``: a recorded wrench in another convention.
 
-Reads a recording (CSV, Parquet, ROS 2 bag, MCAP; :func:`forcecontrol.io.read_recording`),
+Reads a recording (CSV, Parquet, ROS 2 bag, MCAP; :func:`forcecontrol.realarm.io.read_recording`),
 converts its wrench between the library's convention and a vendor's
-(:data:`forcecontrol.conventions.CONVENTIONS`) and writes a CSV or Parquet table with the
+(:data:`forcecontrol.realarm.conventions.CONVENTIONS`) and writes a CSV or Parquet table with the
 converted columns and a JSON file beside it that records the convention. Conversions between
 base-frame conventions need nothing more; those to or from end-effector axes (``franka-K``,
 ``mujoco``, ``ros-on``, ``ros-by``) or with a flange offset need the end-effector's orientation
@@ -110,9 +110,9 @@ def convert_report(
     """
     import numpy as np
 
-    from ..conventions import convention
     from ..errors import ParameterError
-    from ..io import convert_recording, read_recording, write_recording
+    from ..realarm.conventions import convention
+    from ..realarm.io import convert_recording, read_recording, write_recording
 
     src, dst = convention(source), convention(target)
     offset = _parse_offset(flange_offset)
@@ -150,7 +150,7 @@ def convert_report(
     rotations, orientation, extra = None, "not needed", None
     if needs:
         if robot is not RobotName.none:
-            from ..replay import end_effector_rotation
+            from ..realarm.replay import end_effector_rotation
 
             model = _robot(robot)
             if rec.n != model.nq:

@@ -45,7 +45,7 @@ def pick_case(scn: Any, label: str | None) -> tuple[Any, dict[str, Any]]:
 
 def read_log(path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str) -> Any:
     """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components."""
-    from ..io import read_recording
+    from ..realarm.io import read_recording
 
     format_ = None if fmt is RecordFormat.auto else fmt.value
     kwargs: dict[str, Any] = {"wrench_sense": wrench_sense}
@@ -72,7 +72,7 @@ def replay_command(
     from rich.table import Table
 
     from ..errors import ForceControlError
-    from ..replay import replay
+    from ..realarm.replay import replay
     from ..scenarios import load_scenario
 
     compile_notice()

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_gain_matrix, positive_scalar
+from ..core.validate import as_gain_matrix, positive_scalar
 from ..errors import BandwidthWarning, ParameterError
 from ..robots.base import RobotModel
 from ..spatial import euler_xyz_T, euler_xyz_T_dot

@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import laws
-from .._validate import positive_scalar
+from ..core.validate import positive_scalar
 from ..errors import DimensionError, ForceControlError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
 from .signals import REFERENCE_FIELDS, Measurement, Reference, pack_reference

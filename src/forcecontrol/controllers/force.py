@@ -44,7 +44,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from .. import laws
-from .._validate import as_gain_matrix, readonly
+from ..core.validate import as_gain_matrix, readonly
 from ..errors import ParameterError
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
@@ -83,7 +83,7 @@ def _task_frame(value: Any, m: int) -> np.ndarray | None:
     """The task frame's rotation R (m, m) (columns: its axes in the base frame), or None for the base frame."""
     if value is None:
         return None
-    from .._validate import as_matrix
+    from ..core.validate import as_matrix
 
     R = np.array(as_matrix("task_frame", value, (m, m)))
     if not np.allclose(R.T @ R, np.eye(m), atol=1e-9) or np.linalg.det(R) <= 0.0:

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import _plain_number, as_gain_matrix, readonly
+from ..core.validate import _plain_number, as_gain_matrix, readonly
 from ..errors import DimensionError, DriftWarning, ParameterError
 
 __all__ = ["check_force_reference"]

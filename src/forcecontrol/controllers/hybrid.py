@@ -30,7 +30,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from .. import laws
-from .._validate import as_gain_matrix
+from ..core.validate import as_gain_matrix
 from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task

@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import laws
-from .._validate import as_gain_matrix
+from ..core.validate import as_gain_matrix
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
 

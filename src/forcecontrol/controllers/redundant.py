@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_vector, nonnegative_scalar, positive_scalar
+from ..core.validate import as_vector, nonnegative_scalar, positive_scalar
 
 __all__ = ["dls_damping", "redundant_acceleration", "NullSpacePosture", "SingularityHandling"]
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._axes import REFERENCE_FIELDS
+from ..core.axes import REFERENCE_FIELDS
 from ..errors import DimensionError
 
 __all__ = ["Measurement", "Reference", "pack_reference", "REFERENCE_FIELDS"]

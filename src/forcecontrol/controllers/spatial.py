@@ -31,7 +31,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from .. import laws
-from .._validate import as_gain_matrix
+from ..core.validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
 from ..laws.spatial import desired_frame_terms, spatial_impedance_torque

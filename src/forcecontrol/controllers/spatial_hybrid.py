@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .. import laws
-from .._validate import as_gain_matrix
+from ..core.validate import as_gain_matrix
 from ..errors import ParameterError
 from ..robots.base import RobotModel
 from .base import Measurement, Reference

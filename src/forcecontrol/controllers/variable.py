@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._validate import as_gain_matrix, nonnegative_scalar, positive_scalar
+from ..core.validate import as_gain_matrix, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 from ..robots.base import RobotModel
 from .admittance import AdmittanceController

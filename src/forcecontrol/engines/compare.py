@@ -1,6 +1,6 @@
 """The built-in simulator against another engine: contact-force metrics side by side, and why they differ.
 
-Needs no engine itself: it compares two finished runs (:class:`~forcecontrol.result.SimulationResult`).
+Needs no engine itself: it compares two finished runs (:class:`~forcecontrol.sim.result.SimulationResult`).
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..result import SimulationResult
+from ..sim.result import SimulationResult
 
 __all__ = ["compare_engines", "DIFFERENCES"]
 
@@ -26,8 +26,8 @@ DIFFERENCES = (
 
 
 def _transient(t: np.ndarray, f: np.ndarray) -> dict[str, float]:
-    """The contact force's transient by the library's one definition (:func:`forcecontrol.metrics.step_metrics`)."""
-    from ..metrics import step_metrics
+    """The contact force's transient by the library's one definition (:func:`forcecontrol.sim.metrics.step_metrics`)."""
+    from ..sim.metrics import step_metrics
 
     m = step_metrics(t, f, window=0.1)
     return {

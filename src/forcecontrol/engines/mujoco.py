@@ -9,7 +9,7 @@ armature and damping; the end-effector gets a small frictionless sphere (``conta
 centred on the controlled frame. Elastic planes and tables become MuJoCo planes shifted by that
 radius, so that the penetration MuJoCo sees is the built-in environments' δ.
 
-The loop is the same sampled loop as :func:`forcecontrol.simulation.simulate`: at each sample
+The loop is the same sampled loop as :func:`forcecontrol.sim.simulation.simulate`: at each sample
 ``t_k`` read q, q̇ and the contact wrench from MuJoCo, call ``controller.step``, hold the torque
 (``qfrc_applied``) over ``substeps`` MuJoCo RK4 steps.
 
@@ -38,8 +38,8 @@ import numpy as np
 from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from ..environments.base import Environment
 from ..errors import ParameterError, SimulationDivergedError
-from ..limits import check_run_size
-from ..simulation import SimulationResult
+from ..sim.limits import check_run_size
+from ..sim.simulation import SimulationResult
 from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 from .compare import DIFFERENCES, compare_engines
@@ -428,7 +428,7 @@ def simulate_mujoco(
     robot: Any, environment: Environment, controller: Controller, reference: ReferenceSignal, *, q0: Any,
     duration: float, qd0: Any = None, substeps: int = 4, contact_radius: float = 0.01, label: str = "",
 ) -> SimulationResult:
-    """Like :func:`forcecontrol.simulation.simulate`, with MuJoCo as the plant."""
+    """Like :func:`forcecontrol.sim.simulation.simulate`, with MuJoCo as the plant."""
     plant = MujocoPlant(
         robot, environment, sample_time=controller.sample_time, substeps=substeps, contact_radius=contact_radius
     )

@@ -8,8 +8,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from .._linalg import mv
-from .._validate import as_gain_matrix, as_vector, nonnegative_scalar
+from ..core.linalg import mv
+from ..core.validate import as_gain_matrix, as_vector, nonnegative_scalar
 from ..errors import DimensionError, ParameterError
 from .base import Environment
 

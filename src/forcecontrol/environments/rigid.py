@@ -40,7 +40,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._validate import as_vector, positive_scalar
+from ..core.validate import as_vector, positive_scalar
 from ..errors import DimensionError, ParameterError, SingularityError
 from .base import Environment
 

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
+from ..core.validate import as_gain_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
 from ..spatial import check_rotation
 from ..spatial.closed_form import euler_xyz_to_rotation, rotation_vector  # per integrator stage

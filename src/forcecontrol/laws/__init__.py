@@ -25,8 +25,8 @@ It returns False when the law cannot be applied (a singular Jacobian in the inne
 
 The same function runs everywhere: ``Controller.step`` in a user's loop (through one fused
 compiled call on the chapter's arm, or on the robot's terms for any other robot), the compiled
-single-run loop (:mod:`forcecontrol.loop`) and the sweeps' batch kernel
-(:mod:`forcecontrol._batch`), both of which take the law as a compiled function argument and so
+single-run loop (:mod:`forcecontrol.sim.loop`) and the sweeps' batch kernel
+(:mod:`forcecontrol.sim.batch`), both of which take the law as a compiled function argument and so
 are specialised per law. Inverse-dynamics laws also expose their acceleration part
 (``*_acceleration``), so that a redundant or near-singular arm runs the same law through the
 damped inner loop of :mod:`forcecontrol.controllers.redundant`.

@@ -12,7 +12,7 @@ from typing import Any
 
 from numba import njit, types
 
-from .._numba_cache import kernel_identity, stable_identities
+from ..core.numba_cache import kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]

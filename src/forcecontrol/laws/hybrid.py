@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from .._linalg import mv_into
+from ..core.linalg import mv_into
 from .inner import inverse_dynamics_law
 
 

@@ -7,7 +7,7 @@ from typing import Any
 
 from numba import njit
 
-from .._linalg import solve2, solve_in_place
+from ..core.linalg import solve2, solve_in_place
 
 
 @njit(cache=True, inline="always")

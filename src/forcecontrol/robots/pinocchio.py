@@ -29,7 +29,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import as_matrix, as_vector
+from ..core.validate import as_matrix, as_vector
 from ..errors import DimensionError, ParameterError
 from ..spatial.closed_form import rotation_to_euler_xyz  # per integrator stage
 from .base import RobotTerms

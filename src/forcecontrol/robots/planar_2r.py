@@ -25,7 +25,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
-from .._validate import nonnegative_scalar, positive_scalar
+from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, WorkspaceError
 from .base import RobotTerms
 

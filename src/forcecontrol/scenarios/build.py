@@ -7,10 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from ..actuators import Actuator
 from ..errors import ForceControlError, ScenarioError
 from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
 from ..sensors import ForceSensor
+from ..sim.actuators import Actuator
 from .checks import METRICS, _check_expected_specs
 from .model import _RICH_SENSOR_KEYS, ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS, CaseSpec
 from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_table_memo, check_value
@@ -208,7 +208,7 @@ def build_sensor(where: str, table: Any, sample_time: float) -> ForceSensor:
 
 
 def _actuator(where: str, table: Any, n: int) -> Actuator | None:
-    """The ``[actuator]`` table as an :class:`~forcecontrol.actuators.Actuator` (None without the table).
+    """The ``[actuator]`` table as an :class:`~forcecontrol.sim.actuators.Actuator` (None without the table).
 
     Raises:
         ScenarioError: an unknown key, a value of the wrong type, a negative friction, delay or

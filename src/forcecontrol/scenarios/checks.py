@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ScenarioError
-from ..simulation import SimulationResult
+from ..sim.simulation import SimulationResult
 
 __all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "register_response", "case_response",
            "check_expected"]

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ForceControlError, ScenarioError
-from ..simulation import simulate
+from ..sim.simulation import simulate
 from .build import _actuator, _allow_contact_loss, _part, build_case  # noqa: F401
 from .checks import (  # noqa: F401
     _ANALYSES,
@@ -334,7 +334,7 @@ def _check_shadowed(where: str, base: dict[str, Any], cases: list[CaseSpec]) -> 
 
 def _signal_names(n: int, m: int) -> list[str]:
     """The plottable columns of a run with n joints in an m-dimensional task space (``SimulationResult.columns``)."""
-    from .._axes import axis_names as _axis_names
+    from ..core.axes import axis_names as _axis_names
 
     pose, twist, wrench = _axis_names(m)
     out = ["t"] + [f"{s}{i + 1}" for i in range(n) for s in ("q", "qd", "u")] + pose + twist + wrench

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from .._json import json_safe
-from ..simulation import SimulationResult
+from ..core.jsonsafe import json_safe
+from ..sim.simulation import SimulationResult
 from .schema import Field
 
 if TYPE_CHECKING:
@@ -86,7 +86,7 @@ SENSOR_FIELDS: dict[str, Field] = {
 _RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_samples", "tool_mass")
 
 
-#: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.actuators.Actuator`,
+#: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.sim.actuators.Actuator`,
 #: Python engine). Per-joint keys take a number (every joint) or a list with one entry per joint.
 ACTUATOR_FIELDS: dict[str, Field] = {
     "coulomb": Field("gain", default=0.0, doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),

@@ -200,7 +200,7 @@ def _impedance_response(parts: dict[str, Any], times: Any) -> Any:
     import numpy as np
 
     from ..analysis import impedance_response
-    from ..simulation import contact_mobility
+    from ..sim.simulation import contact_mobility
 
     ctl, env, ref, robot = parts["controller"], parts["environment"], parts["reference"], parts["robot"]
     K, rest, normal, De = _environment_matrix(env)

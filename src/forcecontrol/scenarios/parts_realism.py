@@ -4,9 +4,9 @@ Controller types:
 
 * ``contact-supervisor``: motion control in free space (``[controller.approach]``, any
   registered controller type), force control in contact (``[controller.contact]``), switching on
-  the measured normal force with hysteresis (:class:`~forcecontrol.transitions.ContactSupervisor`);
+  the measured normal force with hysteresis (:class:`~forcecontrol.supervision.transitions.ContactSupervisor`);
 * ``safety``: any registered controller (``[controller.wrapped]``) inside the safety layer
-  (:class:`~forcecontrol.safety.Safety`), limits as keys.
+  (:class:`~forcecontrol.supervision.safety.Safety`), limits as keys.
 
 Metrics: ``impact_peak_force`` [N], ``bounce_count``, ``bounced`` (1 when the contact was lost
 after the first impact, else 0), ``first_contact_time`` [s] (from the true contact force, along
@@ -19,8 +19,8 @@ from __future__ import annotations
 from typing import Any
 
 from ..errors import ScenarioError
-from ..safety import Safety
-from ..transitions import ContactSupervisor, impact_report
+from ..supervision.safety import Safety
+from ..supervision.transitions import ContactSupervisor, impact_report
 from .core import register_metric
 from .schema import CONTROLLERS, Field, check_table, register_controller
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_matrix, as_vector
+from ..core.validate import as_matrix, as_vector
 from ..errors import DimensionError, ScenarioError
 from ..spatial import euler_xyz_to_rotation, rotation_to_euler_xyz
 from .schema import TIMING_FIELDS, Field, force_law_fields, register_controller, register_environment, register_reference

@@ -314,7 +314,7 @@ def _hybrid_force_response(parts: dict[str, Any], times: Any, W: np.ndarray, kf:
     Ts → 0 this is (9.84), ``λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0``.
     """
     from ..analysis import held_input_response
-    from ..simulation import contact_mobility, pre_start_wrench
+    from ..sim.simulation import contact_mobility, pre_start_wrench
 
     ctl, robot = parts["controller"], parts["robot"]
     q0 = np.asarray(parts["q0"], dtype=float)

@@ -10,7 +10,7 @@ tool's mass, centre of mass and the sensor bias from a few static poses (least s
 
 Derivative-free by design: none of the chapter's direct force schemes (9.39)–(9.48) or the
 impedance laws differentiates the measured force; their derivative terms act on ẋ_e = J q̇, and
-on a real arm q̇ comes from differences of encoder positions (see :mod:`forcecontrol.encoders`).
+on a real arm q̇ comes from differences of encoder positions (see :mod:`forcecontrol.sim.encoders`).
 Sensor noise therefore enters through proportional and integral paths only and is not
 amplified by a numerical derivative; a first-order filter is enough to keep it out of the
 torques.

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import positive_scalar
+from ..core.validate import positive_scalar
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["ForceSensor", "first_order_alpha"]

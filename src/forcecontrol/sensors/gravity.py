@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import nonnegative_scalar, positive_scalar
+from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["planar_sensor_rotation", "ToolGravity", "identify_tool_gravity"]

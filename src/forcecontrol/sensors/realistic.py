@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import nonnegative_scalar
+from ..core.validate import nonnegative_scalar
 from ..errors import DimensionError, ParameterError
 from .core import _FILTERS, ForceSensor
 from .gravity import ToolGravity, _gravity_vector, planar_sensor_rotation

@@ -7,7 +7,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._validate import as_vector
+from ..core.validate import as_vector
 from ..errors import FrameError, ParameterError
 from .rotations import check_rotation
 

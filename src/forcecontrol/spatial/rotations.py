@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_matrix, readonly
+from ..core.validate import as_matrix, readonly
 from ..errors import ParameterError
 from .closed_form import EULER_SINGULARITY_TOL, euler_singularity
 

@@ -29,7 +29,7 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
 
     This is what a local thread or a Dask worker runs; the numbers do not depend on where.
     """
-    from .._batch import OUT_COLUMNS, run_batch
+    from ..sim.batch import OUT_COLUMNS, run_batch
 
     rows: dict[int, dict[str, Any]] = {}
     groups: dict[Any, list[CaseJob]] = {}
@@ -96,8 +96,8 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
 
 def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, Any]:
     """A case outside the kernel's reach: simulate() and the same metrics."""
-    from .._batch import case_metrics
-    from ..simulation import simulate
+    from ..sim.batch import case_metrics
+    from ..sim.simulation import simulate
 
     p = j.parts or {}
     status, cause = 0, None

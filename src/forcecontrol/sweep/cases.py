@@ -40,7 +40,7 @@ class CaseJob(_RunShape):
     """One case, ready to simulate (picklable: it travels to Dask workers).
 
     ``fast`` cases carry the kernel's packed arrays; the others carry their parts for
-    :func:`forcecontrol.simulation.simulate`.
+    :func:`forcecontrol.sim.simulation.simulate`.
     """
 
     case_id: int
@@ -167,9 +167,9 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
     mobility at q0 is computed once per arm object and q0.
     """
     from ..errors import ParameterError
-    from ..limits import check_run_size, check_substeps
     from ..robots import PlanarTwoLink
-    from ..simulation import choose_substeps, contact_mobility, pre_start_wrench
+    from ..sim.limits import check_run_size, check_substeps
+    from ..sim.simulation import choose_substeps, contact_mobility, pre_start_wrench
 
     robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
     Ts = float(ctl.sample_time)

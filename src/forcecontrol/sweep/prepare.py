@@ -1,8 +1,8 @@
 """Preparing a sweep: the scenario and its [sweep] table, every case validated and built into a job.
 
 Cases of the chapter's arm with a built-in environment and a controller with a compiled law run
-in the compiled batch kernel (:func:`forcecontrol._batch.run_batch`, grouped by law); other
-cases go through :func:`forcecontrol.simulation.simulate` one by one (:mod:`.block`).
+in the compiled batch kernel (:func:`forcecontrol.sim.batch.run_batch`, grouped by law); other
+cases go through :func:`forcecontrol.sim.simulation.simulate` one by one (:mod:`.block`).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Running a sweep: validate and build every case, simulate them in blocks, store each block as it ends.
 
 Cases of the chapter's arm with a built-in environment and controller (the Example 9.1-9.3
-schemes) run in the allocation-free compiled kernel :func:`forcecontrol._batch.run_batch`, a
-block of cases per call; other cases go through :func:`forcecontrol.simulation.simulate` one by
+schemes) run in the allocation-free compiled kernel :func:`forcecontrol.sim.batch.run_batch`, a
+block of cases per call; other cases go through :func:`forcecontrol.sim.simulation.simulate` one by
 one. Locally the blocks run on a thread pool with one thread per core (the kernel releases the
 GIL), so no server is needed; with a Dask scheduler address they run as tasks on the cluster's
 workers. The kernel and the block function are the same in both, so the tables are identical.

@@ -8,7 +8,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .._validate import as_vector, readonly
+from ..core.validate import as_vector, readonly
 from ..errors import DimensionError, ParameterError
 from .projections import _rotation
 

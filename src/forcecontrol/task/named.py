@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_vector
+from ..core.validate import as_vector
 from ..errors import ParameterError
 from .frame import ConstraintFrame, _rot_z, planar_rotation
 from .spec import Task

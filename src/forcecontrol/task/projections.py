@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_matrix, as_square
+from ..core.validate import as_matrix, as_square
 from ..errors import DimensionError, ParameterError
 
 #: the degrees of freedom of each space, in vector order.

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_matrix, as_vector, readonly
+from ..core.validate import as_matrix, as_vector, readonly
 from ..errors import DimensionError, ParameterError
 from .projections import (
     _TOL,

@@ -12,8 +12,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .._validate import as_vector, nonnegative_scalar, positive_scalar
 from ..controllers.base import REFERENCE_FIELDS, Reference
+from ..core.validate import as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["ReferenceSignal", "Setpoint", "LinearPath", "trapezoidal_profile", "force_profile", "FORCE_SHAPES"]

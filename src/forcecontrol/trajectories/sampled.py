@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .._axes import axis_names
+from ..core.axes import axis_names
 from ..errors import DimensionError, ParameterError
 from .profiles import ReferenceSignal
 

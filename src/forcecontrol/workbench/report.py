@@ -1,7 +1,7 @@
 """``forcecontrol report``: one self-contained interactive HTML file (plotly) of a run or a sweep.
 
 * A run folder (what ``forcecontrol run NAME --data csv|parquet`` writes: per case a data file
-  and its JSON metadata, :meth:`~forcecontrol.simulation.SimulationResult.save`) gives the time
+  and its JSON metadata, :meth:`~forcecontrol.sim.simulation.SimulationResult.save`) gives the time
   responses of every case: positions and contact forces (and the joint torques), one line per case.
 * A sweep table (``forcecontrol sweep``'s Parquet file, or a folder holding it) gives, per case
   of the scenario, a map of each metric over the first two swept parameters (other parameters at

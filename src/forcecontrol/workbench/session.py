@@ -171,7 +171,7 @@ class Evaluation:
     """One evaluation of a case: the run, the analysis, poles and stability curve, and timings.
 
     Attributes:
-        result: the :class:`~forcecontrol.simulation.SimulationResult`; analysis: the scenario
+        result: the :class:`~forcecontrol.sim.simulation.SimulationResult`; analysis: the scenario
             analysis of the case (steady values, ω_n, ζ, ...); poles: continuous closed-loop poles
             per axis (``{"x": array}``; empty when no analysis gives them); stability: the curve or
             None; notes: what is not available for this scheme; seconds: wall time per part.
@@ -274,7 +274,7 @@ class TuneSession:
         (what the page shows) rather than an exception.
         """
         from ..scenarios import CaseSpec, build_case, case_analysis
-        from ..simulation import simulate
+        from ..sim.simulation import simulate
 
         seconds: dict[str, float] = {}
         t0 = time.perf_counter()

@@ -1,0 +1,441 @@
+"""Identifying a force/torque sensor's payload and bias from static poses (the package's core)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ...core.validate import positive_scalar
+from ...errors import DimensionError, MeasurementError, ParameterError
+from ...sensors.gravity import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor
+
+__all__ = ["CalibrationResult", "calibrate", "regressor_condition", "tare", "MAX_CONDITION"]
+
+#: default largest condition number of the normalised gravity regressor :func:`calibrate` accepts.
+MAX_CONDITION = 100.0
+
+
+# ----------------------------------------------------------------------------- checks and regressors
+
+
+def _rotations(value: Any) -> np.ndarray:
+    R = np.asarray(value, dtype=np.float64)
+    if R.ndim != 3 or R.shape[1] != R.shape[2] or R.shape[1] not in (2, 3):
+        raise DimensionError(f"rotations must have shape (k, 2, 2) or (k, 3, 3); got shape {R.shape}")
+    if not np.all(np.isfinite(R)):
+        i = int(np.argwhere(~np.isfinite(R))[0, 0])
+        raise MeasurementError(f"rotations must be finite; rotation {i} holds NaN or inf")
+    d = R.shape[1]
+    err = np.abs(np.einsum("kij,kil->kjl", R, R) - np.eye(d)).max(axis=(1, 2))
+    det = np.linalg.det(R)
+    bad = np.flatnonzero((err > 1e-6) | (det < 0.0))
+    if bad.size:
+        i = int(bad[0])
+        raise ParameterError(
+            f"rotations must be proper rotation matrices (RᵀR = I, det R = +1); rotation {i} has "
+            f"|RᵀR − I| = {err[i]:.3g} and det R = {det[i]:.6g}"
+        )
+    return R
+
+
+def _readings(name: str, value: Any, k: int, n: int) -> np.ndarray:
+    a = np.asarray(value, dtype=np.float64)
+    shapes = f"({k},) or ({k}, 1)" if n == 1 else f"({k}, {n})"
+    if a.size != k * n or a.ndim not in (1, 2) or (a.ndim == 2 and a.shape != (k, n)) or (a.ndim == 1 and n != 1):
+        raise DimensionError(f"{name} must have shape {shapes} (one reading per rotation); got shape {a.shape}")
+    a = a.reshape(k, n)
+    if not np.all(np.isfinite(a)):
+        i = int(np.argwhere(~np.isfinite(a))[0, 0])
+        raise MeasurementError(f"{name} must be finite; reading {i} is {a[i].tolist()}")
+    return a
+
+
+def _gravity_in_sensor(R: np.ndarray, gravity: float) -> np.ndarray:
+    """u_i = R_iᵀ g, (k, d)."""
+    return np.einsum("kji,j->ki", R, _gravity_vector(R.shape[1], gravity))
+
+
+def _normalised_blocks(R: np.ndarray, torques: bool) -> list[np.ndarray]:
+    uhat = _gravity_in_sensor(R, 1.0)
+    blocks = [_force_regressor(uhat)]
+    if torques:
+        blocks.append(_torque_regressor(uhat))
+    return blocks
+
+
+def _condition(blocks: list[np.ndarray]) -> tuple[float, float]:
+    """(condition number, smallest singular value) of the block-diagonal stack of ``blocks``."""
+    s = np.concatenate([np.linalg.svd(b, compute_uv=False) for b in blocks])
+    smin, smax = float(s.min()), float(s.max())
+    if smin <= 1e-12 * smax:
+        return math.inf, smin
+    return smax / smin, smin
+
+
+def regressor_condition(rotations: Any, *, torques: bool = True) -> float:
+    """Condition number of the normalised gravity regressor of a set of sensor orientations.
+
+    The force block has rows ``[−û_i, I]``, the moment block ``[[û_i]×, I]`` (3-D) or
+    ``[−û_y, û_x, 1]`` (planar), ``û_i = R_iᵀ g/|g|``; the number is σ_max/σ_min over the singular
+    values of both blocks (inf when rank deficient). 1 is ideal for forces; identical
+    orientations give inf.
+
+    Args:
+        rotations: sensor orientations R_i in the base frame, (k, d, d) with d = 2 or 3.
+        torques: include the moment block (the centre of mass is identified).
+
+    Returns:
+        The condition number (>= 1, inf when the poses do not identify the unknowns).
+
+    Raises:
+        DimensionError: wrong shape. ParameterError: a matrix is not a rotation.
+    """
+    return _condition(_normalised_blocks(_rotations(rotations), torques))[0]
+
+
+# ----------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationResult:
+    """Identified tool payload and sensor biases with their standard uncertainties.
+
+    Frames and units: every vector is in the sensor frame S; mass [kg], com [m], force_bias [N],
+    torque_bias [N m] ((1,) planar, (3,) in 3-D). ``*_std`` are standard uncertainties (one σ) of
+    the estimates. Fields about the moments are None when no moments were given.
+
+    Attributes:
+        dim: 2 (planar) or 3.
+        gravity: |g| [m/s²] (along −y planar, −z in 3-D).
+        mass, mass_std: m and σ_m [kg].
+        com, com_std: c and σ_c (d,) [m]; NaN when m is not significantly above 0.
+        first_moment: p = m c (d,) [kg m], the quantity the moments identify.
+        force_bias, force_bias_std: b_f and its σ (d,) [N].
+        torque_bias, torque_bias_std: b_τ and its σ [N m].
+        force_noise_std, torque_noise_std: σ of the residuals per component (the noise the fit saw).
+        force_residual_rms, torque_residual_rms: RMS of the residuals.
+        force_covariance: covariance of (m, b_f), (1 + d, 1 + d).
+        torque_covariance: covariance of (p, b_τ), (d + nt, d + nt).
+        condition_number: of the normalised gravity regressor (see :func:`regressor_condition`).
+        n_readings: number of readings used.
+    """
+
+    dim: int
+    gravity: float
+    mass: float
+    mass_std: float
+    force_bias: np.ndarray
+    force_bias_std: np.ndarray
+    force_noise_std: float
+    force_residual_rms: float
+    force_covariance: np.ndarray
+    condition_number: float
+    n_readings: int
+    com: np.ndarray | None = None
+    com_std: np.ndarray | None = None
+    first_moment: np.ndarray | None = None
+    torque_bias: np.ndarray | None = None
+    torque_bias_std: np.ndarray | None = None
+    torque_noise_std: float | None = None
+    torque_residual_rms: float | None = None
+    torque_covariance: np.ndarray | None = None
+    notes: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        for name in ("force_bias", "force_bias_std", "force_covariance", "com", "com_std", "first_moment", "torque_bias",
+                     "torque_bias_std", "torque_covariance"):
+            v = getattr(self, name)
+            if v is not None:
+                a = np.array(v, dtype=np.float64)
+                a.flags.writeable = False
+                object.__setattr__(self, name, a)
+
+    @property
+    def tool(self) -> ToolGravity:
+        """The identified :class:`~forcecontrol.sensors.ToolGravity` (for RealisticForceSensor's tool_estimate)."""
+        com = None
+        if self.first_moment is not None:
+            com = self.first_moment / self.mass if self.mass > 0.0 else np.zeros(self.dim)
+        return ToolGravity(max(self.mass, 0.0), com, self.force_bias, self.torque_bias, dim=self.dim, gravity=self.gravity)
+
+    @property
+    def has_torques(self) -> bool:
+        """True when the moments were identified (centre of mass and moment bias)."""
+        return self.torque_bias is not None
+
+    def _u(self, R: Any) -> tuple[np.ndarray, bool]:
+        Rs = np.asarray(R, dtype=np.float64)
+        single = Rs.ndim == 2
+        Rs = Rs[None] if single else Rs
+        if Rs.ndim != 3 or Rs.shape[1:] != (self.dim, self.dim):
+            d = self.dim
+            raise DimensionError(f"R must have shape ({d}, {d}) or (k, {d}, {d}); got shape {np.shape(R)}")
+        return _gravity_in_sensor(Rs, self.gravity), single
+
+    def predict(self, R: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """The free-space reading the model expects at orientation(s) R: (force, moment or None).
+
+        Args:
+            R: (d, d) or (k, d, d) sensor orientation(s).
+
+        Returns:
+            force (d,) or (k, d) [N]; moment (nt,) or (k, nt) [N m], None without moments.
+
+        Raises:
+            DimensionError: R has the wrong shape.
+        """
+        u, single = self._u(R)
+        theta_f = np.concatenate([[self.mass], self.force_bias])
+        f = (_force_regressor(u) @ theta_f).reshape(len(u), self.dim)
+        tau = None
+        if self.has_torques:
+            nt = 1 if self.dim == 2 else 3
+            theta_t = np.concatenate([self.first_moment, self.torque_bias])
+            tau = (_torque_regressor(u) @ theta_t).reshape(len(u), nt)
+            tau = tau[0] if single else tau
+        return (f[0] if single else f), tau
+
+    def prediction_std(self, R: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """Standard uncertainty of :meth:`predict` from the parameters' covariance, same shapes."""
+        u, single = self._u(R)
+        Af = _force_regressor(u)
+        vf = np.einsum("ij,jk,ik->i", Af, self.force_covariance, Af).reshape(len(u), self.dim)
+        st = None
+        if self.has_torques:
+            At = _torque_regressor(u)
+            vt = np.einsum("ij,jk,ik->i", At, self.torque_covariance, At).reshape(len(u), -1)
+            st = np.sqrt(np.maximum(vt, 0.0))
+            st = st[0] if single else st
+        sf = np.sqrt(np.maximum(vf, 0.0))
+        return (sf[0] if single else sf), st
+
+    def compensate(
+        self, R: Any, force: Any, torque: Any = None, *, frame: str = "sensor"
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Gravity and bias compensation in any orientation: see :meth:`ToolGravity.compensate`."""
+        return self.tool.compensate(R, force, torque, frame=frame)
+
+    def tare(self, R: Any, forces: Any, torques: Any = None) -> CalibrationResult:
+        """Re-estimate the biases at one known pose, keeping the payload: see :func:`tare`."""
+        return tare(self, R, forces, torques)
+
+    def parameters(self) -> list[dict[str, Any]]:
+        """One row per scalar parameter: name, value, std, unit (the table the CLI prints)."""
+        axes = "xyz"
+        rows = [{"name": "mass", "value": self.mass, "std": self.mass_std, "unit": "kg"}]
+        if self.com is not None and self.com_std is not None:
+            rows += [{"name": f"com_{axes[i]}", "value": float(self.com[i]), "std": float(self.com_std[i]), "unit": "m"}
+                     for i in range(self.dim)]
+        rows += [{"name": f"force_bias_{axes[i]}", "value": float(self.force_bias[i]), "std": float(self.force_bias_std[i]),
+                  "unit": "N"} for i in range(self.dim)]
+        if self.torque_bias is not None and self.torque_bias_std is not None:
+            names = ["z"] if self.dim == 2 else list(axes)
+            rows += [{"name": f"torque_bias_{names[i]}", "value": float(self.torque_bias[i]),
+                      "std": float(self.torque_bias_std[i]), "unit": "N m"} for i in range(len(names))]
+        return rows
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain data (lists and floats; NaN where a value is undefined) for JSON."""
+        def lst(a):
+            return None if a is None else np.asarray(a).tolist()
+
+        return {
+            "dim": self.dim, "gravity": self.gravity, "n_readings": self.n_readings,
+            "condition_number": self.condition_number,
+            "mass": self.mass, "mass_std": self.mass_std,
+            "com": lst(self.com), "com_std": lst(self.com_std),
+            "force_bias": lst(self.force_bias), "force_bias_std": lst(self.force_bias_std),
+            "torque_bias": lst(self.torque_bias), "torque_bias_std": lst(self.torque_bias_std),
+            "force_noise_std": self.force_noise_std, "torque_noise_std": self.torque_noise_std,
+            "force_residual_rms": self.force_residual_rms, "torque_residual_rms": self.torque_residual_rms,
+            "parameters": self.parameters(), "notes": list(self.notes),
+        }
+
+
+def _fit(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """OLS: θ, cov = σ² (AᵀA)⁻¹ with σ² = RSS / (rows − cols), σ, residual RMS."""
+    theta, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ theta
+    dof = A.shape[0] - A.shape[1]
+    s2 = float(r @ r) / dof
+    cov = s2 * np.linalg.inv(A.T @ A)
+    return theta, cov, math.sqrt(s2), float(np.sqrt(np.mean(r * r)))
+
+
+def calibrate(
+    rotations: Any,
+    forces: Any,
+    torques: Any = None,
+    *,
+    gravity: float = 9.81,
+    max_condition: float = MAX_CONDITION,
+) -> CalibrationResult:
+    """Identify a tool's mass, centre of mass and the sensor's biases, with their uncertainty.
+
+    Static free-space readings at k orientations; the model and the least-squares problems are
+    in the module's docstring (the convention is :class:`~forcecontrol.sensors.ToolGravity`'s:
+    the sensor holds the tool up). Several readings at the same orientation are fine (they count
+    as rows). Standard uncertainties come from ``σ² (AᵀA)⁻¹``, which assumes white noise of equal
+    variance on the force components (and on the moment components) and a correct model.
+
+    Args:
+        rotations: sensor orientations R_i in the base frame, (k, d, d), d = 2 (planar) or 3.
+        forces: force readings in the sensor frame, (k, d) [N].
+        torques: moment readings, (k,) planar or (k, 3) [N m]; None = forces only (no centre of mass).
+        gravity: |g| [m/s²].
+        max_condition: largest condition number of the normalised regressor accepted.
+
+    Returns:
+        A :class:`CalibrationResult`.
+
+    Raises:
+        DimensionError: shapes do not match. MeasurementError: a reading or rotation is NaN/inf.
+        ParameterError: not a rotation matrix; too few readings to estimate the noise; the poses
+            do not identify the unknowns (rank deficient); the poses are too similar (condition
+            number above ``max_condition``); the identified mass is significantly negative.
+    """
+    g = positive_scalar("gravity", gravity)
+    max_condition = positive_scalar("max_condition", max_condition)
+    R = _rotations(rotations)
+    k, d = R.shape[0], R.shape[1]
+    nt = 1 if d == 2 else 3
+    F = _readings("forces", forces, k, d)
+    T = None if torques is None else _readings("torques", torques, k, nt)
+    # too few: every problem needs more rows than unknowns to estimate its noise
+    need = [(1 + d) // d + 1]
+    if T is not None:
+        need.append((d + nt) // nt + 1)
+    if k < max(need):
+        what = "forces and moments" if T is not None else "forces"
+        raise ParameterError(
+            f"too few readings to calibrate: got {k}, need at least {max(need)} for the {what} of a "
+            f"{'planar' if d == 2 else '3-D'} sensor (more rows than unknowns, to estimate the noise)"
+        )
+    blocks = _normalised_blocks(R, T is not None)
+    for name, b in zip(("the tool mass and force bias", "the centre of mass and moment bias"), blocks):
+        rank = int(np.linalg.matrix_rank(b, tol=1e-9 * max(1.0, float(np.abs(b).max()))))
+        if rank < b.shape[1]:
+            raise ParameterError(
+                f"the {k} poses do not identify {name} (regressor rank {rank} < {b.shape[1]} unknowns): give sensor "
+                f"orientations with {'at least three non-collinear' if name.startswith('the centre') and d == 3 else 'different'}"
+                " directions of gravity in the sensor frame (see plan_calibration_poses)"
+            )
+    cond, _ = _condition(blocks)
+    if cond > max_condition:
+        raise ParameterError(
+            f"the calibration poses are too similar: the condition number of the normalised gravity regressor is "
+            f"{cond:.4g}, above max_condition={max_condition:.4g}; spread the sensor orientations (plan_calibration_poses) "
+            "or raise max_condition knowingly"
+        )
+    u = _gravity_in_sensor(R, g)
+    theta_f, cov_f, sf, rms_f = _fit(_force_regressor(u), F.reshape(-1))
+    mass, b_f = float(theta_f[0]), theta_f[1:]
+    std_f = np.sqrt(np.diag(cov_f))
+    notes: list[str] = []
+    if mass < -4.0 * std_f[0] - 1e-9:
+        raise ParameterError(
+            f"the identified tool mass is negative ({mass:.6g} ± {std_f[0]:.2g} kg): check the sign of gravity, the "
+            "sense of the readings and the frames of the rotations"
+        )
+    out: dict[str, Any] = {}
+    if T is not None:
+        theta_t, cov_t, st, rms_t = _fit(_torque_regressor(u), T.reshape(-1))
+        p, b_t = theta_t[:d], theta_t[d:]
+        std_t = np.sqrt(np.diag(cov_t))
+        if mass > 4.0 * std_f[0] and mass > 0.0:
+            com = p / mass
+            # c = p / m: J = [I/m, −p/m²]; p and m come from independent problems
+            cov_c = cov_t[:d, :d] / mass**2 + np.outer(p, p) * cov_f[0, 0] / mass**4
+            com_std = np.sqrt(np.diag(cov_c))
+        else:
+            com = np.full(d, np.nan)
+            com_std = np.full(d, np.nan)
+            notes.append(f"mass {mass:.3g} ± {std_f[0]:.2g} kg is not significantly above 0: centre of mass undefined")
+        out = {"com": com, "com_std": com_std, "first_moment": p, "torque_bias": b_t, "torque_bias_std": std_t[d:],
+               "torque_noise_std": st, "torque_residual_rms": rms_t, "torque_covariance": cov_t}
+    return CalibrationResult(
+        dim=d, gravity=g, mass=mass, mass_std=float(std_f[0]), force_bias=b_f, force_bias_std=std_f[1:],
+        force_noise_std=sf, force_residual_rms=rms_f, force_covariance=cov_f, condition_number=cond,
+        n_readings=k, notes=tuple(notes), **out,
+    )
+
+
+# ----------------------------------------------------------------------------- tare
+
+
+def tare(result: CalibrationResult, R: Any, forces: Any, torques: Any = None) -> CalibrationResult:
+    """Re-estimate the sensor biases from static free-space readings at one known pose.
+
+    The payload (m, p) is kept; ``b_f = mean(f) + m u`` and ``b_τ = mean(τ) − [u]× p`` (3-D, the
+    planar analogue) with u = R_Sᵀ g. The new biases' uncertainty combines the payload's
+    (propagated through the regressor) with the noise of the mean: the readings' own spread
+    when two or more are given, else the calibration's residual σ.
+
+    Args:
+        result: a calibration.
+        R: the sensor orientation of the pose, (d, d).
+        forces: one reading (d,) or several (n, d) at that pose [N].
+        torques: moment reading(s) (nt,) or (n, nt) [N m]; required when the result has moments.
+
+    Returns:
+        A new :class:`CalibrationResult` with the biases (and their σ) replaced.
+
+    Raises:
+        DimensionError: shapes. MeasurementError: NaN/inf. ParameterError: moments missing.
+    """
+    d, nt = result.dim, (1 if result.dim == 2 else 3)
+    Rm = np.asarray(R, dtype=np.float64)
+    if Rm.shape != (d, d):
+        raise DimensionError(f"R must have shape ({d}, {d}) like the calibration; got shape {Rm.shape}")
+    _rotations(Rm[None])
+    F = np.asarray(forces, dtype=np.float64)
+    F = F.reshape(1, -1) if F.ndim == 1 else F
+    if F.ndim != 2 or F.shape[1] != d:
+        raise DimensionError(f"forces must have shape ({d},) or (n, {d}); got shape {np.shape(forces)}")
+    F = _readings("forces", F, F.shape[0], d)
+    n = F.shape[0]
+    zero = replace(result, force_bias=np.zeros(d), torque_bias=None if result.torque_bias is None else np.zeros(nt))
+    payload_f, payload_t = zero.predict(Rm)  # the payload's part of the reading
+    pstd_f, pstd_t = _payload_std(result, Rm)
+    noise_f = F.std(axis=0, ddof=1) / math.sqrt(n) if n >= 2 else np.full(d, result.force_noise_std)
+    b_f = F.mean(axis=0) - payload_f
+    changes: dict[str, Any] = {"force_bias": b_f, "force_bias_std": np.sqrt(pstd_f**2 + noise_f**2)}
+    if result.has_torques:
+        if torques is None:
+            raise ParameterError("torques are required to tare a calibration that identified the moments; got None")
+        if np.size(torques) != n * nt:
+            raise DimensionError(
+                f"torques must have {nt} entries per force reading ({n} readings); got shape {np.shape(torques)}"
+            )
+        T = _readings("torques", np.asarray(torques, dtype=np.float64).reshape(n, nt), n, nt)
+        noise_t = T.std(axis=0, ddof=1) / math.sqrt(n) if n >= 2 else np.full(nt, result.torque_noise_std)
+        changes["torque_bias"] = T.mean(axis=0) - payload_t
+        changes["torque_bias_std"] = np.sqrt(pstd_t**2 + noise_t**2)
+    return replace(result, **changes)
+
+
+def _payload_std(result: CalibrationResult, R: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """σ of the payload's part of the reading at R (mass and first moment only)."""
+    u, _ = result._u(R)
+    Af = _force_regressor(u)[:, :1]
+    sf = np.sqrt(np.maximum(Af[:, 0] ** 2 * result.force_covariance[0, 0], 0.0))
+    st = None
+    if result.has_torques:
+        d = result.dim
+        At = _torque_regressor(u)[:, :d]
+        st = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", At, result.torque_covariance[:d, :d], At), 0.0))
+    return sf, st
+
+
+# ----------------------------------------------------------------------------- drift detection
+
+
+# ----------------------------------------------------------------------------- pose planning
+
+
+# ----------------------------------------------------------------------------- data files
+
+

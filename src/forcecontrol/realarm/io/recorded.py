@@ -1,0 +1,203 @@
+"""The recorded run: one time base per stream, joint signals, the wrench with its convention."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ...core.axes import axis_names
+from ...core.validate import positive_scalar
+from ...errors import DimensionError, MeasurementError, ParameterError
+from ..conventions import BY_END_EFFECTOR, SENSES
+
+__all__ = ["RecordedRun", "wrench_axis_names"]
+
+
+def wrench_axis_names(m: int) -> list[str]:
+    """Column names of an m-dimensional wrench: ``fx fy`` (2), ``fx fy fz`` (3), ``fx fy fz mx my mz`` (6)."""
+    return axis_names(m)[2]
+
+
+def _array(name: str, value: Any, rows: int, source: str) -> np.ndarray:
+    a = np.array(value, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[0] != rows:
+        raise DimensionError(f"{source}: {name} must have {rows} rows (one per time sample); got shape {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise MeasurementError(f"{source}: {name}[{c}] is not finite at row {r} ({a[r, c]!r}); clean or drop those rows first")
+    a.flags.writeable = False
+    return a
+
+
+def _time(name: str, value: Any, source: str) -> np.ndarray:
+    t = np.array(value, dtype=np.float64).reshape(-1)
+    if t.size < 2:
+        raise MeasurementError(f"{source}: {name} needs at least 2 samples; got {t.size}")
+    if not np.all(np.isfinite(t)):
+        i = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise MeasurementError(f"{source}: {name} is not finite at row {i} ({t[i]!r})")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.flatnonzero(dt <= 0)[0])
+        raise MeasurementError(
+            f"{source}: {name} must be strictly increasing; row {i + 1} has t = {t[i + 1]:.6g} s after t = {t[i]:.6g} s "
+            "(sort the log, or drop repeated samples)"
+        )
+    t.flags.writeable = False
+    return t
+
+
+@dataclass(frozen=True)
+class RecordedRun:
+    """Measured joint and wrench signals of one run (SI units).
+
+    Attributes:
+        t: joint sample times (N,) [s], strictly increasing, relative to ``time_origin``.
+        q, qd: joint positions and velocities (N, n) [rad], [rad/s].
+        tau: measured or commanded joint torques (N, n) [N m], or None.
+        wrench: the wrench (K, m) [N, N m] at times ``t_wrench``, or None.
+        t_wrench: wrench sample times (K,) [s] (None: the same as ``t``).
+        wrench_frame, wrench_point, wrench_sense: the wrench's convention (see
+            :mod:`forcecontrol.realarm.conventions`); the library's is the base frame, about the
+            end-effector, ``"by-end-effector"``.
+        joint_names: the joints' names, in column order.
+        time_origin: absolute time [s] of t = 0 (e.g. the first ROS stamp).
+        source: where it was read from (for messages).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray | None = None
+    wrench: np.ndarray | None = None
+    t_wrench: np.ndarray | None = None
+    wrench_frame: str = "base"
+    wrench_point: str = "end-effector"
+    wrench_sense: str = BY_END_EFFECTOR
+    joint_names: tuple[str, ...] = ()
+    time_origin: float = 0.0
+    source: str = "<arrays>"
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        src = self.source
+        t = _time("t", self.t, src)
+        object.__setattr__(self, "t", t)
+        q = _array("q", self.q, t.size, src)
+        object.__setattr__(self, "q", q)
+        qd = _array("qd", self.qd, t.size, src)
+        if qd.shape != q.shape:
+            raise DimensionError(f"{src}: qd must have the shape of q {q.shape}; got {qd.shape}")
+        object.__setattr__(self, "qd", qd)
+        if self.tau is not None:
+            tau = _array("tau", self.tau, t.size, src)
+            if tau.shape != q.shape:
+                raise DimensionError(f"{src}: tau must have the shape of q {q.shape}; got {tau.shape}")
+            object.__setattr__(self, "tau", tau)
+        if self.wrench is not None:
+            tw = t if self.t_wrench is None else _time("t_wrench", self.t_wrench, src)
+            object.__setattr__(self, "t_wrench", None if self.t_wrench is None else tw)
+            object.__setattr__(self, "wrench", _array("wrench", self.wrench, tw.size, src))
+        elif self.t_wrench is not None:
+            raise ParameterError(f"{src}: t_wrench is given without a wrench")
+        if self.wrench_sense not in SENSES:
+            raise ParameterError(f"{src}: wrench_sense must be one of {SENSES}; got {self.wrench_sense!r}")
+        if self.joint_names and len(self.joint_names) != q.shape[1]:
+            raise DimensionError(f"{src}: {len(self.joint_names)} joint names for {q.shape[1]} joints")
+        object.__setattr__(self, "joint_names", tuple(self.joint_names) or tuple(f"joint{i + 1}" for i in range(q.shape[1])))
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return int(self.q.shape[1])
+
+    @property
+    def m(self) -> int:
+        """Number of wrench components (0 without a wrench)."""
+        return 0 if self.wrench is None else int(self.wrench.shape[1])
+
+    def resample(
+        self, period: float, *, max_gap: float | None = None, start: float | None = None, end: float | None = None
+    ) -> RecordedRun:
+        """The run on a uniform grid ``start + k · period`` by linear interpolation of every stream.
+
+        Args:
+            period: the controller's sample time Ts [s].
+            max_gap: the largest gap between two recorded samples [s] that may be bridged by
+                interpolation (default: 10 · period); a larger gap inside the window is refused.
+            start, end: the window [s] (default: where every stream has data).
+
+        Returns:
+            A RecordedRun with one time base (``t_wrench`` None).
+
+        Raises:
+            MeasurementError: a gap larger than ``max_gap``, or a window outside the recording.
+        """
+        period = positive_scalar("period", period)
+        max_gap = 10.0 * period if max_gap is None else positive_scalar("max_gap", max_gap)
+        tw = self.t if self.t_wrench is None else self.t_wrench
+        streams = [("joint states", self.t)] + ([("wrench", tw)] if self.wrench is not None else [])
+        lo = max(float(ts[0]) for _, ts in streams) if start is None else float(start)
+        hi = min(float(ts[-1]) for _, ts in streams) if end is None else float(end)
+        for name, ts in streams:
+            if lo < ts[0] - 1e-12 or hi > ts[-1] + 1e-12:
+                raise MeasurementError(
+                    f"{self.source}: the window [{lo:.6g}, {hi:.6g}] s is outside the {name} recording "
+                    f"[{ts[0]:.6g}, {ts[-1]:.6g}] s"
+                )
+            inside = (ts[1:] > lo) & (ts[:-1] < hi)
+            gaps = np.diff(ts)
+            if np.any(inside & (gaps > max_gap)):
+                i = int(np.flatnonzero(inside & (gaps > max_gap))[0])
+                raise MeasurementError(
+                    f"{self.source}: the {name} stream has a gap of {gaps[i]:.6g} s after t = {ts[i]:.6g} s, larger than "
+                    f"max_gap = {max_gap:.6g} s; cut the window (start/end) or raise max_gap"
+                )
+        if hi - lo < period:
+            raise MeasurementError(f"{self.source}: the common window [{lo:.6g}, {hi:.6g}] s is shorter than one period")
+        k = int(np.floor((hi - lo) / period + 1e-9))
+        grid = lo + period * np.arange(k + 1)
+
+        def interp(ts: np.ndarray, a: np.ndarray) -> np.ndarray:
+            return np.column_stack([np.interp(grid, ts, a[:, j]) for j in range(a.shape[1])])
+
+        return replace(
+            self,
+            t=grid,
+            q=interp(self.t, self.q),
+            qd=interp(self.t, self.qd),
+            tau=None if self.tau is None else interp(self.t, self.tau),
+            wrench=None if self.wrench is None else interp(tw, self.wrench),
+            t_wrench=None,
+            metadata={**self.metadata, "resampled": {"period": period, "max_gap": max_gap}},
+        )
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Flat named columns: ``t``, ``q1 qd1 tau1 ...`` and the wrench (one time base needed).
+
+        Raises:
+            ParameterError: the wrench has its own time base (resample first).
+        """
+        if self.t_wrench is not None and self.wrench is not None and not np.array_equal(self.t_wrench, self.t):
+            raise ParameterError(f"{self.source}: the wrench has its own time base; resample() first")
+        cols: dict[str, np.ndarray] = {"t": self.t}
+        for i in range(self.n):
+            cols[f"q{i + 1}"] = self.q[:, i]
+            cols[f"qd{i + 1}"] = self.qd[:, i]
+            if self.tau is not None:
+                cols[f"tau{i + 1}"] = self.tau[:, i]
+        if self.wrench is not None:
+            for name, j in zip(wrench_axis_names(self.m), range(self.m)):
+                cols[name] = self.wrench[:, j]
+        return cols
+
+    def to_pandas(self) -> Any:
+        """The columns as a pandas DataFrame (pandas imported here only)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.columns())

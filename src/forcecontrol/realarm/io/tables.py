@@ -1,0 +1,149 @@
+"""CSV and Parquet tables of recorded runs, and :func:`read_recording` (the reader by file suffix)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import MeasurementError, ParameterError
+from ..conventions import BY_END_EFFECTOR
+from .recorded import RecordedRun
+
+__all__ = ["read_table", "read_recording", "TABLE_COLUMNS"]
+
+#: The columns of a table (CSV with a header row, or Parquet), SI units. The simulator's
+#: ``SimulationResult.save`` writes exactly these (and more, which are ignored).
+TABLE_COLUMNS = {
+    "t": "time [s] (required, strictly increasing)",
+    "q1 ... qn": "joint positions [rad] (required)",
+    "qd1 ... qdn": "joint velocities [rad/s] (required)",
+    "tau1 ... taun or u1 ... un": "joint torques [N m] (optional; the simulator writes u)",
+    "fx fy [fz [mx my mz]]": "wrench [N, N m] (optional; 2, 3 or 6 components)",
+    "fx_measured ...": "the wrench as the sensor measured it (used instead of fx ... when present)",
+}
+
+
+def _numbered(cols: list[str], prefix: str) -> int:
+    n = 0
+    while f"{prefix}{n + 1}" in cols:
+        n += 1
+    return n
+
+
+def _wrench_names(cols: list[str], measured: bool) -> list[str]:
+    suffix = "_measured" if measured else ""
+    for names in (["fx", "fy", "fz", "mx", "my", "mz"], ["fx", "fy", "fz"], ["fx", "fy"], ["fx"]):
+        if all(n + suffix in cols for n in names):
+            return [n + suffix for n in names]
+    return []
+
+
+def read_table(
+    path: str | Path,
+    format: str | None = None,
+    *,
+    wrench: str = "measured",
+    wrench_frame: str = "base",
+    wrench_point: str = "end-effector",
+    wrench_sense: str = BY_END_EFFECTOR,
+) -> RecordedRun:
+    """Read a CSV or Parquet table of a recorded run (columns: :data:`TABLE_COLUMNS`).
+
+    Args:
+        path: the file.
+        format: ``"csv"`` or ``"parquet"`` (default: from the suffix).
+        wrench: ``"measured"`` (the ``f*_measured`` columns when present, else ``f*``) or ``"true"``.
+        wrench_frame, wrench_point, wrench_sense: the wrench's convention (default: the library's).
+
+    Raises:
+        ParameterError: an unknown format or option; a column missing (named, with those present).
+        MeasurementError: time not increasing, NaN or inf in a column (named, with the row).
+    """
+    import pandas as pd
+
+    path = Path(path)
+    fmt = format or {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}.get(path.suffix.lower())
+    if fmt not in ("csv", "parquet"):
+        raise ParameterError(f"format must be 'csv' or 'parquet' (or a .csv/.parquet file); got {format!r} for {str(path)!r}")
+    if wrench not in ("measured", "true"):
+        raise ParameterError(f"wrench must be 'measured' or 'true'; got {wrench!r}")
+    if not path.is_file():
+        raise ParameterError(f"recorded data file {str(path)!r} does not exist")
+    try:
+        df = pd.read_csv(path) if fmt == "csv" else pd.read_parquet(path)
+    except Exception as exc:  # pandas/pyarrow raise many kinds
+        raise ParameterError(f"{path}: cannot be read as {fmt}: {exc}") from exc
+    df.columns = [str(c).strip() for c in df.columns]
+    cols = list(df.columns)
+    n = _numbered(cols, "q")
+    missing = [] if "t" in cols else ["t"]
+    if n == 0:
+        missing.append("q1")
+    missing += [f"qd{i + 1}" for i in range(n) if f"qd{i + 1}" not in cols] or ([] if n else ["qd1"])
+    if missing:
+        raise ParameterError(
+            f"{path}: missing column(s) {', '.join(missing)}; a recorded run needs t, q1..qn, qd1..qn "
+            f"(optional tau1..taun or u1..un, fx fy [fz mx my mz]); the file has {', '.join(cols[:20])}"
+            + (" ..." if len(cols) > 20 else "")
+        )
+    for c in cols:
+        if not (re.fullmatch(r"t|q\d+|qd\d+|tau\d+|u\d+|[fm][xyz](_measured)?", c)):
+            continue
+        if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
+            raise MeasurementError(
+                f"{path}: column {c!r} is not numeric (dtype {df[c].dtype}); first values {df[c].head(3).tolist()}"
+            )
+    tau_prefix = "tau" if _numbered(cols, "tau") >= n else ("u" if _numbered(cols, "u") >= n else None)
+    names = _wrench_names(cols, measured=True) if wrench == "measured" else []
+    names = names or _wrench_names(cols, measured=False)
+
+    def block(prefix: str) -> np.ndarray:
+        return df[[f"{prefix}{i + 1}" for i in range(n)]].to_numpy(dtype=np.float64)
+
+    return RecordedRun(
+        t=df["t"].to_numpy(dtype=np.float64), q=block("q"), qd=block("qd"),
+        tau=None if tau_prefix is None else block(tau_prefix),
+        wrench=df[names].to_numpy(dtype=np.float64) if names else None,
+        wrench_frame=wrench_frame, wrench_point=wrench_point, wrench_sense=wrench_sense,
+        source=str(path), metadata={"format": fmt, "wrench_columns": names},
+    )
+
+
+def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -> RecordedRun:
+    """Read a recorded run with the reader its format needs.
+
+    Args:
+        path: a ``.csv``/``.parquet`` table, a ROS 2 bag (a folder with ``metadata.yaml``, or a
+            ``.db3`` file's folder) or an ``.mcap`` file.
+        format: ``"csv"``, ``"parquet"``, ``"bag"`` or ``"mcap"`` (default: from the path).
+        kwargs: passed to :func:`read_table`, :func:`~forcecontrol.realarm.io.read_bag` or
+            :func:`~forcecontrol.realarm.io.read_mcap` (topics, joint names, wrench convention).
+
+    Raises:
+        ParameterError: a format that cannot be told from the path, or an unknown one.
+    """
+    from .rosfiles import read_bag, read_mcap
+
+    path = Path(path)
+    if format is None:
+        suffix = path.suffix.lower()
+        if suffix in (".csv", ".parquet", ".pq"):
+            format = "parquet" if suffix != ".csv" else "csv"
+        elif suffix == ".mcap":
+            format = "mcap"
+        elif path.is_dir() or suffix == ".db3":
+            format = "bag"
+        else:
+            raise ParameterError(
+                f"cannot tell the format of {str(path)!r}; pass format='csv', 'parquet', 'bag' or 'mcap'"
+            )
+    if format in ("csv", "parquet"):
+        return read_table(path, format, **kwargs)
+    if format == "bag":
+        return read_bag(path.parent if path.suffix.lower() == ".db3" else path, **kwargs)
+    if format == "mcap":
+        return read_mcap(path, **kwargs)
+    raise ParameterError(f"format must be 'csv', 'parquet', 'bag' or 'mcap'; got {format!r}")

@@ -1,0 +1,111 @@
+"""Limits checked before a simulation allocates or runs anything.
+
+A sample time of 1e-9 s or a duration of 1e12 s would ask for the whole log up front (terabytes),
+and a very stiff environment for millions of integration steps per sample; both are refused with
+a message that says what was asked, why it is too much, and which option changes it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..errors import ParameterError
+
+__all__ = ["MAX_LOG_BYTES", "MAX_SUBSTEPS", "MAX_STEPS", "RK4_STABILITY", "check_run_size", "check_substeps"]
+
+#: default memory budget for a run's logs [bytes] (``simulate(max_log_bytes=...)`` changes it).
+MAX_LOG_BYTES = 2 * 1024**3
+#: RK4 substeps per control sample above which the contact is too stiff for the sample time
+#: (500 at Ts = 1 ms resolves contact modes up to 2.5·10⁴ rad/s, e.g. 10⁸ N/m on 0.16 kg).
+MAX_SUBSTEPS = 500
+#: RK4 steps in a whole run (samples × substeps) above which a run is refused: the compiled loop
+#: (about 0.3 µs a step: 10 minutes) and the Python loop (about 50 µs a step: 40 minutes).
+MAX_STEPS = {"compiled": 2_000_000_000, "python": 50_000_000}
+#: RK4 follows a contact mode of rate ω [rad/s] with step h while ``ω h <= RK4_STABILITY``: its
+#: stability interval is 2√2 ≈ 2.83 on the imaginary axis (an undamped spring) and 2.785 on the
+#: negative real axis (a damper); beyond it the contact is not resolved (the penetration of one
+#: step throws the tool off, or the run blows up).
+RK4_STABILITY = 2.78
+
+
+def _human(nbytes: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"):
+        if nbytes < 1024 or unit == "EiB":
+            return f"{nbytes:.3g} {unit}"
+        nbytes /= 1024
+    return f"{nbytes:.3g} EiB"  # pragma: no cover
+
+
+def check_run_size(duration: float, sample_time: float, n: int, m: int, max_log_bytes: float = MAX_LOG_BYTES) -> int:
+    """The number of samples N of a run, after checking that its logs fit in ``max_log_bytes``.
+
+    Each sample logs q, q̇, u (n each), x, ẋ, h_e, the measured h_e (m each), the reference row
+    (6 m) and the time: ``8 (3 n + 10 m + 1)`` bytes.
+
+    Raises:
+        ParameterError: the run needs more memory than allowed (message: samples, size, options).
+    """
+    ratio = duration / sample_time
+    if not math.isfinite(ratio) or ratio > 1e15:
+        raise ParameterError(
+            f"duration / sample_time = {duration:.6g} s / {sample_time:.6g} s gives {ratio:.3g} samples: too many to simulate"
+        )
+    N = int(round(ratio))
+    nbytes = (N + 1) * 8.0 * (3 * n + 10 * m + 1)
+    if nbytes > max_log_bytes:
+        raise ParameterError(
+            f"the run needs {N + 1:,} samples (duration {duration:.6g} s / sample_time {sample_time:.6g} s) and "
+            f"{_human(nbytes)} of logs in memory, more than max_log_bytes = {_human(max_log_bytes)}; shorten the "
+            "duration, lengthen the sample time, or pass a larger max_log_bytes to simulate()"
+        )
+    return N
+
+
+def check_substeps(
+    nsub: int, samples: int, sample_time: float, stiffness: float, engine: str = "python", rate: float | None = None,
+    explicit: bool = False,
+) -> None:
+    """Refuse a sub-step count that would make the run hang (a contact too stiff for the sample time).
+
+    Args:
+        nsub: RK4 substeps per sample; samples: samples in the run; sample_time: Ts [s].
+        stiffness: the environment's largest stiffness [N/m] (named in the message).
+        engine: ``"compiled"`` or ``"python"``: the loop that will run (sets the step budget).
+        rate: the fastest contact mode [rad/s] that set ``nsub``, when known.
+        explicit: ``nsub`` is the user's ``substeps`` (not chosen from ``rate``): it must at least let
+            RK4 follow the contact, ``rate · sample_time / nsub <= RK4_STABILITY``.
+
+    Raises:
+        ParameterError: more than :data:`MAX_SUBSTEPS` per sample or :data:`MAX_STEPS` in all; an
+            explicit ``substeps`` that does not resolve the contact (named, with the number needed).
+    """
+    mode = f" (fastest contact mode {rate:.4g} rad/s)" if rate is not None else ""
+    if explicit and rate is not None and rate * sample_time / nsub > RK4_STABILITY:
+        need = int(math.ceil(rate * sample_time / RK4_STABILITY))
+        auto = int(math.ceil(rate * sample_time / 0.05))
+        accurate = (f"the automatic choice, substeps omitted, is {auto:,}" if auto <= MAX_SUBSTEPS else
+                    f"an accurate step, ω·h <= 0.05, would take {auto:,}, more than {MAX_SUBSTEPS:,}: the contact is too "
+                    "stiff for this sample time")
+        fix = (f"substeps must be at least {need:,} ({accurate})"
+               if need <= MAX_SUBSTEPS else
+               f"it needs at least {need:,} substeps, more than {MAX_SUBSTEPS:,}: lower the stiffness, shorten the "
+               "sample time, or model the contact as rigid (RigidEnvironment)")
+        raise ParameterError(
+            f"substeps = {nsub} does not resolve the contact: an environment stiffness of {stiffness:.4g} N/m gives a "
+            f"contact mode of {rate:.4g} rad/s, and with the RK4 step h = sample_time / substeps = {sample_time / nsub:.4g} s "
+            f"ω·h = {rate * sample_time / nsub:.3g} is beyond RK4's stability bound {RK4_STABILITY} (the contact would be "
+            f"thrown off within a step, or blow up); {fix}"
+        )
+    if nsub > MAX_SUBSTEPS:
+        raise ParameterError(
+            f"an environment stiffness of {stiffness:.4g} N/m at sample_time {sample_time:.4g} s needs {nsub:,} RK4 "
+            f"substeps per sample{mode}, more than {MAX_SUBSTEPS:,}: the contact is too stiff to integrate at this "
+            "rate. Lower the stiffness, shorten the sample time, or model the contact as rigid (RigidEnvironment)"
+        )
+    budget = MAX_STEPS["compiled" if engine == "compiled" else "python"]
+    if nsub * samples > budget:
+        raise ParameterError(
+            f"the run needs {nsub * samples:,} RK4 steps ({samples:,} samples × {nsub} substeps), more than the "
+            f"{budget:,} the {engine} loop takes in reasonable time; shorten the duration, lengthen the sample "
+            "time or lower the environment stiffness"
+        )

@@ -1,0 +1,3 @@
+"""What watches a running controller and steps in: the safety layer, contact transitions, the
+stability monitor and the online stiffness estimate.
+"""

@@ -1,0 +1,3 @@
+"""Figures like the chapter's, animations, and the process that draws figures while a run simulates
+(matplotlib is imported inside these modules only).
+"""
