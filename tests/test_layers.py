@@ -76,3 +76,19 @@ def test_the_contract_is_short_and_has_no_exceptions():
     (layers,) = [c for c in contracts if c["type"] == "layers"]
     assert len(layers["layers"]) <= 13
     assert all("ignore_imports" not in c for c in contracts)
+
+
+def test_the_architecture_page_matches_the_contract():
+    """docs/architecture.md lists exactly the contract's rooms, and its layer table is the contract's layers in order."""
+    import re
+
+    page = (ROOT / "docs" / "architecture.md").read_text()
+    (layers,) = [c for c in _contracts() if c["type"] == "layers"]
+    want = [[n.strip() for n in re.split(r"[:|]", layer)] for layer in layers["layers"]]
+    rooms_section = page.split("## The rooms", 1)[1].split("## The layers", 1)[0]
+    rooms = re.findall(r"^\| `([a-z_]+)` \|", rooms_section, flags=re.M)
+    assert sorted(rooms) == sorted(n for layer in want for n in layer)
+    layers_section = page.split("## The layers", 1)[1].split("##", 1)[0]
+    rows = re.findall(r"^\| (\d+) \| (.+?) \|", layers_section, flags=re.M)
+    got = [re.findall(r"`([a-z_]+)`", cells) for _, cells in rows]
+    assert got == want

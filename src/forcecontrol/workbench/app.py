@@ -22,9 +22,10 @@ from typing import Any
 
 import numpy as np
 
+from ..core.text import plain_text
 from .session import Evaluation, TuneSession
 
-__all__ = ["TuneApp", "serve", "free_port"]
+__all__ = ["TuneApp", "serve", "free_port", "page_url"]
 
 _LABELS = {
     "x": "tip x [m]", "y": "tip y [m]", "z": "tip z [m]", "fx": "f_x [N]", "fy": "f_y [N]", "fz": "f_z [N]",
@@ -35,6 +36,13 @@ _LABELS = {
 def _labelled(widget: Any, label: str, **kwargs: Any) -> Any:
     """A Panel widget with its label (``label=`` from Panel 1.9 on, ``name=`` before)."""
     return widget(label=label, **kwargs) if "label" in widget.param else widget(name=label, **kwargs)
+
+
+def _md_escape(text: str) -> str:
+    """Text shown literally in a Markdown pane (no markup, no HTML)."""
+    import html
+
+    return "".join("\\" + c if c in "\\`*_{}[]()#+-.!|<>$~" else c for c in html.escape(text, quote=False))
 
 
 def _fmt(v: float) -> str:
@@ -48,20 +56,26 @@ class TuneApp:
         scenario: a loaded scenario, a built-in name or a TOML path.
         save_path: where the Save button writes the tuned scenario (TOML).
         case: the case shown first (label or 0-based index).
+        overwrite: Save may replace an existing file this server did not create (else it refuses).
+        created: the files this server has written (shared by its browser sessions; Save may rewrite them).
     """
 
-    def __init__(self, scenario: Any, save_path: str | Path, case: int | str = 0) -> None:
+    def __init__(self, scenario: Any, save_path: str | Path, case: int | str = 0, *, overwrite: bool = False,
+                 created: set[Path] | None = None) -> None:
         import panel as pn
 
         self._pn = pn
         self.save_path = Path(save_path)
+        self.overwrite = overwrite
+        self.created = created if created is not None else set()  # files this server wrote (may be rewritten)
         self.session = TuneSession(scenario, case)
         self.scenario = self.session.scenario
         self.latencies: list[float] = []  # seconds, slider change to updated data sources
         self.last: Evaluation | None = None
         self._root = pn.Column(sizing_mode="stretch_width")
         self.case_select = _labelled(
-            pn.widgets.Select, "case", options=self.session.labels, value=self.session.case.label, width=420,
+            pn.widgets.Select, "case", options={plain_text(lb): lb for lb in self.session.labels}, value=self.session.case.label,
+            width=420,
         )
         self.case_select.param.watch(self._on_case, "value")
         color = {"color": "primary"} if "color" in pn.widgets.Button.param else {"button_type": "primary"}
@@ -147,8 +161,9 @@ class TuneApp:
         self.analysis_note = pn.pane.Markdown("", width=460)
         plots = pn.GridBox(*[pn.pane.Bokeh(f) for f in figs], ncols=2)
         head = pn.pane.Markdown(
-            f"## {self.scenario.title or self.scenario.name}\n"
-            f"Tuning case **{s.case.label}**: each slider change re-simulates it ({s.case.config['duration']} s) "
+            f"## {_md_escape(plain_text(self.scenario.title or self.scenario.name, 500))}\n"
+            f"Tuning case **{_md_escape(plain_text(s.case.label))}**: each slider change re-simulates it "
+            f"({s.case.config['duration']} s) "
             "and re-analyses it. Dashed grey: the book's settings; dotted: the book's printed values.",
             sizing_mode="stretch_width",
         )
@@ -238,11 +253,13 @@ class TuneApp:
     def _on_save(self, event: Any = None) -> Path | None:
         from ..errors import ForceControlError
 
+        target = self.save_path.resolve()
         try:
-            path = self.session.save(self.save_path)
+            path = self.session.save(self.save_path, overwrite=self.overwrite or target in self.created)
         except ForceControlError as exc:
-            self.save_message.object = f"**not saved:** {exc}"
+            self.save_message.object = f"**not saved:** {_md_escape(str(exc))}"
             return None
+        self.created.add(target)
         self.save_message.object = f"saved `{path}` ({time.strftime('%H:%M:%S')})"
         return path
 
@@ -261,29 +278,86 @@ def free_port(address: str = "localhost") -> int:
 
 
 def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | Path = "tuned.toml",
-          threaded: bool = False, address: str = "localhost") -> Any:
+          threaded: bool = False, address: str = "localhost", token: str | None = None,
+          overwrite: bool = False) -> Any:
     """Serve the tuning page at ``http://address:port/`` (one :class:`TuneApp` per browser session).
+
+    Every request (page, static file, websocket) must name this server in its Host header (and
+    Origin, when it has one) and, when a token is set, carry it (:mod:`.guard`). Listening beyond
+    loopback (``address="0.0.0.0"``, a LAN address) always needs a token: without one a random
+    token is made, and a :class:`UserWarning` gives the address with it.
 
     Args:
         scenario: a loaded scenario, a built-in name or a TOML path (loaded once, checked here).
         port: the port (0: a free one); show: open the browser; threaded: run the server in a
             background thread and return it (``.stop()`` ends it) instead of blocking.
+        address: the interface to listen on; token: the access token (``?token=...``).
+        overwrite: Save may replace an existing ``save_path`` this server did not write.
 
     Returns:
-        The Panel server (threaded) or nothing once the blocking server stops.
+        The Panel server (threaded; its ``url`` attribute is the address with the token) or
+        nothing once the blocking server stops.
     """
-    import panel as pn
+    import uuid
+    import warnings
+    import webbrowser
+
+    from panel.io.server import get_server
+    from tornado.ioloop import IOLoop
 
     from ..scenarios import Scenario, load_scenario
+    from .guard import RequestGuard, is_loopback, new_token
 
     scn = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     if port == 0:
         port = free_port(address)
+    local = is_loopback(address)
+    if token is None and not local:
+        token = new_token()
+    url = page_url(address, port, token)
+    if not local:
+        warnings.warn(f"the tuning server listens on {address}:{port}, beyond this machine: anyone who can reach it "
+                      f"and has the token can read the scenario and write {save_path}; open {url}", UserWarning,
+                      stacklevel=2)
+    guard = RequestGuard(address, port, token)
     TuneSession(scn).evaluate()  # compile (or load) the simulator's kernels now, not on the first page load
+    created: set[Path] = set()
 
     def page() -> Any:
-        return TuneApp(scn, save_path).panel()
+        return TuneApp(scn, save_path, overwrite=overwrite, created=created).panel()
 
-    return pn.serve({"/": page}, port=port, address=address, show=show, threaded=threaded,
-                    title=f"forcecontrol tune: {scn.name}", websocket_origin=[f"{address}:{port}", f"127.0.0.1:{port}"],
-                    verbose=False)
+    origins = [f"localhost:{port}", f"127.0.0.1:{port}", f"{address}:{port}"] if local else [f"*:{port}"]  # + the guard
+
+    def run(**kwargs: Any) -> Any:
+        server = get_server({"/": page}, **kwargs)
+        guard.install(server._tornado)  # the Host/Origin/token check before any handler
+        if show:
+            server.io_loop.add_callback(webbrowser.open, url)
+        server.start()
+        try:
+            server.io_loop.start()
+        except RuntimeError:
+            pass
+        return server
+
+    kwargs = {"port": port, "address": address, "show": False, "start": False, "title": f"forcecontrol tune: {scn.name}",
+              "websocket_origin": origins, "verbose": False}
+    if not threaded:
+        run(**kwargs)
+        return None
+    from panel.io.state import state
+    from panel.io.threads import StoppableThread
+
+    kwargs["loop"] = IOLoop(make_current=False)
+    kwargs["server_id"] = uuid.uuid4().hex
+    thread = StoppableThread(target=run, io_loop=kwargs["loop"], kwargs=kwargs, owns_loop=True)
+    state._threads[kwargs["server_id"]] = thread
+    thread.url = url  # type: ignore[attr-defined]
+    thread.start()
+    return thread
+
+
+def page_url(address: str, port: int, token: str | None = None) -> str:
+    """The address to open: a loopback name when listening on every interface, with ``?token=`` if set."""
+    host = "localhost" if address in ("0.0.0.0", "::", "") else (f"[{address}]" if ":" in address else address)
+    return f"http://{host}:{port}/" + (f"?token={token}" if token else "")

@@ -386,11 +386,14 @@ class TuneSession:
         doc["case"] = [{"label": f"{self.case.label} (tuned)"}]
         return doc
 
-    def save(self, path: str | Path, values: dict[str, float] | None = None) -> Path:
+    def save(self, path: str | Path, values: dict[str, float] | None = None, *, overwrite: bool = True) -> Path:
         """Write :meth:`tuned_scenario` as TOML to ``path`` and check that it loads back.
 
+        Args:
+            overwrite: False: refuse (OutputError) when ``path`` exists (checked atomically at creation).
+
         Raises:
-            OutputError: the file cannot be written.
+            OutputError: the file cannot be written, or exists and ``overwrite`` is False.
             ScenarioError: the written file does not load (a bug: it is removed).
         """
         from ..errors import OutputError
@@ -401,7 +404,11 @@ class TuneSession:
         text = dumps_toml(self.tuned_scenario(values))
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
+            with path.open("w" if overwrite else "x", encoding="utf-8") as fh:
+                fh.write(text)
+        except FileExistsError as exc:
+            raise OutputError(f"save: {str(path)!r} exists and this server did not write it; expected a new file "
+                              "(pass --overwrite to replace it, or choose another --save)") from exc
         except OSError as exc:
             raise OutputError(f"cannot write the tuned scenario to {str(path)!r}: {exc.strerror or exc}") from exc
         try:
