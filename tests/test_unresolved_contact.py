@@ -93,3 +93,12 @@ def test_panda_contact_entered_and_left_within_a_sample_is_caught_in_the_loop():
     status, k = _python_loop(robot, env, ctl, refs, np.zeros(m), np.zeros((N + 1, m)), 1.0, q0, qd0, Ts, 2, 50.0, logs)
     assert (status, k) == (5, 0)
     assert not np.any(logs["wrench"][0])  # nothing at the sample itself: the contact came and went inside it
+
+
+def test_a_sweep_with_explicit_substeps_that_miss_the_contact_is_refused():
+    """A sweep of Example 9.2 at 1e12 N/m with substeps = 2 is refused before running, as simulate() refuses it."""
+    from forcecontrol.sweep import SweepDefinition, SweepError, prepare_sweep
+
+    d = SweepDefinition.from_options({"environment.stiffness": [1e12], "substeps": [2]})
+    with pytest.raises(SweepError, match=r"substeps = 2 does not resolve the contact"):
+        prepare_sweep("example-9.2", d)

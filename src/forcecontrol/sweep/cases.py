@@ -169,6 +169,7 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
     from ..errors import ParameterError
     from ..robots import PlanarTwoLink
     from ..sim.limits import check_run_size, check_substeps
+    from ..sim.contact import _contact_guarded, contact_rate
     from ..sim.simulation import choose_substeps, contact_mobility, pre_start_wrench
 
     robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
@@ -182,8 +183,11 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
         raise SweepError(f"duration must be at least one sample time ({Ts:.6g} s); got {duration:.6g} s")
     q0 = np.asarray(parts["q0"], dtype=np.float64)
     qd0 = np.zeros(robot.nq) if parts["qd0"] is None else np.asarray(parts["qd0"], dtype=np.float64)
+    rate = None
     if parts["substeps"] is not None:
         nsub = int(parts["substeps"])
+        if _contact_guarded(env):  # an explicit substeps must let RK4 follow the contact (as in simulate())
+            rate = contact_rate(robot, env, q0)
     else:
         def mobility() -> np.ndarray | None:
             try:
@@ -200,7 +204,8 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
         and parts.get("actuator") is None  # friction, delay, quantisation: simulate() on the Python engine
     )
     try:
-        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if compiled else "python")
+        check_substeps(nsub, N, Ts, float(env.max_stiffness()), "compiled" if compiled else "python",
+                       rate=rate, explicit=parts["substeps"] is not None)
     except ParameterError as exc:
         raise SweepError(f"case {label!r}: {exc}") from exc
     # cases share a sampled reference only when the samples themselves are equal (a describe()
