@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..core.axes import axis_names
+from ..core.files import MAX_TABLE_BYTES, check_regular, column_label, read_text_limited
 from ..errors import DimensionError, ParameterError
 from .profiles import ReferenceSignal
 
@@ -15,6 +16,83 @@ __all__ = ["SampledReference", "INTERPOLATIONS"]
 
 #: interpolation kinds of :class:`SampledReference`.
 INTERPOLATIONS: tuple[str, ...] = ("linear", "cubic")
+
+
+def _read_columns(path: Any, max_bytes: int) -> tuple[str, dict[str, np.ndarray]]:
+    """(name for messages, named float columns) of a CSV (header row) or Parquet reference file."""
+    from pathlib import Path
+
+    what = "reference samples from"
+    p = Path(path)
+    name = repr(str(p))
+    lines: list[int] | None = None
+
+    def where(i: int) -> str:  # a data row as the file's line (CSV) or the table's row (Parquet)
+        return f"line {lines[i]}" if lines is not None else f"row {i}"
+
+    if p.suffix.lower() == ".parquet":
+        check_regular(p, what, max_bytes)
+        try:
+            import pyarrow.parquet as pq  # type: ignore[import-untyped]
+        except ImportError as exc:  # pragma: no cover - pyarrow is in the data extra
+            raise ParameterError(f"reading {name} needs pyarrow (pip install 'forcecontrol[data]')") from exc
+        try:
+            table = pq.read_table(p)
+            cols = {c: np.asarray(table.column(c).to_numpy(), dtype=np.float64) for c in table.column_names}
+        except Exception as exc:  # pyarrow raises its own error types
+            raise ParameterError(f"cannot read {what} {name}: not a readable Parquet file ({type(exc).__name__})") from None
+    else:
+        import csv
+        import io
+
+        reader = csv.reader(io.StringIO(read_text_limited(p, what, max_bytes)))
+        rows = [(reader.line_num, r) for r in reader if r and any(f.strip() for f in r)]
+        if not rows:
+            raise ParameterError(
+                f"cannot read {what} {name}: the file is empty; expected a header row (t, x, y, ...) and one row per sample"
+            )
+        header = [h.strip() for h in rows[0][1]]
+        if len(set(header)) != len(header):
+            dup = next(h for h in header if header.count(h) > 1)
+            raise ParameterError(
+                f"cannot read {what} {name}: column {column_label(dup, header.index(dup))} appears more than once in the header"
+            )
+        lines = [ln for ln, _ in rows[1:]]
+        values = np.empty((len(lines), len(header)))
+        for i, (ln, r) in enumerate(rows[1:]):
+            if len(r) != len(header):
+                raise ParameterError(f"cannot read {what} {name}: line {ln} has {len(r)} fields, the header {len(header)}")
+            for j, f in enumerate(r):
+                try:
+                    values[i, j] = float(f)
+                except ValueError:
+                    raise ParameterError(
+                        f"cannot read {what} {name}: line {ln}, column {column_label(header[j], j)} is not a number "
+                        f"(a field of {len(f.strip())} characters)"
+                    ) from None
+        cols = {h: values[:, j] for j, h in enumerate(header)}
+    for j, (c, v) in enumerate(cols.items()):
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise ParameterError(f"cannot read {what} {name}: column {column_label(c, j)} is NaN or inf at {where(int(bad[0]))}")
+    rows_found = len(next(iter(cols.values()))) if cols else 0
+    if rows_found < 2:
+        raise ParameterError(f"cannot read {what} {name}: it has {rows_found} data row(s); at least 2 samples are needed")
+    t = cols.get("t")
+    if t is not None and t.size >= 2 and np.any(np.diff(t) <= 0.0):
+        i = int(np.flatnonzero(np.diff(t) <= 0.0)[0])
+        kind = "repeats" if t[i + 1] == t[i] else "goes backwards"
+        raise ParameterError(
+            f"cannot read {what} {name}: time {kind} at {where(i + 1)} (t = {t[i + 1]:.6g} s after t = {t[i]:.6g} s); "
+            "times must be strictly increasing"
+        )
+    return name, cols
+
+
+def _listing(cols: dict[str, np.ndarray]) -> str:
+    """The columns' names, each as a short escaped excerpt, at most 20."""
+    names = sorted(cols)
+    return "[" + ", ".join(column_label(c, j) for j, c in enumerate(names[:20])) + (", ..." if len(names) > 20 else "") + "]"
 
 
 class SampledReference(ReferenceSignal):
@@ -127,7 +205,8 @@ class SampledReference(ReferenceSignal):
         return out
 
     @classmethod
-    def from_file(cls, path: Any, *, dim: int | None = None, interpolation: str = "cubic") -> SampledReference:
+    def from_file(cls, path: Any, *, dim: int | None = None, interpolation: str = "cubic",
+                  max_bytes: int = MAX_TABLE_BYTES) -> SampledReference:
         """Read samples from a CSV (header row) or Parquet file.
 
         Columns: ``t`` [s]; the position per axis, ``x y [z]`` (or ``x0 x1 ...``), or the
@@ -135,28 +214,19 @@ class SampledReference(ReferenceSignal):
         reference); optionally the force ``fx fy [fz]`` or ``ref_force_x ...``. ``dim`` picks
         the task dimension (default: as many position axes as the file has).
 
+        The file must be a regular file of at most ``max_bytes`` (default 64 MiB); a folder, FIFO
+        or device is refused before it is opened (:mod:`forcecontrol.core.files`).
+
         Raises:
-            ParameterError: unreadable file, no ``t`` column, no position columns (the message
-                lists the columns found).
+            ParameterError: unreadable, empty, special or too large a file, a field that is not a
+                number or a row with the wrong number of fields (the message names the row and
+                column, never the file's content), NaN/inf (row named), times not strictly
+                increasing (rows named), no ``t`` column, no position columns (the message lists
+                the columns found).
         """
-        from pathlib import Path
-
-        p = Path(path)
-        try:
-            if p.suffix.lower() == ".parquet":
-                import pyarrow.parquet as pq  # type: ignore[import-untyped]
-
-                table = pq.read_table(p)
-                cols = {name: np.asarray(table.column(name).to_numpy(), dtype=np.float64) for name in table.column_names}
-            else:
-                data = np.genfromtxt(p, delimiter=",", names=True, dtype=np.float64, encoding="utf-8")
-                cols = {name: np.atleast_1d(np.asarray(data[name], dtype=np.float64)) for name in data.dtype.names or ()}
-        except (OSError, ValueError, UnicodeDecodeError) as exc:
-            raise ParameterError(f"cannot read reference samples from {str(p)!r}: {exc}") from exc
-        except ImportError as exc:  # pragma: no cover - pyarrow is in the data extra
-            raise ParameterError(f"reading {str(p)!r} needs pyarrow (pip install 'forcecontrol[data]')") from exc
+        p, cols = _read_columns(path, max_bytes)
         if "t" not in cols:
-            raise ParameterError(f"{str(p)!r} has no column 't'; columns found: {sorted(cols)}")
+            raise ParameterError(f"{p} has no column 't'; columns found: {_listing(cols)}")
 
         def pick(names: list[str], prefixes: tuple[str, str]) -> list[np.ndarray] | None:
             out = []
@@ -177,8 +247,8 @@ class SampledReference(ReferenceSignal):
                 break
         else:
             raise ParameterError(
-                f"{str(p)!r} has no position columns for {'dim = ' + str(dim) if dim else 'any dimension'} "
-                f"(expected e.g. x, y or ref_position_x, ref_position_y); columns found: {sorted(cols)}"
+                f"{p} has no position columns for {'dim = ' + str(dim) if dim else 'any dimension'} "
+                f"(expected e.g. x, y or ref_position_x, ref_position_y); columns found: {_listing(cols)}"
             )
         names, _, wrench = axis_names(m)
         force = pick(names, ("ref_force_",)) or pick(wrench, ("",))
