@@ -272,3 +272,120 @@ def test_tune_page_of_example_9_3_draws_the_sampled_loop_stability_curve(driver,
         assert _errors(driver) == []
     finally:
         server.stop()
+
+
+def _wait_port(port: int, host: str = "127.0.0.1", timeout: float = 20.0) -> None:
+    import socket
+
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        with socket.socket() as s:
+            if s.connect_ex((host, port)) == 0:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"nothing listens on {host}:{port}")
+
+
+def _request(port: int, path: str = "/", headers: dict | None = None) -> tuple[int, str]:
+    """A raw GET to 127.0.0.1:port with exactly these headers (http.client: Host is ours to set)."""
+    import http.client
+
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=20)
+    conn.putrequest("GET", path, skip_host=True, skip_accept_encoding=True)
+    for k, v in (headers or {}).items():
+        conn.putheader(k, v)
+    conn.endheaders()
+    r = conn.getresponse()
+    body = r.read().decode("utf-8", "replace")
+    conn.close()
+    return r.status, body
+
+
+def _ws_headers(host: str, origin: str) -> dict:
+    return {"Host": host, "Origin": origin, "Upgrade": "websocket", "Connection": "Upgrade",
+            "Sec-WebSocket-Version": "13", "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ=="}
+
+
+def test_tune_server_refuses_a_foreign_host_header_on_the_page_and_the_websocket(driver, tune_server):
+    """DNS rebinding: a page or websocket request whose Host (and Origin) is evil.example:<port> gets HTTP 403."""
+    url, _ = tune_server
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    status, body = _request(port, "/", {"Host": f"localhost:{port}"})
+    assert status == 200 and "<html" in body  # the same request naming this server is served
+    status, body = _request(port, "/", {"Host": f"evil.example:{port}"})
+    assert status == 403 and "Host" in body
+    status, body = _request(port, "/ws", _ws_headers(f"evil.example:{port}", f"http://evil.example:{port}"))
+    assert status == 403 and "Host" in body
+    status, body = _request(port, "/ws", _ws_headers(f"localhost:{port}", f"http://evil.example:{port}"))
+    assert status == 403  # a foreign Origin with this server's Host
+    driver.get(url)  # and the browser's own page still loads over its websocket
+    assert driver.execute_async_script(_WAIT_MODEL)
+
+
+def test_tune_server_beyond_loopback_needs_its_token(driver, tmp_path):
+    """Listening on 0.0.0.0 warns, makes a random token and refuses page and websocket requests without it (403)."""
+    from forcecontrol.workbench.app import free_port, serve
+
+    port = free_port("0.0.0.0")
+    with pytest.warns(UserWarning, match="beyond this machine") as rec:
+        server = serve("example-9.2", port=port, show=False, save_path=tmp_path / "t.toml", threaded=True, address="0.0.0.0")
+    try:
+        _wait_port(port)
+        url = server.url
+        assert url in str(rec[0].message) and url.startswith(f"http://localhost:{port}/?token=")
+        token = url.split("token=", 1)[1]
+        assert len(token) >= 32
+        host = f"127.0.0.1:{port}"
+        assert _request(port, "/", {"Host": host})[0] == 403
+        assert _request(port, "/?token=wrong", {"Host": host})[0] == 403
+        assert _request(port, "/ws", _ws_headers(host, f"http://{host}"))[0] == 403
+        assert _request(port, "/", {"Host": host, "Authorization": f"token {token}"})[0] == 200
+        driver.get(f"http://127.0.0.1:{port}/?token={token}")  # the happy path: cookie, then page and websocket
+        assert driver.execute_async_script(_WAIT_MODEL), "the page with the token never showed the response"
+        assert "token=" not in driver.current_url
+        assert _errors(driver) == []
+    finally:
+        server.stop()
+
+
+def _press_save(driver) -> None:
+    buttons = driver.execute_script("""
+      const out = [];
+      (function walk(root) {
+        root.querySelectorAll('button').forEach(b => { if (b.textContent.includes('Save tuned')) out.push(b); });
+        root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); }); })(document);
+      return out;""")
+    assert len(buttons) == 1
+    buttons[0].click()
+
+
+_PAGE_TEXT = """
+const out = [];
+(function walk(root) {
+  root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); });
+  out.push(root.textContent || '');
+})(document);
+return out.join(' ');
+"""
+
+
+def test_tune_save_does_not_overwrite_a_file_the_server_did_not_create(driver, tmp_path):
+    """Save refuses an existing --save file it did not write (the page says so); its own file it rewrites."""
+    from forcecontrol.workbench.app import free_port, serve
+
+    foreign = tmp_path / "mine.toml"
+    foreign.write_text("# someone's notes\n")
+    port = free_port()
+    server = serve("example-9.2", port=port, show=False, save_path=foreign, threaded=True)
+    try:
+        _wait_port(port)
+        driver.get(f"http://localhost:{port}/")
+        assert driver.execute_async_script(_WAIT_MODEL)
+        _press_save(driver)
+        t0 = time.time()
+        while "not saved" not in driver.execute_script(_PAGE_TEXT) and time.time() - t0 < 10:
+            time.sleep(0.1)
+        assert "not saved" in driver.execute_script(_PAGE_TEXT)
+        assert foreign.read_text() == "# someone's notes\n"
+    finally:
+        server.stop()

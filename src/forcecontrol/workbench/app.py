@@ -74,8 +74,7 @@ class TuneApp:
         self.last: Evaluation | None = None
         self._root = pn.Column(sizing_mode="stretch_width")
         self.case_select = _labelled(
-            pn.widgets.Select, "case", options={plain_text(lb): lb for lb in self.session.labels}, value=self.session.case.label,
-            width=420,
+            pn.widgets.Select, "case", options=self._case_options(), value=self.session.case.label, width=420,
         )
         self.case_select.param.watch(self._on_case, "value")
         color = {"color": "primary"} if "color" in pn.widgets.Button.param else {"button_type": "primary"}
@@ -84,6 +83,12 @@ class TuneApp:
         self.save_message = pn.pane.Markdown(f"writes `{self.save_path}`", width=600)
         self.status = pn.pane.Markdown("", sizing_mode="stretch_width")
         self._build_case()
+
+    def _case_options(self) -> list[str] | dict[str, str]:
+        """The case labels, shown as plain bounded text (a dict display -> label when one had to change)."""
+        labels = self.session.labels
+        shown = {plain_text(lb): lb for lb in labels}
+        return labels if len(shown) == len(labels) and all(k == v for k, v in shown.items()) else shown
 
     # ------------------------------------------------------------------ layout
     def _build_case(self) -> None:
