@@ -119,3 +119,90 @@ def test_a_good_reference_file_still_reads(tmp_path):
     p.write_text("t, x, y\n0, 0, 1\n\n0.5, 1, 2\n1, 2, 3\n")
     ref = SampledReference.from_file(p, interpolation="linear")
     np.testing.assert_array_equal(ref.position_samples, [[0, 1], [1, 2], [2, 3]])
+
+
+# ----------------------------------------------------------------------------- URDF
+
+
+def _urdf(links=None, joints=None, comment=f"<!-- {SECRET} -->"):
+    """A two-link URDF; links/joints replace the default elements."""
+    inertial = '<inertial><mass value="{m}"/><inertia ixx="{ixx}" ixy="0" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/></inertial>'
+    if links is None:
+        links = [("base", inertial.format(m=1, ixx=1, iyy=1, izz=1)), ("arm", inertial.format(m=1, ixx=1, iyy=1, izz=1))]
+    if joints is None:
+        joints = [("j1", "base", "arm")]
+    body = "".join(f'<link name="{n}">{x}</link>' for n, x in links)
+    body += "".join(
+        f'<joint name="{n}" type="revolute"><parent link="{p}"/><child link="{c}"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        for n, p, c in joints
+    )
+    return f'<?xml version="1.0"?>\n<robot name="r">{comment}\n{body}</robot>\n'
+
+
+def _inertial(m="1", ixx="1", iyy="1", izz="1", ixy="0"):
+    return f'<inertial><mass value="{m}"/><inertia ixx="{ixx}" ixy="{ixy}" ixz="0" iyy="{iyy}" iyz="0" izz="{izz}"/></inertial>'
+
+
+URDF_CASES = [
+    ("empty.urdf", "", "not well-formed XML: parser error at line 1"),
+    ("truncated.urdf", _urdf()[:-30], "not well-formed XML: parser error at line"),
+    ("not_xml.urdf", f"{SECRET} this is not xml", "not well-formed XML: parser error at line 1, column 1"),
+    ("wrong_root.urdf", f"<sdf>{SECRET}</sdf>", "the root element must be <robot>"),
+    ("dup_link.urdf", _urdf(links=[("base", ""), ("base", ""), ("arm", "")]), "link 'base' is defined twice"),
+    ("dup_joint.urdf", _urdf(links=[("a", ""), ("b", ""), ("c", "")], joints=[("j", "a", "b"), ("j", "b", "c")]),
+     "joint 'j' is defined twice"),
+    ("two_parents.urdf", _urdf(links=[("a", ""), ("b", ""), ("c", "")], joints=[("j1", "a", "c"), ("j2", "b", "c")]),
+     "link 'c' is the child of two joints, 'j1' and 'j2'"),
+    ("cycle.urdf", _urdf(links=[("a", ""), ("b", ""), ("c", "")], joints=[("j1", "a", "b"), ("j2", "b", "c"), ("j3", "c", "a")]),
+     "kinematic cycle through link(s) 'a', 'b', 'c' (no root link)"),
+    ("detached_cycle.urdf", _urdf(links=[("r", ""), ("a", ""), ("b", "")], joints=[("j1", "a", "b"), ("j2", "b", "a")]),
+     "kinematic cycle through link(s) 'a', 'b'"),
+    ("two_roots.urdf", _urdf(links=[("a", ""), ("b", "")], joints=[]), "2 links have no parent joint"),
+    ("unknown_link.urdf", _urdf(joints=[("j1", "base", "hand")]), "joint 'j1' names an unknown link 'hand' as its <child>"),
+    ("nan_mass.urdf", _urdf(links=[("base", ""), ("arm", _inertial(m="nan"))]), "link 'arm': <mass value> must be a finite"),
+    ("neg_mass.urdf", _urdf(links=[("base", ""), ("arm", _inertial(m="-2"))]), "must be a finite number >= 0 kg; got -2.0"),
+    ("text_mass.urdf", _urdf(links=[("base", ""), ("arm", _inertial(m=SECRET))]), "<mass value> is not a number"),
+    ("inf_inertia.urdf", _urdf(links=[("base", ""), ("arm", _inertial(iyy="inf"))]), "<inertia iyy> must be finite"),
+    ("neg_inertia.urdf", _urdf(links=[("base", ""), ("arm", _inertial(ixx="-1"))]), "<inertia ixx> must be >= 0 kg m²; got -1.0"),
+    ("indefinite.urdf", _urdf(links=[("base", ""), ("arm", _inertial(ixy="2"))]),
+     "not positive semi-definite (principal moments -1"),
+    ("triangle.urdf", _urdf(links=[("base", ""), ("arm", _inertial(ixx="1", iyy="1", izz="3"))]),
+     "principal moments 1, 1, 3 kg m² break the triangle inequality"),
+    ("massless.urdf", _urdf(links=[("base", ""), ("arm", _inertial(m="0"))]), "mass 0 with a non-zero inertia"),
+]
+
+
+@pytest.mark.parametrize("name, text, problem", URDF_CASES, ids=[c[0] for c in URDF_CASES])
+def test_a_bad_urdf_is_refused_before_pinocchio(tmp_path, name, text, problem):
+    """Bad XML, duplicate names, cycles, several roots, NaN/negative/indefinite/non-triangle inertias: ParameterError."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.robots.pinocchio import PinocchioRobot
+
+    p = tmp_path / name
+    p.write_text(text)
+    _refuse(lambda: PinocchioRobot.from_urdf(p, "arm", task="position"), p, ParameterError, problem)
+
+
+def test_a_good_urdf_loads_and_inertia_checks_can_be_relaxed(tmp_path):
+    """The template loads (mass 2 from the file); check_inertia=False loads a triangle-breaking inertia with a warning."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.robots.pinocchio import PinocchioRobot
+
+    p = tmp_path / "ok.urdf"
+    p.write_text(_urdf(links=[("base", ""), ("arm", _inertial(m="2"))]))
+    robot = PinocchioRobot.from_urdf(p, "arm", task="position")
+    assert robot.model.inertias[1].mass == 2.0
+    p.write_text(_urdf(links=[("base", ""), ("arm", _inertial(ixx="1", iyy="1", izz="3"))]))
+    with pytest.warns(UserWarning, match="triangle inequality.*loaded anyway"):
+        PinocchioRobot.from_urdf(p, "arm", task="position", check_inertia=False)
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo"])
+def test_a_special_urdf_path_is_refused(tmp_path, kind):
+    """A folder or a FIFO named x.urdf is refused by kind, without opening it."""
+    from forcecontrol.robots.urdf_check import check_urdf
+
+    p = tmp_path / "x.urdf"
+    p.mkdir() if kind == "folder" else os.mkfifo(p)
+    _refuse(lambda: check_urdf(p), p, ParameterError, "a folder" if kind == "folder" else "a FIFO")

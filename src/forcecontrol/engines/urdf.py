@@ -41,6 +41,9 @@ def _robot_source(robot) -> tuple[Path, str, tuple[str, ...], np.ndarray, np.nda
         raise ParameterError(
             f"the MuJoCo engine needs the built-in arm or a PinocchioRobot loaded from a URDF; got {type(robot).__name__}"
         )
+    from ..robots.urdf_check import check_urdf
+
+    check_urdf(path)  # the file may have changed since Pinocchio read it: MuJoCo reads it again
     return (
         Path(path), robot.frame, tuple(robot.locked_joints), np.asarray(robot.model.armature, dtype=float).copy(),
         np.asarray(robot.model.gravity.linear, dtype=float).copy(), robot.task,

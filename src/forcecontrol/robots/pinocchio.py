@@ -178,18 +178,34 @@ class PinocchioRobot:
         *,
         locked_joints: tuple[str, ...] = (),
         locked_values: Any = None,
+        max_bytes: int = 64 * 2**20,
+        check_inertia: bool = True,
         **kwargs: Any,
     ) -> PinocchioRobot:
         """Load a URDF; joints in ``locked_joints`` are fixed (at ``locked_values`` or the neutral).
 
+        The file is checked first (:func:`forcecontrol.robots.urdf_check.check_urdf`): a regular
+        file of at most ``max_bytes``, well-formed XML, unique names, a tree, physical masses and
+        inertias (``check_inertia=False``: an indefinite or triangle-breaking inertia only warns).
+
         Raises:
-            ParameterError: the file does not exist, a locked joint or the frame is unknown.
+            ParameterError: the file does not exist or fails a check (file, element and problem
+                named), a locked joint or the frame is unknown.
         """
+        from .urdf_check import check_urdf
+
         pin = _pin()
         path = Path(path)
         if not path.is_file():
             raise ParameterError(f"URDF file {str(path)!r} does not exist")
-        model = pin.buildModelFromUrdf(str(path))
+        # XML, names, tree, inertias: a clear error before Pinocchio's
+        check_urdf(path, max_bytes=max_bytes, check_inertia=check_inertia)
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except (ValueError, RuntimeError) as exc:  # what the check does not catch; Pinocchio's text may quote the file
+            raise ParameterError(
+                f"URDF file {str(path)!r}: Pinocchio cannot build a model from it ({type(exc).__name__})"
+            ) from None
         if locked_joints:
             ids = []
             for j in locked_joints:
