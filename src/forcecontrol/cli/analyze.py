@@ -34,9 +34,8 @@ def analyze_command(
     With ``--figures`` the scenario is also simulated and one figure per controller type is
     written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid.
     """
-    from rich.markup import escape
-
     from ..errors import ForceControlError
+    from .safe import escape
 
     try:
         from ..scenarios.report import analyze_scenario
@@ -103,8 +102,9 @@ def skip_notes(report: dict[str, Any]) -> list[str]:
 
 def _print_tables(report: dict[str, Any]) -> None:
     from rich.console import Console
-    from rich.markup import escape
     from rich.table import Table
+
+    from .safe import escape
 
     console = Console(width=None if sys.stdout.isatty() else 132)
     console.print(f"[bold]{escape(report['title'] or report['scenario'])}[/]")
@@ -132,8 +132,9 @@ def _print_tables(report: dict[str, Any]) -> None:
 
 
 def _print_verification(console: Any, ver: dict[str, Any]) -> None:
-    from rich.markup import escape
     from rich.table import Table
+
+    from .safe import escape
 
     if ver.get("skipped"):
         console.print(f"[yellow]not verified:[/] {escape(ver['skipped'])}", highlight=False)

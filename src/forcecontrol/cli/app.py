@@ -15,13 +15,13 @@ from typing import Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 from rich.table import Table
 
 from .. import __version__
 from ..core import numba_cache as _numba_cache
 from ..errors import ForceControlError
 from ..viz import render_process
+from .safe import escape
 
 #: options shared by the commands.
 JsonOut = Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")]

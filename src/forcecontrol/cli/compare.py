@@ -35,10 +35,10 @@ def compare_command(
 ) -> None:
     """Run a scenario on the built-in simulator and on MuJoCo; report both and why they differ."""
     from rich.console import Console
-    from rich.markup import escape
     from rich.table import Table
 
     from ..errors import ForceControlError
+    from .safe import escape
 
     compile_notice()
     try:

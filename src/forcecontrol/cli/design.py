@@ -64,8 +64,9 @@ def design_command(
         print_json({**d.as_dict(), "scenario": written})
         return
     from rich.console import Console
-    from rich.markup import escape
     from rich.table import Table
+
+    from .safe import escape
 
     console = Console(width=None if sys.stdout.isatty() else 132)
     g = Table(title=f"{scheme} gains for k in [{k_min:g}, {k_max:g}] N/m", title_justify="left")

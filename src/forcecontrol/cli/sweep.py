@@ -51,7 +51,6 @@ def sweep_command(
     contact loss go to a Parquet table (the sweep definition is in its metadata). Finished
     blocks are stored as they end: after Ctrl-C or a crash, the same command resumes.
     """
-    from rich.markup import escape
     from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
     from rich.text import Text
 
@@ -59,6 +58,7 @@ def sweep_command(
     from ..sweep.run import load_sweep_scenario, prepare_sweep, run_sweep
     from ..sweep.spec import SweepDefinition, SweepWarning
     from .app import _fail, _slug, compile_notice, console, err_console
+    from .safe import escape
 
     compile_notice()
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.text import TITLE_LIMIT, figure_safe
 from .spec import SweepError, parse_parameter
 
 __all__ = ["analytic_spectral_radius", "stability_boundary", "plot_sweep_map", "plot_sweep_curves", "plot_sweep"]
@@ -251,11 +252,12 @@ def plot_sweep_map(
                     axis_set("log")
             ax.set_xlabel(x)
             ax.set_ylabel(y)
-            ax.set_title(f"{label}\n{metric}", fontsize=9)
+            ax.set_title(f"{figure_safe(label)}\n{metric}", fontsize=9)
             if r == 0 and c == 0:
                 ax.legend(fontsize=7, loc="best")
     title = meta.get("title") or meta.get("scenario", "")
-    fig.suptitle(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), fontsize=10)
+    fig.suptitle(figure_safe(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""),
+                             TITLE_LIMIT), fontsize=10)
     return _save(fig, plt, out)
 
 
@@ -326,19 +328,20 @@ def plot_sweep_curves(
         for c, metric in enumerate(metrics):
             ax = axs[0, c]
             yv = sub[metric].to_numpy(dtype=float)[order]
-            ax.plot(xv, yv, "o-", color=color, markersize=3, label=str(label))
+            ax.plot(xv, yv, "o-", color=color, markersize=3, label=figure_safe(label))
             ax.scatter(xv[bad], yv[bad], marker="x", color="red", s=24, zorder=3,
                        label="unstable (simulated)" if k == 0 else None)
             for xl in limits:
                 ax.axvline(xl, color=color, linestyle="--", linewidth=1.0,
-                           label=f"analytic ρ = 1 ({label})" if c == 0 else None)
+                           label=f"analytic ρ = 1 ({figure_safe(label)})" if c == 0 else None)
             if _log(xv):
                 ax.set_xscale("log")
             ax.set_xlabel(x)
             ax.set_title(metric, fontsize=9)
     axs[0, 0].legend(fontsize=7, loc="best")
     title = meta.get("title") or meta.get("scenario", "")
-    fig.suptitle(f"{title}: sweep over {x}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), fontsize=10)
+    fig.suptitle(figure_safe(f"{title}: sweep over {x}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), TITLE_LIMIT),
+                 fontsize=10)
     return _save(fig, plt, out)
 
 

@@ -115,7 +115,9 @@ def animate_run(
     fig = plt.figure(figsize=(5.6, 5.0) if dim == 2 else (6.0, 5.6))
     fig.subplots_adjust(left=0.13, right=0.97, bottom=0.1, top=0.9)  # fixed: no layout engine per frame
     scene = draw(fig, pts, environment, forces * scale, np.linalg.norm(forces, axis=1))
-    label = title or result.label
+    from ..core.text import TITLE_LIMIT, figure_safe
+
+    label = figure_safe(title or result.label or "", TITLE_LIMIT)  # text from files drawn literally, bounded
 
     def update(i: int) -> list[Any]:
         scene.show(i)

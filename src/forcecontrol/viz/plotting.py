@@ -164,11 +164,14 @@ def plot_results(
 
     rows, cols = panel_grid(len(signals))
     # legend entries (at most): cases, the reference, overlays, the expected mark; rows of one or two
-    legend_labels = [r.label or f"case {i + 1}" for i, r in enumerate(results)]
-    legend_labels += sorted({lab for lines in (overlays or {}).values() for _, _, lab in lines})
+    from ..core.text import TITLE_LIMIT, figure_safe  # text from files drawn literally (no mathtext), bounded
+
+    case_labels = [figure_safe(r.label or f"case {i + 1}") for i, r in enumerate(results)]
+    legend_labels = case_labels + sorted({figure_safe(lab) for lines in (overlays or {}).values() for _, _, lab in lines})
     legend_cols = 1 if max(map(len, legend_labels)) > 45 else 2
     legend_rows = -(-(len(legend_labels) + 2) // legend_cols)
-    note_lines = textwrap.wrap(" ".join(note.split()), int(16 * PANEL_SIZE[0] * cols)) if note else []
+    note_text = " ".join(figure_safe(note, 4 * TITLE_LIMIT).split())
+    note_lines = textwrap.wrap(note_text, int(16 * PANEL_SIZE[0] * cols)) if note else []
     footer = 0.15 + 0.19 * legend_rows + 0.14 * len(note_lines)  # [in]
     panels_h = PANEL_SIZE[1] * rows + (0.3 if title else 0.0)
     fig = plt.figure(figsize=(PANEL_SIZE[0] * cols, panels_h + footer), layout="constrained")
@@ -183,17 +186,17 @@ def plot_results(
             y = _series(r, sig)
             if np.any(np.isfinite(y)):  # a signal a case does not log (NaN) draws nothing, sets no range
                 span += [float(np.nanmin(y)), float(np.nanmax(y))]
-            ax.plot(r.t, y, label=r.label or f"case {i + 1}", zorder=3, **case_style(i))
+            ax.plot(r.t, y, label=case_labels[i], zorder=3, **case_style(i))
         refs = _draw_references(ax, results, sig) if references else []
         for t, v, lab in (overlays or {}).get(sig, []):
-            ax.plot(t, v, lw=0.9, color="tab:red", alpha=0.8, label=lab, zorder=2)
+            ax.plot(t, v, lw=0.9, color="tab:red", alpha=0.8, label=figure_safe(lab), zorder=2)
         for value, lab in (expected or {}).get(sig, []):
             ax.axhline(value, color="0.35", lw=0.9, ls=":", zorder=2)
-            ax.annotate(lab, xy=(1.0, value), xycoords=("axes fraction", "data"), xytext=(-3, 2),
+            ax.annotate(figure_safe(lab), xy=(1.0, value), xycoords=("axes fraction", "data"), xytext=(-3, 2),
                         textcoords="offset points", ha="right", va="bottom", fontsize=7, color="0.25")
         _set_ylim(ax, (min(span), max(span)) if span else (0.0, 1.0), refs, [v for v, _ in (expected or {}).get(sig, [])])
         ax.set_xlabel("t [s]")
-        ax.set_ylabel(SIGNAL_LABELS.get(sig, sig))
+        ax.set_ylabel(SIGNAL_LABELS.get(sig) or figure_safe(sig))
         ax.grid(True, lw=0.3)
         if t_max is not None:
             ax.set_xlim(0, t_max)
@@ -212,7 +215,7 @@ def plot_results(
         bottom.text(0.01, 0.02, "\n".join(note_lines), fontsize=7.5, color="0.2", ha="left", va="bottom",
                     transform=bottom.transSubfigure)
     if title:
-        top.suptitle(title, fontsize=10)
+        top.suptitle(figure_safe(title, TITLE_LIMIT), fontsize=10)
     return finish_figure(fig, path, dpi=120)
 
 
