@@ -6,8 +6,6 @@ import dataclasses
 import re
 from pathlib import Path
 
-import pytest
-
 import forcecontrol as fc
 from forcecontrol.core.text import LABEL_LIMIT, TITLE_LIMIT, figure_safe, plain_text, shorten, terminal_safe
 

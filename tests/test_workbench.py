@@ -268,3 +268,43 @@ def test_nested_controllers_give_their_gains_and_a_change_reaches_the_run():
     ev = s.evaluate()
     ref = short.with_({"controller.wrapped.contact.force_gain": [0.0012, 0.0]}).run().cases[0].result
     np.testing.assert_allclose(ev.result.wrench, ref.wrench, rtol=1e-12, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------- the server's guard and Save policy
+
+
+def test_guard_accepts_only_hosts_naming_this_server():
+    """Loopback server: localhost/127.x/[::1] with its port pass; a rebinding name, another port or garbage do not."""
+    from forcecontrol.workbench.guard import RequestGuard
+
+    g = RequestGuard("localhost", 5006)
+    assert all(g.host_allowed(h) for h in ("localhost:5006", "127.0.0.1:5006", "127.0.0.2:5006", "[::1]:5006"))
+    assert not any(g.host_allowed(h) for h in ("evil.example:5006", "localhost:5007", "localhost", "10.0.0.5:5006",
+                                               "", "[zz:5006"))
+    lan = RequestGuard("0.0.0.0", 5006, token="t")
+    assert lan.host_allowed("10.0.0.5:5006") and not lan.host_allowed("evil.example:5006")
+
+
+def test_guard_needs_a_token_beyond_loopback():
+    """A server on 0.0.0.0 without a token is refused by construction (ParameterError names the parameter)."""
+    from forcecontrol.errors import ParameterError
+    from forcecontrol.workbench.guard import RequestGuard, is_loopback
+
+    with pytest.raises(ParameterError, match="token"):
+        RequestGuard("0.0.0.0", 5006)
+    assert is_loopback("127.0.0.2") and is_loopback("::1") and not is_loopback("0.0.0.0") and not is_loopback("10.1.2.3")
+
+
+def test_save_refuses_a_foreign_file_rewrites_its_own_and_overwrite_replaces(tmp_path):
+    """Save never replaces a file it did not create; its own it rewrites; overwrite=True replaces a foreign one."""
+    from forcecontrol.workbench.app import TuneApp
+
+    foreign = tmp_path / "notes.toml"
+    foreign.write_text("# mine\n")
+    a = TuneApp("example-9.2", foreign)
+    assert a._on_save() is None and foreign.read_text() == "# mine\n" and "not saved" in a.save_message.object
+    own = tmp_path / "new.toml"
+    b = TuneApp("example-9.2", own)
+    assert b._on_save() == own and b._on_save() == own  # created by this server: the second Save rewrites it
+    c = TuneApp("example-9.2", foreign, overwrite=True)
+    assert c._on_save() == foreign and fc.scenario(foreign).cases[0].config["environment"]["stiffness"] == 1e4
