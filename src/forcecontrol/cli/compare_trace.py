@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -35,6 +36,13 @@ def _simulated(
     return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim), scn.name
 
 
+def _max_shift(value: float) -> float:
+    """--max-shift: a finite time >= 0 [s] (click's range check lets NaN through)."""
+    if not math.isfinite(value) or value < 0:
+        raise typer.BadParameter(f"must be a finite time >= 0 [s]; got {value!r}")
+    return value
+
+
 def compare_trace_command(
     simulated: Annotated[str, typer.Argument(help="a scenario (simulated now) or a data file of a simulated trace")],
     recorded: RecordedLog,
@@ -42,7 +50,8 @@ def compare_trace_command(
         RecordFormat.auto
     ),
     case: CaseLabel = None,
-    max_shift: Annotated[float, typer.Option(help="largest time shift searched to align the traces [s]")] = 0.1,
+    max_shift: Annotated[float, typer.Option(callback=_max_shift,
+                                             help="largest time shift searched to align the traces [s], >= 0")] = 0.1,
     out: OutFolder = None,
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",

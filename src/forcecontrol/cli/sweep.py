@@ -29,7 +29,7 @@ def sweep_command(
              "sensor.seed=range(0,100); random design: uniform(a,b), loguniform(a,b), normal(m,s), randint(a,b)",
     )] = None,
     design: Annotated[Design, typer.Option(help="grid (full factorial) or random (Monte Carlo)")] = Design.grid,
-    samples: Annotated[int, typer.Option(help="number of random draws (design random)")] = 0,
+    samples: Annotated[int, typer.Option(min=0, help="number of random draws (design random)")] = 0,
     seed: Annotated[int, typer.Option(help="seed of the random design")] = 0,
     case: Annotated[list[str] | None, typer.Option(  # noqa: UP007
         "--case", help="scenario case label or 1-based index to sweep (repeatable; default: all)")] = None,
@@ -37,12 +37,14 @@ def sweep_command(
         help="Parquet table (default forcecontrol-out/NAME-sweep.parquet)")] = None,
     scheduler: Annotated[str | None, typer.Option(  # noqa: UP007
         help="Dask scheduler address (tcp://host:8786); default: this machine, all cores")] = None,
-    workers: Annotated[int | None, typer.Option(help="local threads (default: all cores)")] = None,  # noqa: UP007
-    block_size: Annotated[int | None, typer.Option(help="cases per stored block (default: automatic)")] = None,  # noqa: UP007
+    workers: Annotated[int | None, typer.Option(min=1, help="local threads, >= 1 (default: all cores)")] = None,  # noqa: UP007
+    block_size: Annotated[int | None, typer.Option(  # noqa: UP007
+        min=1, help="cases per stored block, >= 1 (default: automatic)")] = None,
     figure: Annotated[bool, typer.Option(help="write the metric maps over the first two parameters (PNG)")] = True,
     x: Annotated[str | None, typer.Option(help="figure x axis (a swept parameter)")] = None,  # noqa: UP007
     y: Annotated[str | None, typer.Option(help="figure y axis (a swept parameter)")] = None,  # noqa: UP007
-    overwrite: Annotated[bool, typer.Option(help="replace a different sweep stored at --out")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", "--force", help="replace a different sweep stored at --out, or "
+                                            "a file there that is not a sweep table (never a folder)")] = False,
     json_out: JsonOut = False,
 ) -> None:
     """Sweep scenario parameters (grid or Monte Carlo), locally or on a Dask cluster; resumable.

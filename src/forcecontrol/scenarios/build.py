@@ -119,6 +119,7 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
                 raise ScenarioError(f"{where}: [robot]: key 'q0' must have {robot.nq} entries; got {len(q0)}")
             if not np.all(np.isfinite(q0)):
                 raise ScenarioError(f"{where}: [robot]: key 'q0' must be finite [rad]; got {rt['q0']!r}")
+            _check_joint_limits(where, robot, q0)
         elif rt["start_position"] is not None:
             if not hasattr(robot, "inverse_kinematics"):
                 raise ScenarioError(f"{where}: [robot]: model '{rt['model']}' needs q0 (no closed-form inverse kinematics)")
@@ -157,6 +158,7 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     ref = _shared_reference(where, cfg["reference"], ctx, memo)
     sensor = build_sensor(where, cfg.get("sensor"), Ts) if sensor is None else sensor
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
+    _check_delays(where, duration, Ts, sensor, actuator)
     for name, part in (("environment", env), ("reference", ref)):
         if part.dim != robot.task_dim:
             raise ScenarioError(
@@ -175,6 +177,38 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
         "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
         "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
     }
+
+
+def _check_joint_limits(where: str, robot: Any, q0: np.ndarray) -> None:
+    """Refuse a q0 outside the robot's joint limits, when its model has them (a URDF's ``<limit>``)."""
+    model = getattr(robot, "model", None)
+    lo, hi = getattr(model, "lowerPositionLimit", None), getattr(model, "upperPositionLimit", None)
+    if lo is None or hi is None:
+        return
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if lo.shape != q0.shape or hi.shape != q0.shape:
+        return
+    bad = [i for i in range(q0.size) if np.isfinite(lo[i]) and np.isfinite(hi[i]) and lo[i] < hi[i]
+           and not lo[i] - 1e-9 <= q0[i] <= hi[i] + 1e-9]
+    if bad:
+        i = bad[0]
+        raise ScenarioError(
+            f"{where}: [robot]: key 'q0' entry {i} must be within the joint's limits [{lo[i]:.6g}, {hi[i]:.6g}] [rad]; "
+            f"got {q0[i]:.6g}"
+        )
+
+
+def _check_delays(where: str, duration: float, Ts: float, sensor: Any, actuator: Actuator | None) -> None:
+    """A sensor's or actuator's delay of more samples than the run has would never deliver anything: refused."""
+    samples = int(round(duration / Ts)) if Ts > 0 and duration / Ts < 1e15 else None
+    if samples is None:
+        return  # the run's size check refuses it with its own message
+    for table, value in (("sensor", getattr(sensor, "delay_samples", 0)), ("actuator", getattr(actuator, "delay", 0))):
+        if value > samples:
+            raise ScenarioError(
+                f"{where}: [{table}]: key 'delay_samples' must be in [0, {samples:,}] (at most the run's samples: "
+                f"duration {duration:.6g} s / sample_time {Ts:.6g} s); got {value:,}: the delayed signal would never arrive"
+            )
 
 
 def build_sensor(where: str, table: Any, sample_time: float) -> ForceSensor:
@@ -216,10 +250,10 @@ def _actuator(where: str, table: Any, n: int) -> Actuator | None:
     """
     if table is None:
         return None
+    d = table.get("delay_samples") if isinstance(table, dict) else None
+    if isinstance(d, int) and not isinstance(d, bool) and d < 0:  # this message before the range's
+        raise ScenarioError(f"{where}: [actuator]: key 'delay_samples' must be a whole number of samples >= 0; got {d!r}")
     at = check_table(f"{where}: [actuator]", table, ACTUATOR_FIELDS)
-    if at["delay_samples"] < 0:
-        raise ScenarioError(f"{where}: [actuator]: key 'delay_samples' must be a whole number of samples >= 0; "
-                            f"got {at['delay_samples']!r}")
     values = {}
     for key in ("coulomb", "viscous", "coulomb_band", "resolution"):
         v = np.asarray(at[key], dtype=float)

@@ -11,7 +11,7 @@ from ..errors import ScenarioError
 from ..sim.simulation import SimulationResult
 
 __all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "register_response", "case_response",
-           "check_expected"]
+           "check_expected", "check_no_empty_tables"]
 
 
 #: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
@@ -122,6 +122,23 @@ def _check_expected_specs(where: str, expected: Any) -> None:
             if not ok:
                 what = "a finite number" if part == "value" else "a finite non-negative number"
                 raise ScenarioError(f"{where}: [expected] key '{key}': {part} must be {what}; got {v!r}")
+
+
+def check_no_empty_tables(where: str, table: dict[str, Any], prefix: str = "") -> None:
+    """Refuse an empty table as a value in a ``[[case]]`` (``controller.stiffness = {}``): it would override nothing.
+
+    Raises:
+        ScenarioError: naming the case (``where``) and the dotted key.
+    """
+    for k, v in table.items():
+        if isinstance(v, dict):
+            if not v:
+                raise ScenarioError(
+                    f"{where}: key '{prefix}{k}' is an empty table {{}}; a case overrides a key with a value "
+                    "(give the value, or remove the key to keep the scenario's)"
+                )
+            if k != "expected":
+                check_no_empty_tables(where, v, f"{prefix}{k}.")
 
 
 def _check(name: str, value: float, spec: Any, rel_tol: float) -> dict[str, Any]:

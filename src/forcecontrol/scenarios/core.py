@@ -26,6 +26,7 @@ from .checks import (  # noqa: F401
     case_analysis,
     case_response,
     check_expected,
+    check_no_empty_tables,
     register_analysis,
     register_metric,
     register_response,
@@ -255,6 +256,7 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         if not isinstance(label, str):
             raise ScenarioError(f"{cw}: key 'label' must be a string; got {label!r}")
         flat: dict[str, Any] = {}
+        check_no_empty_tables(cw, {k: v for k, v in c.items() if k not in CASE_FIELDS})
         _flatten("", {k: v for k, v in c.items() if k not in CASE_FIELDS}, flat)
         for k, v in flat.items():
             _set_dotted(cw, cfg, k, v)

@@ -6,6 +6,18 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..core.jsonsafe import json_safe
+from ..sim.limits import (
+    MAX_DELAY_SAMPLES,
+    MAX_FORCE,
+    MAX_FORCE_RESOLUTION,
+    MAX_JOINT_POSITION,
+    MAX_JOINT_SPEED,
+    MAX_SWEEP_VALUES,
+    MAX_TOOL_MASS,
+    MAX_TORQUE,
+    MAX_TORQUE_RESOLUTION,
+    MAX_ZEROING_SAMPLES,
+)
 from ..sim.simulation import SimulationResult
 from .schema import Field
 
@@ -60,26 +72,29 @@ ROBOT_FIELDS: dict[str, Field] = {
     "frame_type": Field("str", choices=("BODY", "JOINT", "FIXED_JOINT", "OP_FRAME"),
                         doc="urdf: which frame when a link and a joint share the name"),
     "locked_joints": Field("strlist", doc="model = 'urdf': joints fixed at zero"),
-    "q0": Field("vector", doc="initial joint positions [rad]"),
+    "q0": Field("vector", low=-MAX_JOINT_POSITION, high=MAX_JOINT_POSITION,
+               bound="within the robot's joint limits when it has them", doc="initial joint positions [rad]"),
     "start_position": Field("vector", doc="initial tip position [m] (IK with elbow)"),
     "elbow": Field("str", default="up", choices=("up", "down")),
-    "qd0": Field("vector", doc="initial joint velocities [rad/s]"),
+    "qd0": Field("vector", low=-MAX_JOINT_SPEED, high=MAX_JOINT_SPEED, doc="initial joint velocities [rad/s]"),
     "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
 }
 
 
 SENSOR_FIELDS: dict[str, Field] = {
-    "noise_std": Field("gain", default=0.0, doc="noise standard deviation [N]"),
-    "bias": Field("gain", default=0.0, doc="constant bias [N]"),
+    "noise_std": Field("gain", default=0.0, high=MAX_FORCE, doc="noise standard deviation [N]"),
+    "bias": Field("gain", default=0.0, low=-MAX_FORCE, high=MAX_FORCE, doc="constant bias [N]"),
     "cutoff": Field("number", doc="first-order low-pass cut-off [Hz]"),
     "seed": Field("int", default=0),
     # realistic sensor (RealisticForceSensor, Python loop) when any of these is given
     "filter": Field("str", choices=("none", "first-order", "butterworth"), doc="digital filter kind"),
-    "drift": Field("gain", doc="bias drift rate in the sensor frame [N/s]"),
-    "resolution": Field("number", doc="quantisation step [N]"),
-    "delay_samples": Field("int", doc="transport delay [samples]"),
-    "zeroing_samples": Field("int", doc="readings averaged at start to estimate the bias"),
-    "tool_mass": Field("number", doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
+    "drift": Field("gain", low=-MAX_FORCE, high=MAX_FORCE, doc="bias drift rate in the sensor frame [N/s]"),
+    "resolution": Field("number", high=MAX_FORCE_RESOLUTION, doc="quantisation step [N]"),
+    "delay_samples": Field("int", high=MAX_DELAY_SAMPLES, bound="at most the run's samples",
+                           doc="transport delay [samples]"),
+    "zeroing_samples": Field("int", high=MAX_ZEROING_SAMPLES, doc="readings averaged at start to estimate the bias"),
+    "tool_mass": Field("number", high=MAX_TOOL_MASS,
+                       doc="mass of the tool after the sensor [kg] (compensated: known tool)"),
 }
 
 
@@ -89,11 +104,15 @@ _RICH_SENSOR_KEYS = ("filter", "drift", "resolution", "delay_samples", "zeroing_
 #: ``[actuator]``: joint friction, actuation delay and torque quantisation (:class:`~forcecontrol.sim.actuators.Actuator`,
 #: Python engine). Per-joint keys take a number (every joint) or a list with one entry per joint.
 ACTUATOR_FIELDS: dict[str, Field] = {
-    "coulomb": Field("gain", default=0.0, doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),
-    "viscous": Field("gain", default=0.0, doc="viscous friction per joint, added to the robot's own [N m s/rad]"),
-    "coulomb_band": Field("gain", default=1e-2, doc="velocity scale of the smooth Coulomb sign per joint [rad/s], > 0"),
-    "delay_samples": Field("int", default=0, doc="actuation delay [whole samples]: the torque commanded k samples ago"),
-    "resolution": Field("gain", default=0.0, doc="torque quantum per joint [N m] (0: none)"),
+    "coulomb": Field("gain", default=0.0, high=MAX_TORQUE,
+                     doc="Coulomb friction torque per joint [N m] (smooth sign tanh(qd / coulomb_band))"),
+    "viscous": Field("gain", default=0.0, high=MAX_TORQUE,
+                     doc="viscous friction per joint, added to the robot's own [N m s/rad]"),
+    "coulomb_band": Field("gain", default=1e-2, high=MAX_JOINT_SPEED,
+                          doc="velocity scale of the smooth Coulomb sign per joint [rad/s], > 0"),
+    "delay_samples": Field("int", default=0, high=MAX_DELAY_SAMPLES, bound="at most the run's samples",
+                           doc="actuation delay [whole samples]: the torque commanded k samples ago"),
+    "resolution": Field("gain", default=0.0, high=MAX_TORQUE_RESOLUTION, doc="torque quantum per joint [N m] (0: none)"),
 }
 
 
@@ -113,7 +132,7 @@ FIGURE_FIELDS: dict[str, Field] = {
 SWEEP_FIELDS: dict[str, Field] = {
     "design": Field("str", default="grid", doc="'grid' (every combination) or 'random' (samples draws)",
                     choices=("grid", "random")),
-    "samples": Field("int", default=0, doc="design = 'random': number of cases drawn"),
+    "samples": Field("int", default=0, low=0, high=MAX_SWEEP_VALUES, doc="design = 'random': number of cases drawn"),
     "seed": Field("int", default=0, doc="design = 'random': seed of the draws"),
     "settle_band": Field("number", default=0.02, doc="settling band, fraction of the force step"),
     "stable_band": Field("number", default=0.05, doc="residual oscillation accepted as stable, fraction of the step"),
@@ -215,7 +234,7 @@ def scenario_model() -> Any:
         if f.kind == "table":
             continue
         ann = _annotation(f) if f.required or f.default is not None else _annotation(f) | None
-        defs[f"top{i}"] = (ann, PField(... if f.required else f.default, alias=k, description=f.doc or None))
+        defs[f"top{i}"] = (ann, PField(... if f.required else f.default, alias=k, description=f.described() or None))
     defs["robot"] = (table_model("robot", ROBOT_FIELDS), PField(description="the manipulator"))
     defs["sensor"] = (table_model("sensor", SENSOR_FIELDS) | None, PField(None, description="the force sensor"))
     defs["actuator"] = (table_model("actuator", ACTUATOR_FIELDS) | None, PField(None, description="the joints' actuators"))

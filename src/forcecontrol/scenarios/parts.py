@@ -7,6 +7,7 @@ from typing import Any
 
 from ..controllers import ImpedanceController, JointSpacePD, OperationalSpacePD
 from ..environments import ElasticPlane, LinearSpring
+from ..sim.limits import MAX_ANGLE_DEG
 from ..trajectories import LinearPath, SampledReference, Setpoint
 from .schema import TRAPEZOID_FIELDS, Field, register_controller, register_environment, register_reference
 
@@ -32,7 +33,8 @@ register_environment(
     {
         "point": Field("vector", True, doc="a point of the undeformed surface [m]"),
         "normal": Field("vector", doc="outward normal, from the environment into free space"),
-        "angle": Field("number", doc="planar alternative to normal: the plane's angle to x0 [deg]"),
+        "angle": Field("number", low=-MAX_ANGLE_DEG, high=MAX_ANGLE_DEG,
+                       doc="planar alternative to normal: the plane's angle to x0 [deg]"),
         "stiffness": Field("number", True, doc="stiffness along the normal [N/m]"),
         "damping": Field("number", default=0.0, doc="damping along the normal [N s/m]"),
     },

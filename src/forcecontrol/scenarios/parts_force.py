@@ -17,6 +17,7 @@ from ..controllers.force import (
     InnerVelocityForceController,
     ParallelForcePositionController,
 )
+from ..sim.limits import MAX_ANGLE_DEG
 from ..trajectories import Setpoint
 from .schema import Field, register_controller
 
@@ -25,9 +26,10 @@ _MOTION = {
     "damping": Field("gain", True, doc="K_D [N s/m]"),
     "stiffness": Field("gain", True, doc="K_P [N/m]"),
     "force_gain": Field("gain", True, doc="K_F, diagonal of C_F [m/N] (in the task frame)"),
-    "task_frame_angle": Field("number", doc="planar task frame: its x axis at this angle to x0 [deg]; "
-                                            "C_F is diagonal there, its origin is the start tip (the inner position "
-                                            "loop holds the start along axes without C_F) (default: the base frame)"),
+    "task_frame_angle": Field("number", low=-MAX_ANGLE_DEG, high=MAX_ANGLE_DEG,
+                              doc="planar task frame: its x axis at this angle to x0 [deg]; "
+                                  "C_F is diagonal there, its origin is the start tip (the inner position "
+                                  "loop holds the start along axes without C_F) (default: the base frame)"),
 }
 
 

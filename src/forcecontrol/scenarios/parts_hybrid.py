@@ -24,6 +24,7 @@ from ..controllers.impedance import ImpedanceController
 from ..environments.elastic import ElasticPlane
 from ..environments.rigid import PlaneConstraint, RigidEnvironment
 from ..errors import ParameterError, ScenarioError
+from ..sim.limits import MAX_ANGLE_DEG
 from ..task import SelectionMatrices, inclined_plane
 from ..trajectories import LinearPath
 from .schema import TRAPEZOID_FIELDS, Field, force_law_fields, register_controller, register_environment, register_reference
@@ -53,7 +54,8 @@ def _selection(p: dict[str, Any], ctx: dict[str, Any]) -> SelectionMatrices:
 
 
 _TASK_FIELDS = {
-    "angle": Field("number", doc="the plane's angle to x0 [deg] (Example 9.4 task; 45 by default)"),
+    "angle": Field("number", low=-MAX_ANGLE_DEG, high=MAX_ANGLE_DEG,
+                   doc="the plane's angle to x0 [deg] (Example 9.4 task; 45 by default)"),
     "force_selection": Field("gain", doc="alternative: S_f in the base frame, rows [[...], ...]"),
     "velocity_selection": Field("gain", doc="alternative: S_v in the base frame, reciprocal to S_f"),
 }
@@ -112,7 +114,8 @@ register_environment(
     {
         "point": Field("vector", True, doc="a point of the surface [m]"),
         "normal": Field("vector", doc="outward normal, from the environment into free space"),
-        "angle": Field("number", doc="planar alternative to normal: the plane's angle to x0 [deg]"),
+        "angle": Field("number", low=-MAX_ANGLE_DEG, high=MAX_ANGLE_DEG,
+                       doc="planar alternative to normal: the plane's angle to x0 [deg]"),
         "unilateral": Field("bool", default=True, doc="pushes only (lets go instead of pulling)"),
         "stabilisation_frequency": Field("number", default=100.0, doc="Baumgarte ω_b [rad/s]"),
     },
@@ -187,7 +190,8 @@ register_reference(
     "path-on-plane",
     {
         **TRAPEZOID_FIELDS,
-        "angle": Field("number", default=45.0, doc="the plane's angle to x0 [deg]: y_c = [−sin a, cos a]"),
+        "angle": Field("number", low=-MAX_ANGLE_DEG, high=MAX_ANGLE_DEG, default=45.0,
+                       doc="the plane's angle to x0 [deg]: y_c = [−sin a, cos a]"),
         "normal_force": Field("number", default=0.0, doc="λ_d along y_c [N] (negative: into the plane)"),
     },
     lambda p, ctx: TaskPath(p["start"], p["end"], p["duration"], p["accel_time"], p["start_time"],

@@ -46,6 +46,11 @@ class Field:
         default: value when absent (ignored when required).
         doc: one line for ``forcecontrol schema`` and error messages.
         choices: allowed values for ``"str"`` fields.
+        low, high: the allowed range of a ``"number"`` or ``"int"`` value, or of every entry of a
+            ``"vector"``/``"gain"`` (inclusive; None: unbounded on that side). Shown by
+            ``forcecontrol schema`` and named, with the value, when a value is outside it.
+        bound: a limit relative to the run, in words (e.g. "at most the run's samples"), shown
+            with the range; the builder checks it.
     """
 
     kind: str
@@ -53,6 +58,27 @@ class Field:
     default: Any = None
     doc: str = ""
     choices: tuple[str, ...] = ()
+    low: float | None = None
+    high: float | None = None
+    bound: str = ""
+
+    def range_text(self) -> str:
+        """The allowed range in words (``"in [0, 100000], at most the run's samples"``), or ``""``."""
+        if self.low is None and self.high is None:
+            return self.bound
+        what = "entries" if self.kind in ("vector", "gain") else ""
+        if self.low is None:
+            rng = f"at most {self.high:g}"
+        elif self.high is None:
+            rng = f"at least {self.low:g}"
+        else:
+            rng = f"in [{self.low:g}, {self.high:g}]"
+        return f"{what} {rng}".strip() + (f", {self.bound}" if self.bound else "")
+
+    def described(self) -> str:
+        """The doc with the range (what ``forcecontrol schema`` prints)."""
+        rng = self.range_text()
+        return f"{self.doc} (range: {rng})" if rng and self.doc else (f"range: {rng}" if rng else self.doc)
 
 
 @dataclass(frozen=True)
@@ -93,7 +119,15 @@ def register_reference(name: str, fields: dict[str, Field], build, doc: str = ""
 
 
 def _describe(v: Any) -> str:
-    return f"{v!r} ({type(v).__name__})"
+    if isinstance(v, int) and not isinstance(v, bool) and v.bit_length() > 64:  # no 4300-digit repr (ValueError)
+        return f"an integer of about {int(v.bit_length() * 0.30103) + 1} digits (int)"
+    text = repr(v)
+    return f"{text if len(text) <= 200 else text[:200] + '...'} ({type(v).__name__})"
+
+
+#: largest integer magnitude accepted anywhere in a scenario before any conversion to float or
+#: array (a 401-digit integer would raise OverflowError in float(); 2**63 is int64's range).
+MAX_INT = 2**63 - 1
 
 
 _EXPECTED = {
@@ -111,6 +145,10 @@ _EXPECTED = {
 def _expected(field: Field) -> str:
     if field.kind == "str" and field.choices:
         return "one of " + ", ".join(repr(c) for c in field.choices)
+    rng = field.range_text()
+    if field.kind in ("int", "number", "vector", "gain"):  # the range, or the size limit of any integer
+        rng = rng or f"{'entries ' if field.kind in ('vector', 'gain') else ''}of magnitude at most 2**63 - 1"
+        return f"{_EXPECTED[field.kind]} ({rng})"
     return _EXPECTED[field.kind]
 
 
@@ -118,9 +156,23 @@ def _expected(field: Field) -> str:
 
 
 def _finite(v: float | int) -> float:
+    if isinstance(v, int) and abs(v) > MAX_INT:  # checked before float(): no OverflowError
+        raise ValueError("too large")
     v = float(v)
     if not math.isfinite(v):
         raise ValueError("not finite")
+    return v
+
+
+def _bounded_int(v: int) -> int:
+    if abs(v) > MAX_INT:
+        raise ValueError("too large")
+    return v
+
+
+def _entry_value(v: float | int) -> float | int:
+    if isinstance(v, int) and abs(v) > MAX_INT:  # the constructors' np.asarray(float) would overflow
+        raise ValueError("too large")
     return v
 
 
@@ -131,12 +183,13 @@ def _annotation(field: Field) -> Any:
     from pydantic import AfterValidator, StrictBool, StrictFloat, StrictInt, StrictStr, conlist
 
     number = Annotated[StrictInt | StrictFloat, AfterValidator(_finite)]  # a scalar: finite, as a float
-    entry = StrictInt | StrictFloat  # an entry of a vector or gain: the constructors check its value
+    # an entry of a vector or gain: integers bounded (no OverflowError); the constructors check its value
+    entry = Annotated[StrictInt | StrictFloat, AfterValidator(_entry_value)]
     kind = field.kind
     if kind == "number":
         return number
     if kind == "int":
-        return StrictInt
+        return Annotated[StrictInt, AfterValidator(_bounded_int)]
     if kind == "bool":
         return StrictBool
     if kind == "str":
@@ -176,7 +229,7 @@ def table_model(name: str, fields: dict[str, Field], type_name: str | None = Non
     for i, (k, f) in enumerate(fields.items()):
         default = ... if f.required else f.default
         defs[f"f{i}"] = (_annotation(f) if f.required or f.default is not None else _annotation(f) | None,
-                         PField(default, alias=k, description=f.doc or None))
+                         PField(default, alias=k, description=f.described() or None))
     model = create_model(  # type: ignore[call-overload]
         name, __config__=ConfigDict(extra="forbid", populate_by_name=False, title=name), **defs,
     )
@@ -216,12 +269,40 @@ def check_value(where: str, key: str, field: Field, value: Any) -> Any:
     if adapter is None:
         adapter = _ADAPTERS[(field.kind, field.choices)] = TypeAdapter(_annotation(field))
     try:
-        return adapter.validate_python(value)
+        out = adapter.validate_python(value)
     except ValidationError:
         raise ScenarioError(f"{where}: key '{key}' must be {_expected(field)}; got {_describe(value)}") from None
+    check_range(where, key, field, out)
+    return out
 
 
 _ADAPTERS: dict[tuple[str, tuple[str, ...]], Any] = {}
+
+
+def _entries(value: Any) -> list[Any]:
+    if isinstance(value, (list, tuple)):
+        return [x for v in value for x in _entries(v)]
+    return [value]
+
+
+def check_range(where: str, key: str, field: Field, value: Any) -> None:
+    """Refuse a checked value (or any entry of a vector/gain) outside the field's ``[low, high]``.
+
+    Raises:
+        ScenarioError: naming the key, the allowed range and the value.
+    """
+    if value is None:
+        return
+    for v in _entries(value):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            continue
+        if not math.isfinite(v):  # NaN/inf: the finiteness checks name them (a scalar number never gets here)
+            continue
+        if (field.low is not None and v < field.low) or (field.high is not None and v > field.high):
+            raise ScenarioError(
+                f"{where}: key '{key}' must {'have' if field.kind in ('vector', 'gain') else 'be'} {field.range_text()} "
+                f"({field.doc or field.kind}); got {_describe(value)}"
+            )
 
 
 _ATOMS = (str, int, float, bool, type(None))
@@ -287,6 +368,9 @@ def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tupl
     except ValidationError as err:
         _raise_first(where, err, table, fields, extra_ok)
     out = checked.model_dump(by_alias=True)
+    for key, field in fields.items():
+        if field.low is not None or field.high is not None:
+            check_range(where, key, field, out.get(key))
     for key in extra_ok:
         if key in table:
             out[key] = table[key]

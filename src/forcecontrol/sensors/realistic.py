@@ -15,6 +15,12 @@ from .gravity import ToolGravity, _gravity_vector, planar_sensor_rotation
 __all__ = ["RealisticForceSensor"]
 
 
+#: longest transport delay and most zeroing readings [samples] (100 s at 1 kHz): checked before the
+#: delay line or the zeroing readings are allocated (``forcecontrol.sim.limits`` lists every limit).
+MAX_DELAY_SAMPLES = 100_000
+MAX_ZEROING_SAMPLES = 100_000
+
+
 class RealisticForceSensor(ForceSensor):
     """A wrist F/T sensor as on a real arm, with the usual corrections; runs in the Python loop.
 
@@ -84,9 +90,12 @@ class RealisticForceSensor(ForceSensor):
         if not np.all(np.isfinite(self.drift)):
             raise ParameterError(f"drift must be finite [N/s]; got {self.drift.tolist()}")
         self.resolution = nonnegative_scalar("resolution", resolution, "N")
-        for name, v in (("delay_samples", delay_samples), ("zeroing_samples", zeroing_samples)):
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-                raise ParameterError(f"{name} must be a non-negative integer; got {v!r}")
+        for name, v, cap in (("delay_samples", delay_samples, MAX_DELAY_SAMPLES),
+                             ("zeroing_samples", zeroing_samples, MAX_ZEROING_SAMPLES)):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0 or v > cap:  # before any buffer
+                shown = repr(v) if not isinstance(v, int) or v.bit_length() <= 64 else \
+                    f"an integer of about {int(v.bit_length() * 0.30103) + 1} digits"
+                raise ParameterError(f"{name} must be a non-negative integer, at most {cap:,} [samples]; got {shown}")
         self.delay_samples = int(delay_samples)
         self.zeroing_samples = int(zeroing_samples)
         for name, part in (("tool", tool), ("tool_estimate", tool_estimate)):

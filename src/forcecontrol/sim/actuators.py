@@ -26,6 +26,7 @@ import numpy as np
 
 from ..core.validate import as_vector
 from ..errors import DimensionError, ParameterError
+from ..sensors.realistic import MAX_DELAY_SAMPLES
 
 __all__ = ["Actuator", "ActuatorState"]
 
@@ -70,8 +71,12 @@ class Actuator:
         object.__setattr__(self, "coulomb_band", _per_joint("coulomb_band", self.coulomb_band, None, positive=True))
         object.__setattr__(self, "resolution", _per_joint("resolution", self.resolution, None))
         d = self.delay
-        if isinstance(d, bool) or not isinstance(d, (int, np.integer, float)) or not math.isfinite(d) or d != int(d) or d < 0:
-            raise ParameterError(f"delay must be a whole number of samples >= 0; got {d!r}")
+        if isinstance(d, int) and abs(d) > MAX_DELAY_SAMPLES:  # before int()/float(): no OverflowError, no huge deque
+            raise ParameterError(f"delay must be a whole number of samples in [0, {MAX_DELAY_SAMPLES:,}]; "
+                                 f"got an integer of about {int(d.bit_length() * 0.30103) + 1} digits")
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer, float)) or not math.isfinite(d) or d != int(d) or d < 0 \
+                or d > MAX_DELAY_SAMPLES:
+            raise ParameterError(f"delay must be a whole number of samples in [0, {MAX_DELAY_SAMPLES:,}]; got {d!r}")
         object.__setattr__(self, "delay", int(d))
 
     def check(self, n: int) -> None:

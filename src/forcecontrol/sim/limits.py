@@ -10,8 +10,15 @@ from __future__ import annotations
 import math
 
 from ..errors import ParameterError
+from ..sensors.realistic import MAX_DELAY_SAMPLES as _SENSOR_DELAY
+from ..sensors.realistic import MAX_ZEROING_SAMPLES as _SENSOR_ZEROING
 
-__all__ = ["MAX_LOG_BYTES", "MAX_SUBSTEPS", "MAX_STEPS", "RK4_STABILITY", "check_run_size", "check_substeps"]
+__all__ = [
+    "MAX_LOG_BYTES", "MAX_SUBSTEPS", "MAX_STEPS", "RK4_STABILITY", "check_run_size", "check_substeps",
+    "MAX_DELAY_SAMPLES", "MAX_ZEROING_SAMPLES", "MAX_SWEEP_VALUES", "MAX_EXPRESSION_CHARS", "MAX_FORCE", "MAX_TORQUE",
+    "MAX_FORCE_RESOLUTION", "MAX_TORQUE_RESOLUTION", "MAX_JOINT_POSITION", "MAX_JOINT_SPEED", "MAX_TOOL_MASS",
+    "MAX_ANGLE_DEG", "check_count",
+]
 
 #: default memory budget for a run's logs [bytes] (``simulate(max_log_bytes=...)`` changes it).
 MAX_LOG_BYTES = 2 * 1024**3
@@ -26,6 +33,52 @@ MAX_STEPS = {"compiled": 2_000_000_000, "python": 50_000_000}
 #: negative real axis (a damper); beyond it the contact is not resolved (the penetration of one
 #: step throws the tool off, or the run blows up).
 RK4_STABILITY = 2.78
+
+# ----------------------------------------------------------------------------- sizes and ranges of values
+# Every buffer a command allocates from a user's number is bounded here, before it is allocated
+# (docs/limits.md lists them): a run's logs (MAX_LOG_BYTES), a sensor's zeroing readings and delay
+# line, an actuator's delay line, a sweep's values per parameter, and the text of one expression.
+
+#: longest transport or actuation delay [samples] (also at most the run's samples): 100 s at 1 kHz;
+#: most readings a sensor averages at start to estimate its bias (100 s at 1 kHz). Defined with the
+#: sensor, which checks them in its constructor.
+MAX_DELAY_SAMPLES = _SENSOR_DELAY
+MAX_ZEROING_SAMPLES = _SENSOR_ZEROING
+#: most values one sweep parameter (logspace/linspace/geomspace/range or a list), or a random design, may have.
+MAX_SWEEP_VALUES = 1_000_000
+#: longest text of one parameter value (``-p PATH=VALUES`` or a ``[sweep.parameters]`` string) [characters].
+MAX_EXPRESSION_CHARS = 10_000
+#: largest force magnitude a sensor's noise, bias or drift may have [N] (far beyond any arm's load).
+MAX_FORCE = 1e6
+#: largest torque magnitude of a friction coefficient [N m] (or [N m s/rad]).
+MAX_TORQUE = 1e6
+#: largest force quantum [N]: a coarser converter reads every contact force of an arm as zero.
+MAX_FORCE_RESOLUTION = 1e3
+#: largest torque quantum [N m]: a coarser one rounds every command of an arm to zero.
+MAX_TORQUE_RESOLUTION = 1e3
+#: largest joint position magnitude [rad] (or [m] for a prismatic joint): 16 turns.
+MAX_JOINT_POSITION = 100.0
+#: largest joint speed magnitude [rad/s] (initial velocities, the smooth-sign band).
+MAX_JOINT_SPEED = 1e3
+#: largest tool mass after the sensor [kg].
+MAX_TOOL_MASS = 1e3
+#: largest angle magnitude [deg] (a plane's or task frame's angle): one turn either way. Refused
+#: beyond, not wrapped: 1e300 or 7000 is a units mistake (radians ×1000, or a typo), not a direction.
+MAX_ANGLE_DEG = 360.0
+
+
+def check_count(what: str, count: float, limit: int, fix: str = "") -> int:
+    """``count`` as an int after checking it is a whole number in [0, limit] (before anything is allocated).
+
+    Raises:
+        ParameterError: naming ``what``, the allowed range and the value.
+    """
+    if isinstance(count, bool) or not isinstance(count, (int, float)) or (isinstance(count, float) and not math.isfinite(count)):
+        raise ParameterError(f"{what} must be a whole number in [0, {limit:,}]; got {count!r}")
+    if count < 0 or count > limit or count != int(count):
+        shown = f"{count:.6g}" if isinstance(count, float) or abs(count) > 10**15 else f"{count:,}"
+        raise ParameterError(f"{what} must be a whole number in [0, {limit:,}]; got {shown}" + (f"; {fix}" if fix else ""))
+    return int(count)
 
 
 def _human(nbytes: float) -> str:

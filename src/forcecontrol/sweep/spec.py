@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ScenarioError
+from ..sim.limits import MAX_EXPRESSION_CHARS, MAX_SWEEP_VALUES
 
 __all__ = ["SweepError", "SweepWarning", "SweepParameter", "SweepDefinition", "parse_parameter", "parse_values"]
 
@@ -64,35 +65,57 @@ def _plain(v: Any) -> Any:
     return v
 
 
+def _check_length(path: str, text: str) -> None:
+    """Refuse a value's text longer than MAX_EXPRESSION_CHARS before it is parsed (no MemoryError in the parser)."""
+    if len(text) > MAX_EXPRESSION_CHARS:
+        raise SweepError(
+            f"parameter '{path}': the value is {len(text):,} characters long, more than the {MAX_EXPRESSION_CHARS:,} "
+            "allowed; give a range (logspace/linspace/geomspace/range) or a shorter list"
+        )
+
+
 def _literal(path: str, text: str) -> Any:
     """A number, string or (nested) list written in TOML/Python syntax; bare words are strings."""
     t = text.strip()
     if not t:
         raise SweepError(f"parameter '{path}': empty value; expected a number, a string or a list")
+    _check_length(path, t)
     low = t.lower()
     if low in ("true", "false"):
         return low == "true"
     try:
         return _plain(ast.literal_eval(t))
-    except (ValueError, SyntaxError):
+    except (ValueError, SyntaxError, MemoryError, RecursionError):  # the parser's own depth limits
         if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-]*", t):
             return t
-        raise SweepError(f"parameter '{path}': cannot read value {t!r}; expected a number, a string or a list") from None
+        raise SweepError(f"parameter '{path}': cannot read value {t[:200]!r}; expected a number, a string or a list") from None
 
 
 def _args(path: str, name: str, body: str, counts: tuple[int, ...]) -> list[float]:
+    _check_length(path, body)
     try:
         vals = ast.literal_eval(f"[{body}]")
-    except (ValueError, SyntaxError):
+    except (ValueError, SyntaxError, MemoryError, RecursionError):
         vals = None
     if vals is None or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
-        raise SweepError(f"parameter '{path}': {name}(...) takes numbers; got {name}({body})")
+        raise SweepError(f"parameter '{path}': {name}(...) takes numbers; got {name}({body[:200]})")
+    if any(isinstance(v, int) and v.bit_length() > 63 for v in vals):  # before float(): no OverflowError
+        raise SweepError(f"parameter '{path}': {name}(...) takes numbers of magnitude at most 2**63 - 1; "
+                         f"got an integer of {max(v.bit_length() for v in vals if isinstance(v, int))} bits")
     if len(vals) not in counts:
         want = " or ".join(str(c) for c in counts)
         raise SweepError(f"parameter '{path}': {name}(...) takes {want} numbers; got {len(vals)}: {name}({body})")
     if not all(math.isfinite(v) for v in vals):
         raise SweepError(f"parameter '{path}': {name}(...) needs finite numbers; got {name}({body})")
     return vals
+
+
+def _check_count(path: str, name: str, body: str, n: float) -> None:
+    if n > MAX_SWEEP_VALUES:
+        raise SweepError(
+            f"parameter '{path}': {name}({body}) gives {n:,.0f} values, more than the {MAX_SWEEP_VALUES:,} one "
+            f"parameter may have (allowed: 1 to {MAX_SWEEP_VALUES:,}); use fewer points"
+        )
 
 
 def parse_values(path: str, spec: Any) -> list[Any]:
@@ -106,6 +129,7 @@ def parse_values(path: str, spec: Any) -> list[Any]:
     elif isinstance(spec, (int, float, bool)) and not isinstance(spec, str):
         values = [spec]
     elif isinstance(spec, str):
+        _check_length(path, spec)
         m = _FUNC.match(spec)
         if m and m.group(1) in _GRID_FUNCS:
             name, body = m.group(1), m.group(2)
@@ -116,6 +140,8 @@ def parse_values(path: str, spec: Any) -> list[Any]:
                 ints = [int(v) for v in r]
                 if len(ints) == 3 and ints[2] == 0:
                     raise SweepError(f"parameter '{path}': range(...) step must not be 0; got range({body})")
+                r = range(*ints)  # its length is known before the list is made (len() overflows past 2**63)
+                _check_count(path, name, body, max(0, (r.stop - r.start + r.step - (1 if r.step > 0 else -1)) // r.step))
                 values = list(range(*ints))
             else:
                 lo, hi, n = _args(path, name, body, (3,))
@@ -123,6 +149,7 @@ def parse_values(path: str, spec: Any) -> list[Any]:
                     raise SweepError(
                         f"parameter '{path}': {name}(start, stop, num) needs a positive integer num; got {n!r}"
                     )
+                _check_count(path, name, body, n)  # the count is known: refused before materialising
                 if name == "geomspace" and (lo <= 0 or hi <= 0):
                     raise SweepError(f"parameter '{path}': geomspace(...) needs positive ends; got geomspace({body})")
                 if name == "logspace":
@@ -234,6 +261,8 @@ def parse_parameter(path: str, spec: Any, design: str = "grid") -> SweepParamete
             f"parameter path {path!r} is malformed; expected dotted keys with optional indices, "
             "e.g. 'environment.stiffness' or 'controller.force_gain[0]'"
         )
+    if isinstance(spec, str):
+        _check_length(path, spec)
     if design == "random" and isinstance(spec, str):
         m = _FUNC.match(spec)
         if m and m.group(1) in _RANDOM_FUNCS:
@@ -283,8 +312,10 @@ class SweepDefinition:
         if dup:
             raise SweepError(f"parameter '{dup[0]}' is given more than once")
         if self.design == "random":
-            if not isinstance(self.samples, int) or isinstance(self.samples, bool) or self.samples < 1:
-                raise SweepError(f"samples must be a positive integer for design = 'random'; got {self.samples!r}")
+            if not isinstance(self.samples, int) or isinstance(self.samples, bool) or not 1 <= self.samples <= MAX_SWEEP_VALUES:
+                shown = repr(self.samples) if not isinstance(self.samples, int) or self.samples.bit_length() <= 64 else \
+                    f"an integer of {self.samples.bit_length()} bits"
+                raise SweepError(f"samples must be an integer in [1, {MAX_SWEEP_VALUES:,}] for design = 'random'; got {shown}")
         elif self.samples:
             raise SweepError(f"samples is only used by design = 'random'; got samples = {self.samples!r} with a grid")
         for name in ("settle_band", "stable_band"):
