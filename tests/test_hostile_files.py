@@ -206,3 +206,118 @@ def test_a_special_urdf_path_is_refused(tmp_path, kind):
     p = tmp_path / "x.urdf"
     p.mkdir() if kind == "folder" else os.mkfifo(p)
     _refuse(lambda: check_urdf(p), p, ParameterError, "a folder" if kind == "folder" else "a FIFO")
+
+
+# ----------------------------------------------------------------------------- recorded data
+
+
+def _run(N=6):
+    t = 100.0 + 0.01 * np.arange(N)
+    q = np.column_stack([np.sin(t), np.cos(t)])
+    return t, q, -q
+
+
+def _corrupt_mcap(path, bad_index=2):
+    """An MCAP file written by the mcap library whose joint-state message bad_index holds truncated CDR bytes."""
+    from mcap.writer import Writer
+
+    from rosfiles_helpers import _messages, _typestore
+
+    ts = _typestore()
+    t, q, qd = _run()
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start(profile="ros2", library="forcecontrol-tests")
+        channels, k = {}, 0
+        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, None, t, None, ("j1", "j2"), "base"):
+            if topic not in channels:
+                text = ts.generate_msgdef(msgtype, ros_version=2)[0]
+                sid = w.register_schema(name=msgtype, encoding="ros2msg", data=text.encode())
+                channels[topic] = w.register_channel(topic=topic, message_encoding="cdr", schema_id=sid)
+            data = bytes(ts.serialize_cdr(msg, msgtype))
+            if k == bad_index:
+                data = data[:7]
+            w.add_message(channels[topic], log_time=ns, data=data, publish_time=ns)
+            k += 1
+        w.finish()
+    return path
+
+
+def _corrupt_bag(path, bad_index=2):
+    """A rosbag2 SQLite bag written by rosbags whose joint-state message bad_index is cut to 7 bytes."""
+    import sqlite3
+
+    from rosfiles_helpers import write_bag
+
+    write_bag(path, *_run())
+    db = next(path.glob("*.db3"))
+    con = sqlite3.connect(db)
+    ids = [r[0] for r in con.execute("SELECT id FROM messages ORDER BY timestamp")]
+    con.execute("UPDATE messages SET data = substr(data, 1, 7) WHERE id = ?", (ids[bad_index],))
+    con.commit()
+    con.close()
+    return path
+
+
+@pytest.mark.parametrize("kind", ["bag", "mcap"])
+def test_a_corrupt_message_is_refused_naming_file_topic_and_index(tmp_path, kind):
+    """One corrupt message (was a raw SerdeError): MeasurementError naming file, topic, index; skip_corrupt skips it."""
+    from forcecontrol.errors import MeasurementError
+    from forcecontrol.realarm.io import read_bag, read_mcap
+
+    pytest.importorskip("rosbags")
+    pytest.importorskip("mcap")
+    p = _corrupt_bag(tmp_path / "run_bag") if kind == "bag" else _corrupt_mcap(tmp_path / "run.mcap")
+    read = read_bag if kind == "bag" else read_mcap
+    _refuse(lambda: read(p, wrench_topic=None), p, MeasurementError,
+            "message 2 of topic '/joint_states' (sensor_msgs/msg/JointState) cannot be decoded", "skip_corrupt=True")
+    with pytest.warns(UserWarning, match="skipped 1 corrupt message"):
+        run = read(p, wrench_topic=None, skip_corrupt=True)
+    assert run.t.shape == (5,) and run.metadata["skipped_corrupt"] == 1
+    t, q, _ = _run()
+    np.testing.assert_allclose(run.q, np.delete(q, 2, axis=0))
+
+
+def _table(tmp_path, name, text):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+TABLE_CASES = [
+    ("empty.csv", "", ParameterError, "cannot be read as csv: No columns to parse"),
+    ("nan.csv", f"t,q1,qd1,note\n0,1,1,{SECRET}\n1,nan,2,x\n", "MeasurementError", "q[0] is not finite at row 1"),
+    ("dup_time.csv", f"t,q1,qd1,note\n0,1,1,{SECRET}\n0,1,2,x\n", "MeasurementError", "row 1 has t = 0 s after t = 0 s"),
+    ("back_time.csv", f"t,q1,qd1,note\n0,1,1,{SECRET}\n2,1,2,x\n1,1,2,x\n", "MeasurementError",
+     "row 2 has t = 1 s after t = 2 s"),
+    ("text.csv", f"t,q1,qd1\n0,1,1\n1,{SECRET},2\n", "MeasurementError", "the first non-number is at data row 1"),
+    ("ragged.csv", f"t,q1,qd1\n0,1,1\n1,2,2,{SECRET}\n", ParameterError, "Expected 3 fields in line 3, saw 4"),
+]
+
+
+@pytest.mark.parametrize("name, text, exc, problem", TABLE_CASES, ids=[c[0] for c in TABLE_CASES])
+def test_a_bad_recorded_table_is_refused_naming_the_row(tmp_path, name, text, exc, problem):
+    """Empty, NaN, repeated or backwards time, text, ragged rows: the library's error naming the file and the row."""
+    from forcecontrol.errors import MeasurementError
+    from forcecontrol.realarm.io import read_table
+
+    exc = MeasurementError if exc == "MeasurementError" else exc
+    p = _table(tmp_path, name, text)
+    _refuse(lambda: read_table(p), p, exc, problem)
+
+
+@pytest.mark.parametrize("kind", ["folder.csv", "fifo.csv", "fifo.mcap", "folder.mcap", "big.csv"])
+def test_a_special_or_oversized_recording_is_refused_unopened(tmp_path, kind):
+    """Folders and FIFOs named like recordings, and files above max_bytes, are refused without reading them."""
+    from forcecontrol.realarm.io import read_recording
+
+    p = tmp_path / kind
+    if kind.startswith("folder"):
+        p.mkdir()
+    elif kind.startswith("fifo"):
+        os.mkfifo(p)
+    else:
+        p.write_text("t,q1,qd1\n" + "".join(f"{i},0,0\n" for i in range(100)))
+    problem = {"folder": "a folder", "fifo": "a FIFO", "big": "above the limit of 64 bytes"}[kind.split(".")[0]]
+    kwargs = {"max_bytes": 64} if kind == "big.csv" else {}
+    _refuse(lambda: read_recording(p, **kwargs), p, ParameterError, problem)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ...core.files import MAX_RECORDING_BYTES, check_regular
 from ...errors import MeasurementError, ParameterError
 from ..conventions import BY_END_EFFECTOR
 from ..conventions.ros import stamp_to_seconds
@@ -42,6 +44,27 @@ def _check_topics(source: str, present: dict[str, str], wanted: dict[str, tuple[
             raise ParameterError(f"{source}: topic {topic!r} is {present[topic]}, not {msgtype}; the file has: {listing}")
 
 
+def _decode_all(
+    source: str, topic: str, raws: Iterable[tuple[str, int, bytes]], decode: Callable[[bytes, str], Any],
+    skip_corrupt: bool, skipped: list[str],
+) -> list[tuple[int, Any]]:
+    """Decode (msgtype, log time [ns], CDR bytes) of one topic; a corrupt message is refused or skipped with a warning."""
+    out, bad = [], 0
+    for k, (msgtype, ns, raw) in enumerate(raws):
+        try:
+            out.append((ns, decode(raw, msgtype)))
+        except Exception as exc:  # rosbags' serde raises its own types (SerdeError) and struct/Index errors
+            problem = f"{source}: message {k} of topic {topic!r} ({msgtype}) cannot be decoded ({type(exc).__name__})"
+            if not skip_corrupt:
+                raise MeasurementError(problem + "; pass skip_corrupt=True to skip corrupt messages with a warning") from None
+            bad += 1
+            skipped.append(problem)
+    if bad:
+        warnings.warn(f"{source}: skipped {bad} corrupt message(s) of topic {topic!r} (skip_corrupt=True)", UserWarning,
+                      stacklevel=3)
+    return out
+
+
 def _assemble(
     source: str,
     joints: Iterable[tuple[int, Any]],
@@ -52,6 +75,7 @@ def _assemble(
     wrench_sense: str,
     wrench_point: str | None,
     stamps: str,
+    skipped: Sequence[str] = (),
 ) -> RecordedRun:
     """Stack decoded messages ((receive time [ns], message) pairs) into a RecordedRun."""
     if stamps not in ("header", "receive"):
@@ -110,13 +134,15 @@ def _assemble(
         tau=np.asarray(tau)[order] if has_tau else None, wrench=wrench, t_wrench=t_wrench,
         wrench_frame=frame or "base", wrench_point=wrench_point or frame or "base", wrench_sense=wrench_sense,
         joint_names=tuple(names or ()), time_origin=origin, source=source,
+        metadata={"skipped_corrupt": len(skipped)} if skipped else {},
     )
 
 
 def read_bag(
     path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
     joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
-    wrench_point: str | None = None, stamps: str = "header",
+    wrench_point: str | None = None, stamps: str = "header", skip_corrupt: bool = False,
+    max_bytes: int = MAX_RECORDING_BYTES,
 ) -> RecordedRun:
     """Read a ROS 2 bag (a rosbag2 folder; SQLite or MCAP storage) with the rosbags library.
 
@@ -131,6 +157,9 @@ def read_bag(
             library's, by the end-effector on the environment).
         wrench_point: the moment's reference point (default: the header's frame origin).
         stamps: ``"header"`` (message stamps) or ``"receive"`` (the bag's log times).
+        skip_corrupt: a message that cannot be decoded is refused (False, the default) or skipped
+            with a warning giving the count (True; the count is in ``metadata["skipped_corrupt"]``).
+        max_bytes: the size limit of the file (of each storage file of a bag) [bytes], default 2 GiB.
 
     Returns:
         A RecordedRun with times relative to the first stamp (``time_origin`` holds it); the
@@ -138,19 +167,27 @@ def read_bag(
 
     Raises:
         ParameterError: no such bag, or a topic missing or of another type (the message lists
-            the bag's topics and types).
+            the bag's topics and types); a special or oversized file.
+        MeasurementError: a message that cannot be decoded (file, topic, message index and the
+            decoder's error type named), unless ``skip_corrupt``.
     """
     from rosbags.rosbag2 import Reader
 
     path = Path(path)
     if not path.exists():
         raise ParameterError(f"ROS 2 bag {str(path)!r} does not exist")
+    if not path.is_dir():
+        raise ParameterError(f"ROS 2 bag {str(path)!r} must be a bag folder (with metadata.yaml)")
+    for f in sorted(path.iterdir()):
+        if f.name == "metadata.yaml" or f.suffix in (".db3", ".mcap"):
+            check_regular(f, "ROS 2 bag file", max_bytes)
     ts = _typestore()
+    skipped: list[str] = []
     try:
         reader = Reader(path)
         reader.open()
     except Exception as exc:  # rosbags raises its own error types
-        raise ParameterError(f"{path}: cannot be opened as a ROS 2 bag: {exc}") from exc
+        raise ParameterError(f"{path}: cannot be opened as a ROS 2 bag ({type(exc).__name__})") from None
     try:
         present = {c.topic: c.msgtype for c in reader.connections}
         _check_topics(str(path), present, {"joint-state": (joint_topic, JOINT_STATE), "wrench": (wrench_topic, WRENCH_STAMPED)})
@@ -159,21 +196,28 @@ def read_bag(
             if topic is None:
                 return []
             conns = [c for c in reader.connections if c.topic == topic]
-            return [(ns, ts.deserialize_cdr(raw, c.msgtype)) for c, ns, raw in reader.messages(connections=conns)]
+            raws = ((c.msgtype, ns, raw) for c, ns, raw in reader.messages(connections=conns))
+            return _decode_all(str(path), topic, raws, ts.deserialize_cdr, skip_corrupt, skipped)
 
-        joints, wrenches = stream(joint_topic), stream(wrench_topic)
+        try:
+            joints, wrenches = stream(joint_topic), stream(wrench_topic)
+        except MeasurementError:
+            raise
+        except Exception as exc:  # the storage itself (SQLite, MCAP) is corrupt or truncated
+            raise MeasurementError(f"{path}: the bag's storage is corrupt or truncated ({type(exc).__name__})") from None
     finally:
         reader.close()
     return _assemble(
         str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
-        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps,
+        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped,
     )
 
 
 def read_mcap(
     path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
     joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
-    wrench_point: str | None = None, stamps: str = "header",
+    wrench_point: str | None = None, stamps: str = "header", skip_corrupt: bool = False,
+    max_bytes: int = MAX_RECORDING_BYTES,
 ) -> RecordedRun:
     """Read an MCAP file of CDR-encoded ROS 2 messages (mcap library; decoded with rosbags' serde).
 
@@ -181,21 +225,25 @@ def read_mcap(
     (``ros2msg`` encoding) and the messages ``cdr``-encoded.
 
     Raises:
-        ParameterError: no such file, not an MCAP file, a topic missing or of another type (the
-            message lists the file's topics), or messages in another encoding.
+        ParameterError: no such file, not an MCAP file, a special or oversized file, a topic
+            missing or of another type (the message lists the file's topics), or messages in another encoding.
+        MeasurementError: a corrupt or truncated file, or a message that cannot be decoded (file,
+            topic, message index named), unless ``skip_corrupt``.
     """
     from mcap.reader import make_reader
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise ParameterError(f"MCAP file {str(path)!r} does not exist")
+    check_regular(path, "MCAP file", max_bytes)
     ts = _typestore()
+    skipped: list[str] = []
     with path.open("rb") as f:
         try:
             reader = make_reader(f)
             summary = reader.get_summary()
         except Exception as exc:  # the mcap library raises its own error types
-            raise ParameterError(f"{path}: cannot be read as an MCAP file: {exc}") from exc
+            raise ParameterError(f"{path}: cannot be read as an MCAP file ({type(exc).__name__})") from None
         channels = summary.channels if summary is not None else {}
         schemas = summary.schemas if summary is not None else {}
         present = {ch.topic: (schemas[ch.schema_id].name if ch.schema_id in schemas else "?") for ch in channels.values()}
@@ -203,14 +251,17 @@ def read_mcap(
         for ch in channels.values():
             if ch.topic in (joint_topic, wrench_topic) and ch.message_encoding != "cdr":
                 raise ParameterError(f"{path}: topic {ch.topic!r} is encoded as {ch.message_encoding!r}; expected 'cdr' (ROS 2)")
-        joints: list[tuple[int, Any]] = []
-        wrenches: list[tuple[int, Any]] = []
+        raw: dict[str, list[tuple[str, int, bytes]]] = {t: [] for t in (joint_topic, wrench_topic) if t is not None}
+        try:
+            for schema, channel, message in reader.iter_messages(topics=list(raw)):
+                raw[channel.topic].append((schema.name, message.log_time, message.data))
+        except Exception as exc:  # the mcap library raises its own error types (truncated chunk, bad CRC, ...)
+            raise MeasurementError(f"{path}: the MCAP file is corrupt or truncated ({type(exc).__name__})") from None
         decode: Callable[[bytes, str], Any] = ts.deserialize_cdr
-        topics = [t for t in (joint_topic, wrench_topic) if t is not None]
-        for schema, channel, message in reader.iter_messages(topics=topics):
-            item = (message.log_time, decode(message.data, schema.name))
-            (joints if channel.topic == joint_topic else wrenches).append(item)
+        joints = _decode_all(str(path), joint_topic, raw[joint_topic], decode, skip_corrupt, skipped)
+        wrenches = [] if wrench_topic is None else _decode_all(str(path), wrench_topic, raw[wrench_topic], decode,
+                                                                skip_corrupt, skipped)
     return _assemble(
         str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
-        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps,
+        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped,
     )

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ...core.files import MAX_RECORDING_BYTES, check_regular
 from ...errors import MeasurementError, ParameterError
 from ..conventions import BY_END_EFFECTOR
 from .recorded import RecordedRun
@@ -49,6 +50,7 @@ def read_table(
     wrench_frame: str = "base",
     wrench_point: str = "end-effector",
     wrench_sense: str = BY_END_EFFECTOR,
+    max_bytes: int = MAX_RECORDING_BYTES,
 ) -> RecordedRun:
     """Read a CSV or Parquet table of a recorded run (columns: :data:`TABLE_COLUMNS`).
 
@@ -57,9 +59,11 @@ def read_table(
         format: ``"csv"`` or ``"parquet"`` (default: from the suffix).
         wrench: ``"measured"`` (the ``f*_measured`` columns when present, else ``f*``) or ``"true"``.
         wrench_frame, wrench_point, wrench_sense: the wrench's convention (default: the library's).
+        max_bytes: the size limit [bytes] (default 2 GiB); a folder, FIFO or device is refused unopened.
 
     Raises:
-        ParameterError: an unknown format or option; a column missing (named, with those present).
+        ParameterError: an unknown format or option; a special or oversized file; a column
+            missing (named, with those present).
         MeasurementError: time not increasing, NaN or inf in a column (named, with the row).
     """
     import pandas as pd
@@ -70,12 +74,15 @@ def read_table(
         raise ParameterError(f"format must be 'csv' or 'parquet' (or a .csv/.parquet file); got {format!r} for {str(path)!r}")
     if wrench not in ("measured", "true"):
         raise ParameterError(f"wrench must be 'measured' or 'true'; got {wrench!r}")
-    if not path.is_file():
+    if not path.exists():
         raise ParameterError(f"recorded data file {str(path)!r} does not exist")
+    check_regular(path, "recorded data file", max_bytes)
     try:
         df = pd.read_csv(path) if fmt == "csv" else pd.read_parquet(path)
-    except Exception as exc:  # pandas/pyarrow raise many kinds
-        raise ParameterError(f"{path}: cannot be read as {fmt}: {exc}") from exc
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:  # their text names lines and counts, not content
+        raise ParameterError(f"{path}: cannot be read as {fmt}: {str(exc).strip()[:200]}") from None
+    except Exception as exc:  # pandas/pyarrow raise many kinds; their text may quote the file
+        raise ParameterError(f"{path}: cannot be read as {fmt} ({type(exc).__name__})") from None
     df.columns = [str(c).strip() for c in df.columns]
     cols = list(df.columns)
     n = _numbered(cols, "q")
@@ -93,8 +100,10 @@ def read_table(
         if not (re.fullmatch(r"t|q\d+|qd\d+|tau\d+|u\d+|[fm][xyz](_measured)?", c)):
             continue
         if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
+            bad = pd.to_numeric(df[c], errors="coerce").isna() & df[c].notna()
+            row = int(np.flatnonzero(bad.to_numpy())[0]) if bad.any() else 0
             raise MeasurementError(
-                f"{path}: column {c!r} is not numeric (dtype {df[c].dtype}); first values {df[c].head(3).tolist()}"
+                f"{path}: column {c!r} is not numeric (dtype {df[c].dtype}); the first non-number is at data row {row}"
             )
     tau_prefix = "tau" if _numbered(cols, "tau") >= n else ("u" if _numbered(cols, "u") >= n else None)
     names = _wrench_names(cols, measured=True) if wrench == "measured" else []
