@@ -321,3 +321,70 @@ def test_a_special_or_oversized_recording_is_refused_unopened(tmp_path, kind):
     problem = {"folder": "a folder", "fifo": "a FIFO", "big": "above the limit of 64 bytes"}[kind.split(".")[0]]
     kwargs = {"max_bytes": 64} if kind == "big.csv" else {}
     _refuse(lambda: read_recording(p, **kwargs), p, ParameterError, problem)
+
+
+# ----------------------------------------------------------------------------- calibration data
+
+
+def _planar_readings(angles_rad, mass=1.2, g=9.81, bias=(0.3, -0.2)):
+    """Planar free-space forces f_S = −R(φ)ᵀ g m + b_f (the ToolGravity model written out, g along −y)."""
+    rows = []
+    for a in angles_rad:
+        c, s = np.cos(a), np.sin(a)
+        u = np.array([[c, s], [-s, c]]) @ np.array([0.0, -g])  # R(φ)ᵀ g
+        f = -u * mass + np.asarray(bias)
+        rows.append((a, f[0], f[1]))
+    return rows
+
+
+def test_planar_angles_in_degrees_are_refused_and_read_with_degrees(tmp_path):
+    """Angles written in degrees (gave a mass of about −0.1 kg) are refused; --degrees reads them: mass 1.2 kg."""
+    from forcecontrol.realarm.calibration import calibrate, read_calibration_data
+
+    rad = np.deg2rad([0.0, 60.0, 120.0, 180.0, 240.0, 300.0])
+    p = tmp_path / "deg.csv"
+    p.write_text("angle,fx,fy\n" + "".join(f"{np.rad2deg(a):.12g},{fx:.12g},{fy:.12g}\n" for a, fx, fy in _planar_readings(rad)))
+    _refuse(lambda: read_calibration_data(p), p, ParameterError, "beyond ±2π", "--degrees")
+    r = calibrate(*read_calibration_data(p, degrees=True)[:2])
+    assert r.mass == pytest.approx(1.2, abs=1e-9)
+
+
+def test_the_calibrate_command_takes_degrees(tmp_path):
+    """`forcecontrol calibrate --degrees` reads the degree angles (mass 1.2 kg); without it the command refuses them."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli.app import app
+
+    rad = np.deg2rad([0.0, 60.0, 120.0, 180.0, 240.0, 300.0])
+    p = tmp_path / "deg.csv"
+    p.write_text("angle,fx,fy\n" + "".join(f"{np.rad2deg(a):.12g},{fx:.12g},{fy:.12g}\n" for a, fx, fy in _planar_readings(rad)))
+    bad = CliRunner().invoke(app, ["calibrate", str(p), "--json"])
+    assert bad.exit_code != 0 and "--degrees" in bad.output
+    ok = CliRunner().invoke(app, ["calibrate", str(p), "--json", "--degrees"])
+    assert ok.exit_code == 0, ok.output
+    import json
+
+    assert json.loads(ok.output)["mass"] == pytest.approx(1.2, abs=1e-9)
+
+
+def test_a_negative_mass_within_the_noise_is_never_reported():
+    """A bare sensor whose least-squares mass comes out negative: reported as 0 kg with a note and a warning, bias = mean."""
+    from forcecontrol.realarm.calibration import calibrate
+
+    angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
+    R = np.array([[[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]] for a in angles])
+    F = np.array([[fx, fy] for _, fx, fy in _planar_readings(angles, mass=0.0)])
+    F += np.random.default_rng(3).normal(0.0, 0.5, F.shape)  # this noise gives m = −0.044 ± 0.024 kg unconstrained
+    with pytest.warns(UserWarning, match="negative but within its noise: reported as 0 kg"):
+        r = calibrate(R, F)
+    assert r.mass == 0.0 and any("reported as 0 kg" in n for n in r.notes)
+    np.testing.assert_allclose(r.force_bias, F.mean(axis=0))
+
+
+def test_a_special_calibration_file_is_refused(tmp_path):
+    """A folder named x.csv is refused as a folder, not as 'does not exist'."""
+    from forcecontrol.realarm.calibration import read_calibration_data
+
+    p = tmp_path / "x.csv"
+    p.mkdir()
+    _refuse(lambda: read_calibration_data(p), p, ParameterError, "it is a folder")

@@ -23,11 +23,13 @@ from .app import _fail, print_json
 __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
 
-def calibration_report(path: Path, gravity: float = 9.81, max_condition: float | None = None) -> dict[str, Any]:
+def calibration_report(
+    path: Path, gravity: float = 9.81, max_condition: float | None = None, degrees: bool = False
+) -> dict[str, Any]:
     """The calibration of a data file as plain data (the ``--json`` output)."""
     from ..realarm.calibration import MAX_CONDITION, calibrate, read_calibration_data
 
-    R, F, T = read_calibration_data(path)
+    R, F, T = read_calibration_data(path, degrees=degrees)
     limit = MAX_CONDITION if max_condition is None else max_condition
     res = calibrate(R, F, T, gravity=gravity, max_condition=limit)
     return {"file": str(path), "max_condition": limit, **res.as_dict()}
@@ -48,6 +50,7 @@ def calibrate_command(
         float | None, typer.Option("--max-condition", help="refuse poses whose normalised regressor is worse (default 100)")
     ] = None,
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
+    degrees: Annotated[bool, typer.Option("--degrees", help="the planar 'angle' column is in degrees (default radians)")] = False,
 ) -> None:
     """Identify a tool's mass, centre of mass and the F/T sensor's biases, with their uncertainty."""
     from rich.console import Console
@@ -56,7 +59,7 @@ def calibrate_command(
     from ..errors import ForceControlError
 
     try:
-        report = calibration_report(data, gravity, max_condition)
+        report = calibration_report(data, gravity, max_condition, degrees)
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -338,8 +339,18 @@ def calibrate(
     if mass < -4.0 * std_f[0] - 1e-9:
         raise ParameterError(
             f"the identified tool mass is negative ({mass:.6g} ± {std_f[0]:.2g} kg): check the sign of gravity, the "
-            "sense of the readings and the frames of the rotations"
+            "sense of the readings and the frames of the rotations (orientations in degrees read as radians give "
+            "this too: pass --degrees / degrees=True when reading them)"
         )
+    clamp_note = None
+    if mass < 0.0:
+        # negative within the noise: never reported as a mass; the constrained (m >= 0) least-squares estimate is
+        # m = 0, where the force bias is the readings' mean (the regressor's bias block is the identity)
+        clamp_note = (f"the unconstrained mass estimate {mass:.3g} ± {std_f[0]:.2g} kg is negative but within its noise: "
+                      "reported as 0 kg (constrained least squares, force bias refit as the mean reading); likely no "
+                      "tool or a tool lighter than the noise")
+        warnings.warn(clamp_note, UserWarning, stacklevel=2)
+        mass, b_f = 0.0, F.mean(axis=0)
     out: dict[str, Any] = {}
     if T is not None:
         theta_t, cov_t, st, rms_t = _fit(_torque_regressor(u), T.reshape(-1))
@@ -356,6 +367,8 @@ def calibrate(
             notes.append(f"mass {mass:.3g} ± {std_f[0]:.2g} kg is not significantly above 0: centre of mass undefined")
         out = {"com": com, "com_std": com_std, "first_moment": p, "torque_bias": b_t, "torque_bias_std": std_t[d:],
                "torque_noise_std": st, "torque_residual_rms": rms_t, "torque_covariance": cov_t}
+    if clamp_note is not None:
+        notes.append(clamp_note)
     return CalibrationResult(
         dim=d, gravity=g, mass=mass, mass_std=float(std_f[0]), force_bias=b_f, force_bias_std=std_f[1:],
         force_noise_std=sf, force_residual_rms=rms_f, force_covariance=cov_f, condition_number=cond,

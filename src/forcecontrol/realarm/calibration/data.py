@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ...core.files import MAX_TABLE_BYTES, check_regular, read_text_limited
 from ...errors import MeasurementError, ParameterError
 
 __all__ = ["calibration_data_from_columns", "read_calibration_data"]
@@ -25,14 +26,25 @@ _QUAT = ("qx", "qy", "qz", "qw")
 _MATRIX = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
 
 
-def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def _is_number(v: Any) -> bool:
+    try:
+        float(v)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def calibration_data_from_columns(
+    columns: Mapping[str, Any], *, degrees: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Rotations, forces and moments from named columns (a table read from CSV or Parquet).
 
     Orientation of the sensor frame in the base frame, one of:
 
     * ``qx, qy, qz, qw``: unit quaternion, scalar last (ROS order); normalised if within 1e-3 of unit;
     * ``r11 … r33``: rotation matrix, row-major (``rij`` is row i, column j);
-    * ``angle``: planar sensor angle φ [rad] (a planar calibration).
+    * ``angle``: planar sensor angle φ [rad], or [deg] with ``degrees=True`` (a planar calibration).
+      Angles in radians beyond ±2π are refused as probably in degrees.
 
     Readings: ``fx, fy, fz`` [N] (``fx, fy`` when planar) and optionally ``tx, ty, tz`` [N m]
     (``tz`` when planar). Column names are matched without regard to case and surrounding spaces.
@@ -42,7 +54,9 @@ def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarra
 
     Raises:
         ParameterError: no orientation columns, missing force columns (the message lists what
-            is there), a quaternion far from unit, text in a numeric column. MeasurementError: NaN/inf.
+            is there), a quaternion far from unit, text in a numeric column, an angle beyond ±2π
+            (probably degrees: pass ``degrees=True``, ``--degrees``), ``degrees=True`` without an
+            angle column. MeasurementError: NaN/inf.
     """
     cols = {str(k).strip().lower(): v for k, v in columns.items()}
     have = sorted(cols)
@@ -51,7 +65,10 @@ def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarra
         try:
             a = np.asarray(cols[name], dtype=np.float64).reshape(-1)
         except (TypeError, ValueError) as exc:
-            raise ParameterError(f"column {name!r} must hold numbers; got {list(cols[name])[:3]!r}...") from exc
+            rows = [i for i, v in enumerate(list(cols[name])) if not _is_number(v)]
+            raise ParameterError(
+                f"column {name!r} must hold numbers; row {rows[0] if rows else '?'} is not a number"
+            ) from exc
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise MeasurementError(f"column {name!r} must be finite; row {int(bad[0])} is {a[bad[0]]}")
@@ -75,6 +92,14 @@ def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarra
         R = np.stack([col(n) for n in _MATRIX], axis=1).reshape(-1, 3, 3)
     elif "angle" in cols:
         phi = col("angle")
+        if degrees:
+            phi = np.deg2rad(phi)
+        elif np.any(np.abs(phi) > 2.0 * np.pi):
+            i = int(np.flatnonzero(np.abs(phi) > 2.0 * np.pi)[0])
+            raise ParameterError(
+                f"column 'angle' is in radians and row {i} is {phi[i]:.6g}, beyond ±2π: the angles look like degrees; "
+                "pass degrees=True (calibrate --degrees) if they are"
+            )
         c, s = np.cos(phi), np.sin(phi)
         R = np.stack([np.stack([c, -s], axis=1), np.stack([s, c], axis=1)], axis=1)
     else:
@@ -82,6 +107,9 @@ def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarra
             "no orientation columns: give qx, qy, qz, qw (quaternion, scalar last), r11 ... r33 (rotation matrix) or "
             f"angle (planar, rad); the data has columns {have}"
         )
+    if degrees and "angle" not in cols:
+        raise ParameterError("degrees=True (--degrees) applies to the planar 'angle' column only; the data has "
+                             f"quaternion or rotation-matrix columns ({have})")
     d = R.shape[1]
     fnames = _FORCE[:d]
     if missing(fnames):
@@ -102,17 +130,24 @@ def calibration_data_from_columns(columns: Mapping[str, Any]) -> tuple[np.ndarra
     return R, F, T
 
 
-def read_calibration_data(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def read_calibration_data(
+    path: str | Path, *, degrees: bool = False, max_bytes: int = MAX_TABLE_BYTES
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read a calibration table from CSV (header row, comma-separated) or Parquet (needs pyarrow).
 
-    See :func:`calibration_data_from_columns` for the columns.
+    See :func:`calibration_data_from_columns` for the columns and ``degrees``. The file must be a
+    regular file of at most ``max_bytes`` (default 64 MiB; :mod:`forcecontrol.core.files`).
 
     Raises:
-        ParameterError: the file does not exist, is not CSV/Parquet, is empty or lacks columns.
+        ParameterError: the file does not exist, is special or too large, is not CSV/Parquet, is
+            empty or lacks columns.
     """
     p = Path(path)
     if not p.is_file():
+        if p.exists():
+            check_regular(p, "calibration data file", max_bytes)  # names the kind: folder, FIFO, device
         raise ParameterError(f"calibration data file {str(p)!r} does not exist")
+    check_regular(p, "calibration data file", max_bytes)
     suffix = p.suffix.lower()
     if suffix in (".parquet", ".pq"):
         try:
@@ -122,16 +157,13 @@ def read_calibration_data(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.
         try:
             table = pq.read_table(p)
         except Exception as exc:  # pyarrow raises its own error types
-            raise ParameterError(f"cannot read {str(p)!r} as Parquet: {exc}") from exc
+            raise ParameterError(f"cannot read {str(p)!r} as Parquet ({type(exc).__name__})") from None
         columns = {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
     elif suffix in (".csv", ".txt"):
         import csv
+        import io
 
-        try:
-            with p.open(newline="", encoding="utf-8") as fh:
-                rows = list(csv.reader(fh))
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ParameterError(f"cannot read {str(p)!r} as UTF-8 CSV: {exc}") from exc
+        rows = list(csv.reader(io.StringIO(read_text_limited(p, "calibration data file", max_bytes), newline="")))
         if len(rows) < 2:
             raise ParameterError(f"{str(p)!r} holds no data rows (a header row and one row per reading are needed)")
         header, body = rows[0], [r for r in rows[1:] if r]
@@ -147,4 +179,7 @@ def read_calibration_data(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.
                 columns[name] = np.array(vals, dtype=object)
     else:
         raise ParameterError(f"calibration data must be a .csv or .parquet file; got {str(p)!r}")
-    return calibration_data_from_columns(columns)
+    try:
+        return calibration_data_from_columns(columns, degrees=degrees)
+    except (ParameterError, MeasurementError) as exc:  # name the file
+        raise type(exc)(f"{str(p)!r}: {exc}") from None
