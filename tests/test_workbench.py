@@ -308,3 +308,47 @@ def test_save_refuses_a_foreign_file_rewrites_its_own_and_overwrite_replaces(tmp
     assert b._on_save() == own and b._on_save() == own  # created by this server: the second Save rewrites it
     c = TuneApp("example-9.2", foreign, overwrite=True)
     assert c._on_save() == foreign and fc.scenario(foreign).cases[0].config["environment"]["stiffness"] == 1e4
+
+
+def test_tune_command_beyond_loopback_warns_and_prints_a_token_address(tmp_path):
+    """'tune --address 0.0.0.0' warns on stderr, prints an address with ?token=, and answers 403 without the token."""
+    import http.client
+    import os
+    import signal
+    import socket
+    import subprocess
+    import time
+
+    with socket.socket() as s:
+        s.bind(("0.0.0.0", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "forcecontrol", "tune", "example-9.2", "--address", "0.0.0.0", "--port",
+                             str(port), "--no-browser", "--save", str(tmp_path / "t.toml")], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ, COLUMNS="300"))
+    try:
+        line = proc.stdout.readline()
+        assert f"http://localhost:{port}/?token=" in line, line
+        token = line.split("?token=", 1)[1].split()[0]
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.2)
+
+        def status(path: str) -> int:
+            conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+            conn.request("GET", path)
+            code = conn.getresponse().status
+            conn.close()
+            return code
+
+        assert status("/") == 403 and status(f"/?token={token}") == 302
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            _, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+    assert "warning: listening on 0.0.0.0" in err
