@@ -120,6 +120,8 @@ def register_reference(name: str, fields: dict[str, Field], build, doc: str = ""
 
 def _describe(v: Any) -> str:
     if isinstance(v, int) and not isinstance(v, bool) and v.bit_length() > 64:  # no 4300-digit repr (ValueError)
+        if v.bit_length() < 14000:  # within Python's int-to-str limit (4300 digits)
+            return f"an integer of {len(str(abs(v)))} digits (int)"
         return f"an integer of about {int(v.bit_length() * 0.30103) + 1} digits (int)"
     text = repr(v)
     return f"{text if len(text) <= 200 else text[:200] + '...'} ({type(v).__name__})"
