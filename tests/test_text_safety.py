@@ -104,7 +104,7 @@ def test_cli_prints_no_escape_sequence_from_a_scenario_title_or_label(tmp_path):
     path = tmp_path / "esc.toml"
     path.write_text(text.replace("duration = 4.0", "duration = 0.05"), encoding="utf-8")
     assert "\x1b" in fc.scenario(path).title  # the file really holds the sequences
-    res = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "out"), "--no-figure"])
+    res = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "out"), "--no-figure", "--data", "csv"])
     assert res.exit_code == 0, res.output
     out = res.stdout + (res.stderr if res.stderr_bytes is not None else "")
-    assert "Red title" in out and ESC not in out and "\x07" not in out
+    assert "Red title" in out and "data:k_x = 1e4 N/m" in out and ESC not in out and "\x07" not in out

@@ -21,7 +21,7 @@ from .. import __version__
 from ..core import numba_cache as _numba_cache
 from ..errors import ForceControlError
 from ..viz import render_process
-from .safe import escape
+from .safe import escape, terminal_safe
 
 #: options shared by the commands.
 JsonOut = Annotated[bool, typer.Option("--json", help="print one JSON object instead of tables")]
@@ -364,7 +364,7 @@ def _print_summary(run) -> None:
                 )
         console.print(ct)
     for k, v in run.files.items():
-        console.print(f"{k}: {v}", markup=False, highlight=False)
+        console.print(terminal_safe(f"{k}: {v}"), markup=False, highlight=False)
 
 
 #: the collector's thresholds while a command runs (Python's defaults: 700, 10, 10). Start-up

@@ -21,6 +21,7 @@ import typer
 
 from .app import _fail, console, print_json
 from .replay import RecordedLog, RecordFormat
+from .safe import terminal_safe
 
 __all__ = ["convert_command", "convert_report", "RobotName"]
 
@@ -230,4 +231,4 @@ def convert_command(
     console.print(f"{report['samples']} samples, {report['components']} components; orientation: {report['orientation']}",
                   markup=False, highlight=False)
     for k, v in report["files"].items():
-        console.print(f"{k}: {v}", markup=False, highlight=False)
+        console.print(terminal_safe(f"{k}: {v}"), markup=False, highlight=False)

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
+from .safe import terminal_safe
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
 
@@ -107,4 +108,4 @@ def replay_command(
         t.add_row(k, f"{v:.6g}")
     console.print(t)
     for k, v in report["files"].items():
-        console.print(f"{k}: {v}", markup=False, highlight=False)
+        console.print(terminal_safe(f"{k}: {v}"), markup=False, highlight=False)

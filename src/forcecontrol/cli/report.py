@@ -26,6 +26,7 @@ def report_command(
     from ..errors import ForceControlError, OutputError
     from ..workbench import require
     from .app import _fail, console
+    from .safe import terminal_safe
 
     try:
         require("plotly")
@@ -41,4 +42,4 @@ def report_command(
     except ForceControlError as exc:
         _fail(exc)
         return
-    console.print(f"report: {written}", markup=False, highlight=False)
+    console.print(terminal_safe(f"report: {written}"), markup=False, highlight=False)

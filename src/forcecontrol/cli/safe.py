@@ -12,7 +12,7 @@ from rich.markup import escape as _rich_escape
 
 from ..core.text import terminal_safe
 
-__all__ = ["escape", "rich_safe"]
+__all__ = ["escape", "rich_safe", "terminal_safe"]
 
 PRINT_LIMIT = 2000  # characters of one printed text (a label, a title, a message)
 

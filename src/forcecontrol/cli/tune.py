@@ -51,6 +51,7 @@ def tune_command(
     from ..workbench.app import free_port, page_url, serve
 
     path = save or Path("forcecontrol-out") / f"{_slug(scn.name)}-tuned.toml"
+    shown = terminal_safe(path, newlines=False)  # a file name printed as text
     if port < 0 or port > 65535:
         _fail(ParameterError(f"--port must be in 0..65535; got {port}"))
     from ..workbench.guard import is_loopback, new_token
@@ -68,9 +69,9 @@ def tune_command(
         err_console.print(f"warning: listening on {address}:{port}, beyond this machine; the page needs the token in "
                           "its address (anyone with it can read the scenario and Save)", markup=False, highlight=False)
     if path.exists() and not overwrite:
-        err_console.print(f"note: {path} exists; Save will not replace it (--overwrite lets it)", markup=False,
+        err_console.print(f"note: {shown} exists; Save will not replace it (--overwrite lets it)", markup=False,
                           highlight=False)
-    console.print(f"forcecontrol tune {terminal_safe(scn.name, 200, newlines=False)}: {url}  (Save writes {path}; "
+    console.print(f"forcecontrol tune {terminal_safe(scn.name, 200, newlines=False)}: {url}  (Save writes {shown}; "
                   "Ctrl-C stops)", markup=False, highlight=False)
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="the tuning server listens on")  # said above
