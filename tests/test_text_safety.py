@@ -108,3 +108,14 @@ def test_cli_prints_no_escape_sequence_from_a_scenario_title_or_label(tmp_path):
     assert res.exit_code == 0, res.output
     out = res.stdout + (res.stderr if res.stderr_bytes is not None else "")
     assert "Red title" in out and "data:k_x = 1e4 N/m" in out and ESC not in out and "\x07" not in out
+
+
+def test_html_report_shows_a_tag_laden_case_label_as_text():
+    """A case label holding plotly/HTML tags and an ESC sequence reaches the report's legend escaped, without ESC."""
+    import numpy as np
+
+    from forcecontrol.workbench.report import run_figure
+
+    label = '<a href="https://evil.example/">click</a><b>x</b>\x1b[31m'
+    fig = run_figure([({"t": np.array([0.0, 1.0]), "fx": np.array([0.0, 1.0])}, {"label": label})])
+    assert fig.data[0].name == '&lt;a href="https://evil.example/"&gt;click&lt;/a&gt;&lt;b&gt;x&lt;/b&gt;'

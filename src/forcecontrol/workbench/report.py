@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.text import TITLE_LIMIT, plain_text
 from ..errors import OutputError, ParameterError
 
 __all__ = ["write_report", "default_report_path", "find_runs", "find_sweep", "run_figure", "sweep_figures"]
@@ -120,7 +121,7 @@ def run_figure(runs: list[tuple[dict[str, np.ndarray], dict[str, Any]]]) -> Any:
                         subplot_titles=[_SIGNAL_LABELS.get(s, s) for s in signals])
     palette = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
     for i, (cols, info) in enumerate(runs):
-        label = str(info.get("label") or f"case {i + 1}")
+        label = html.escape(plain_text(info.get("label") or f"case {i + 1}"), quote=False)  # plotly draws tags: the label as text
         for r, sig in enumerate(signals, start=1):
             if sig not in cols:
                 continue
@@ -224,8 +225,8 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                 for xl in limit or []:
                     fig.add_vline(x=xl, line_dash="dash", line_color="black", row=1, col=c)
                 fig.update_xaxes(title_text=x, type="log" if _log_axis(xs) else "linear", row=1, col=c)
-        title = f"{label}" + (f" ({json.dumps(fixed, default=str)})" if fixed else "")
-        fig.update_layout(height=420, template="plotly_white", title=title, margin={"r": 40},
+        title = plain_text(f"{label}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), TITLE_LIMIT)
+        fig.update_layout(height=420, template="plotly_white", title=html.escape(title, quote=False), margin={"r": 40},
                           legend={"orientation": "h", "y": -0.25})
         out.append((title, fig))
     return out
@@ -253,6 +254,7 @@ def _safe_radius(radius, cfg: dict[str, Any], label: str, assign: dict[str, Any]
 
 
 def _page(title: str, intro: str, figures: list[tuple[str, Any]]) -> str:
+    title = plain_text(title, TITLE_LIMIT)
     parts = []
     for i, (sub, fig) in enumerate(figures):
         div = fig.to_html(full_html=False, include_plotlyjs=(i == 0), div_id=f"plot-{i}",
