@@ -20,6 +20,7 @@ import pytest
 
 from forcecontrol.sweep.run import prepare_sweep, run_sweep
 from forcecontrol.sweep.spec import SweepDefinition, SweepError, SweepWarning
+from forcecontrol.sweep.store import with_checksum
 
 pytest.importorskip("pyarrow")
 
@@ -61,7 +62,7 @@ def _parts_of_a_killed_run(tmp_path):
     for lo in range(0, prep.n_cases, 4):
         block = table.slice(lo, 4)
         ids = block.column("case_id").to_pylist()
-        pq.write_table(block, parts / f"part-{min(ids):08d}-{max(ids):08d}-{len(ids)}.parquet")
+        pq.write_table(with_checksum(block, prep.sweep_id), parts / f"part-{min(ids):08d}-{max(ids):08d}-{len(ids)}.parquet")
     out.unlink()
     return out, parts, prep
 

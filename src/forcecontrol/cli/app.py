@@ -19,6 +19,7 @@ from rich.table import Table
 
 from .. import __version__
 from ..core import numba_cache as _numba_cache
+from ..core.paths import MAX_NAME, inside
 from ..errors import ForceControlError
 from ..viz import render_process
 from .safe import escape, terminal_safe
@@ -75,7 +76,7 @@ class DataFormat(str, Enum):
 def _slug(s: str) -> str:
     """A file-name-safe form of a name: letters, digits, single dots and dashes; never '.', '..' or a path."""
     slug = re.sub(r"[^A-Za-z0-9.]+", "-", s).lower()
-    slug = re.sub(r"\.{2,}", ".", slug).strip("-.")
+    slug = re.sub(r"\.{2,}", ".", slug).strip("-.")[:MAX_NAME].strip("-.")
     return slug or "case"
 
 
@@ -312,7 +313,7 @@ def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
     for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
         parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
         name = f"{stem}-{_slug(c.label)}" if len(run.cases) > 1 else stem
-        out.append((c.label, animate_run(c.result, parts["robot"], parts["environment"], folder / f"{name}.gif",
+        out.append((c.label, animate_run(c.result, parts["robot"], parts["environment"], inside(folder, f"{name}.gif"),
                                          title=f"{run.scenario.name}: {c.label}")))
     return out
 

@@ -152,9 +152,10 @@ def stable_identities() -> None:
     """
     from numba.core.registry import CPUDispatcher
 
-    for name in sorted(m for m in sys.modules if m == "forcecontrol" or m.startswith("forcecontrol.")):
+    # snapshots: another thread may import a module (or set a module attribute) while this runs
+    for name in sorted(m for m in list(sys.modules) if m == "forcecontrol" or m.startswith("forcecontrol.")):
         module = sys.modules.get(name)
-        for attr, obj in sorted(vars(module).items()) if module is not None else ():
+        for attr, obj in sorted(list(vars(module).items()), key=lambda kv: kv[0]) if module is not None else ():
             if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
                 if getattr(obj, "_MemoMixin__uuid", None) is None:
                     obj._set_uuid(f"forcecontrol:{name}.{attr}")

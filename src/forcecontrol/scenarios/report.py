@@ -26,6 +26,7 @@ from ..analysis.verify import (
     no_analysis_reason,
     no_transient_reason,
 )
+from ..core.paths import inside, safe_name
 from ..errors import ForceControlError
 
 __all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE", "TRANSIENT_TOLERANCE"]
@@ -285,10 +286,10 @@ def plot_scheme_figures(source: str | Path | dict[str, Any], folder: str | Path,
                 if sig in SIGNAL_LABELS and sig in signals:
                     overlays.setdefault(sig, []).append((r.t, f, f"linearised, {run.cases[i].label}"))
         title = _BOOK_FIGURES.get(kind, kind)
-        stem = "".join(ch if ch.isalnum() else "-" for ch in f"{scn.name}-{kind}").strip("-").lower()
+        stem = safe_name("".join(ch if ch.isalnum() else "-" for ch in f"{scn.name}-{kind}").strip("-").lower())
         path = plot_results(
             [run.cases[i].result for i in idx], signals, title=f"{scn.name}: {title}",
-            t_max=fig.get("t_max"), overlays=overlays, path=folder / f"{stem}.png",
+            t_max=fig.get("t_max"), overlays=overlays, path=inside(folder, f"{stem}.png"),
         )
         written.append(Path(path))
     return written

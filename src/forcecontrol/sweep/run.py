@@ -43,6 +43,7 @@ from .prepare import (
     prepare_sweep,
 )
 from .store import (
+    SUM_KEY,
     SweepResult,
     _assemble,
     _done_ids,
@@ -51,7 +52,12 @@ from .store import (
     _sigint_deferred,
     _to_table,
     _write_atomic,
+    check_output,
+    checksum_fault,
+    is_ours,
     read_sweep,
+    with_checksum,
+    write_marker,
 )
 
 __all__ = [
@@ -110,15 +116,27 @@ def run_sweep(
             None runs locally on ``workers`` threads (default: all cores).
         block_size: cases per block (default: about 2·10⁶ arm-steps per block).
         progress: ``progress(done, total)`` after each stored block (done includes resumed cases).
-        overwrite: discard a previous table or parts of a *different* sweep at ``out``.
+        overwrite: discard a previous table or parts of a *different* sweep at ``out``, and replace
+            (when the sweep ends) a file at ``out`` that is not a sweep table (``--force``; a
+            :class:`SweepWarning` says so). A folder at ``out`` is never replaced.
+
+    The library's own outputs are recognised by their mark (the table's metadata, a hidden
+    ``.<name>.forcecontrol-sweep.json`` beside it, ``sweep.json`` in the parts folder); only those
+    are ever moved or replaced. Each part and the table carry a SHA-256 of their rows and the
+    sweep's id: a part that fails it on resume is set aside (``*.corrupt-<time>`` in the parts
+    folder) and its cases run again, with a :class:`SweepWarning`.
 
     Raises:
         SweepError: ``out`` holds a different sweep (and not ``overwrite``).
+        OutputError: ``out`` is a folder, or a file that is not a sweep table (and not ``overwrite``).
     """
     prep = sweep if isinstance(sweep, PreparedSweep) else prepare_sweep(sweep, definition)
     out = Path(out)
     parts_dir = out.with_name(out.name + ".parts")
     stamp = parts_dir / "sweep.json"
+    note = check_output(out, overwrite)
+    if note:
+        warnings.warn(note, SweepWarning, stacklevel=2)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -128,12 +146,20 @@ def run_sweep(
 
 
 def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite) -> SweepResult:
-    if out.exists():
+    if out.exists() and is_ours(out):  # (a user's file is refused by check_output, or replaced at the end with --force)
         try:
+            import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+            stored = pq.read_table(out)
             _, meta = read_sweep(out)
         except Exception as exc:  # a truncated or corrupt table: rebuild it from parts or runs
             _set_aside(out, f"{type(exc).__name__}: {str(exc)[:80]}")
             meta = None
+        if meta is not None and meta.get("sweep_id") == prep.sweep_id and SUM_KEY in (stored.schema.metadata or {}):
+            fault = checksum_fault(stored, prep.sweep_id)
+            if fault is not None:
+                _set_aside(out, fault, "is damaged")
+                meta = None
         if meta is not None and meta.get("sweep_id") == prep.sweep_id:
             table, meta = read_sweep(out)
             if progress is not None:
@@ -181,7 +207,7 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
         ids = [j.case_id for j in block]
         name = f"part-{min(ids):08d}-{max(ids):08d}-{len(ids)}.parquet"
         with _sigint_deferred():  # a Ctrl-C during the write takes effect once the part is in place
-            _write_atomic(_to_table(rows, prep), parts_dir / name)
+            _write_atomic(with_checksum(_to_table(rows, prep), prep.sweep_id), parts_dir / name)
         counter["done"] += len(block)
         counter["steps"] += sum(r["_steps"] for r in rows)
         if progress is not None:
@@ -197,7 +223,8 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
         where = _run_dask(scheduler, todo, block_size, band, store)
     seconds = time.perf_counter() - t0
     table = _assemble(parts_dir, prep)
-    _write_atomic(table, out)
+    _write_atomic(with_checksum(table, prep.sweep_id), out)
+    write_marker(out, prep.sweep_id)
     shutil.rmtree(parts_dir, ignore_errors=True)
     df, meta = read_sweep(out)
     return SweepResult(out, df, meta, len(todo), resumed, seconds, counter["steps"], where)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import signal
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import OutputError
 from .spec import SweepError, SweepWarning
 
 if sys.version_info >= (3, 11):
@@ -84,6 +86,89 @@ def _write_atomic(table, path: Path) -> None:
     with open(tmp, "rb") as f:
         os.fsync(f.fileno())
     os.replace(tmp, path)
+
+
+#: schema-metadata key of a part's (and the table's) checksum: :func:`content_sha256` of its rows.
+SUM_KEY = b"forcecontrol.sha256"
+
+
+def content_sha256(table, sweep_id: str) -> str:
+    """SHA-256 of a table's columns (names, types, values; floats exactly) and the sweep's identity."""
+    h = hashlib.sha256(f"forcecontrol sweep {sweep_id}\n".encode())
+    for name in table.column_names:
+        col = table.column(name)
+        h.update(f"\0{name}\0{col.type}\0".encode())
+        h.update(json.dumps(col.to_pylist(), default=repr).encode())
+    return h.hexdigest()
+
+
+def with_checksum(table, sweep_id: str):
+    """``table`` with :data:`SUM_KEY` in its schema metadata (written with it, atomically)."""
+    meta = dict(table.schema.metadata or {})
+    meta[SUM_KEY] = content_sha256(table, sweep_id).encode()
+    return table.replace_schema_metadata(meta)
+
+
+def checksum_fault(table, sweep_id: str) -> str | None:
+    """Why ``table`` fails its checksum (None when it passes)."""
+    stored = (table.schema.metadata or {}).get(SUM_KEY)
+    if stored is None:
+        return "it carries no checksum"
+    if stored.decode(errors="replace") != content_sha256(table, sweep_id):
+        return "its checksum fails: its content changed after it was written"
+    return None
+
+
+def marker_path(out: Path) -> Path:
+    """The library's mark beside a sweep table it wrote: ``.<name>.forcecontrol-sweep.json``."""
+    return out.with_name(f".{out.name}.forcecontrol-sweep.json")
+
+
+def write_marker(out: Path, sweep_id: str) -> None:
+    m = marker_path(out)
+    tmp = m.with_name(f"{m.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"sweep_id": sweep_id, "table": out.name}))
+    os.replace(tmp, m)
+
+
+def is_ours(out: Path) -> bool:
+    """Whether the file ``out`` is a sweep table this library wrote: its marker names it (or its metadata is a sweep's)."""
+    try:
+        if json.loads(marker_path(out).read_text()).get("table") == out.name:
+            return True
+    except (OSError, ValueError, AttributeError):
+        pass
+    try:
+        import pyarrow.parquet as pq  # type: ignore[import-untyped]
+
+        return META_KEY in (pq.read_schema(out).metadata or {})
+    except Exception:
+        return False
+
+
+def check_output(out: Path, force: bool) -> str | None:
+    """Refuse an ``out`` that is not the library's own: a folder always, a user's file unless ``force``.
+
+    Returns a note when ``force`` lets a user's file be replaced (at the end, by the table).
+
+    Raises:
+        OutputError: ``out`` is a folder, or a file (or ``<out>.parts``) that is not a sweep of this library.
+    """
+    parts = out.with_name(out.name + ".parts")
+    if parts.exists() and not (parts.is_dir() and ((parts / "sweep.json").exists() or not any(
+            not (p.name.startswith("part-") or p.name.startswith(".") or p.name.startswith("sweep.json"))
+            for p in parts.iterdir()))):
+        raise OutputError(f"--out {str(out)!r}: the sweep keeps its parts in {str(parts)!r}, which exists and is not "
+                          "a sweep's parts folder (never replaced); choose another --out")
+    if out.is_dir():
+        raise OutputError(f"--out {str(out)!r} is an existing folder; expected the path of a Parquet table "
+                          f"(e.g. {str(out / 'sweep.parquet')!r}); a folder is never replaced, even with --force")
+    if out.exists() and not is_ours(out):
+        if not force:
+            raise OutputError(f"--out {str(out)!r} is an existing file that is not a sweep table of forcecontrol; "
+                              "it is left untouched: choose another --out, or pass --force to replace it")
+        return f"--force: {str(out)} is not a sweep table; it is replaced by this sweep's table when the sweep ends"
+    return None
 
 
 def read_sweep(path: str | Path):
@@ -157,11 +242,11 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _set_aside(path: Path, why: str) -> None:
-    """Move a damaged file out of the way (kept for inspection) and say so."""
+def _set_aside(path: Path, why: str, what: str = "is unreadable") -> None:
+    """Move a damaged file of the library's own out of the way (kept for inspection) and say so."""
     aside = path.with_name(f"{path.name}.corrupt-{int(time.time())}")
     os.replace(path, aside)
-    warnings.warn(f"{path} is unreadable ({why}); moved to {aside.name}, its cases run again", SweepWarning, stacklevel=5)
+    warnings.warn(f"{path} {what} ({why}); moved to {aside.name}, its cases run again", SweepWarning, stacklevel=5)
 
 
 def _done_ids(parts_dir: Path, prep: PreparedSweep) -> set[int]:
@@ -184,6 +269,10 @@ def _done_ids(parts_dir: Path, prep: PreparedSweep) -> set[int]:
             continue
         if len(ids) != n or (ids and (min(ids) != lo or max(ids) != hi)):
             _set_aside(p, f"it holds {len(ids)} cases, its name says {n} from {lo} to {hi}")
+            continue
+        fault = checksum_fault(table, prep.sweep_id)
+        if fault is not None:
+            _set_aside(p, fault, "is damaged")
             continue
         done.update(ids)
     return done

@@ -7,6 +7,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.paths import inside, safe_name
+
 if TYPE_CHECKING:  # pragma: no cover
     from ..scenarios.core import ScenarioRun
     from ..sim.simulation import SimulationResult
@@ -287,8 +289,8 @@ def figure_jobs(run: ScenarioRun, folder: str | Path, stem: str) -> list[tuple[t
     figs = run.scenario.figures or ({},)
     jobs = []
     for fig in figs:
-        name = f"{stem}-{fig['name']}" if fig.get("name") else stem
-        jobs.append(_figure_call(run, fig, Path(folder) / f"{name}.png"))
+        name = f"{stem}-{safe_name(fig['name'])}" if fig.get("name") else stem
+        jobs.append(_figure_call(run, fig, inside(folder, f"{safe_name(name)}.png")))
     return jobs
 
 
