@@ -388,3 +388,18 @@ def test_a_special_calibration_file_is_refused(tmp_path):
     p = tmp_path / "x.csv"
     p.mkdir()
     _refuse(lambda: read_calibration_data(p), p, ParameterError, "it is a folder")
+
+
+def test_an_xml_entity_bomb_urdf_is_refused_in_bounded_time(tmp_path):
+    """A 'billion laughs' URDF is refused as bad XML (expat's amplification limit) before Pinocchio parses it."""
+    import pyexpat
+
+    if tuple(int(x) for x in pyexpat.EXPAT_VERSION.split("_")[1].split(".")) < (2, 4, 1):
+        pytest.skip("expat without the amplification limit")
+    entities = "".join(f'<!ENTITY {chr(98 + i)} "' + f"&{chr(97 + i)};" * 10 + '">' for i in range(9))
+    p = tmp_path / "bomb.urdf"
+    p.write_text(f'<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "{SECRET}">{entities}]><robot name="r">&j;</robot>')
+    code = ("import sys\nfrom forcecontrol.robots.urdf_check import check_urdf\ntry:\n    check_urdf(sys.argv[1])\n"
+            "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    out = subprocess.run([sys.executable, "-c", code, str(p)], capture_output=True, text=True, timeout=120).stdout
+    assert out.startswith("ParameterError") and "bomb.urdf" in out and "amplification" in out and SECRET not in out, out
