@@ -46,7 +46,6 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix, readonly
 from ..errors import ParameterError
-from ..laws.layout import FORCE, FORCE_STATE
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
 from .force_checks import _check_force_reference, _diagonal_gain, _limit, check_force_reference
@@ -138,13 +137,13 @@ class _DirectForceController(Controller):
         self._consistent_reference: bytes | None = None
         self._task_rotation = readonly(np.eye(m) if self.task_frame is None else np.array(self.task_frame))
         self._Md_inv = readonly(np.linalg.inv(self.inertia))
-        self._params = FORCE.pack(
-            m, Md_inv=self._Md_inv, K_D=self.damping, K_P=self.stiffness,
-            K_F=self.force_gain, K_I=self.integral_gain, limit=self.integral_limit,
-            R=np.eye(m) if self.task_frame is None else self.task_frame,
-            bumpless=1.0 if self._has_integral and start == "tip" else 0.0,
-        )
-        self.state = np.zeros(FORCE_STATE.size(m) if self._has_integral else 0)
+        self._params = np.concatenate([
+            self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
+            self.force_gain, self.integral_gain, self.integral_limit,
+            (np.eye(m) if self.task_frame is None else self.task_frame).ravel(),
+            [1.0 if self._has_integral and start == "tip" else 0.0],
+        ])
+        self.state = np.zeros(3 * m if self._has_integral else 0)
 
     @property
     def force_axes(self) -> np.ndarray:

@@ -32,7 +32,6 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import DimensionError, ParameterError
-from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task
 from .base import Controller, Measurement, Reference, runs_law
@@ -117,11 +116,11 @@ class HybridCompliantController(Controller):
         self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
         self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
         self.state = np.zeros(l)
-        self._params = HYBRID_COMPLIANT.pack(
-            d, l, k, task_dim=d, force_dim=k, position_mode=0.0, S_v=self._S_v, S_v_pinv=self._S_v_pinv,
-            S_f_pinv=self._S_f_pinv, CpS_f=self._CpS_f, L_hat=self._L_hat, K_1=self.velocity_gain,
-            K_2=self.velocity_integral_gain, K_Dlam=self.force_rate_gain, K_Plam=self.force_gain,
-        )
+        self._params = np.concatenate([
+            [float(d), float(k), 0.0], self._S_v.ravel(), self._S_v_pinv.ravel(), self._S_f_pinv.ravel(),
+            self._CpS_f.ravel(), self._L_hat.ravel(), self.velocity_gain.ravel(),
+            self.velocity_integral_gain.ravel(), self.force_rate_gain.ravel(), self.force_gain.ravel(),
+        ])
 
     def force_coordinates(self, wrench: Any) -> np.ndarray:
         """λ = S_f† h_e (9.54)."""
@@ -267,12 +266,11 @@ class HybridRigidController(Controller):
     def _pack(self, S_v, S_v_pinv, S_f, S_f_pinv, S_v_dot) -> np.ndarray:
         """The parameters of :func:`forcecontrol.laws.hybrid_rigid` for this selection."""
         sel = self.selection
-        d, k = sel.dim, sel.m
-        return HYBRID_RIGID.pack(
-            d, d - k, k, task_dim=d, force_dim=k, position_mode=float(self.motion == "position"), S_v=S_v,
-            S_v_pinv=S_v_pinv, S_f=S_f, S_f_pinv=S_f_pinv, K_1=self.velocity_gain, K_2=self.second_gain,
-            K_Plam=self.force_gain, K_Ilam=self.force_integral_gain, S_v_dot=S_v_dot,
-        )
+        return np.concatenate([
+            [float(sel.dim), float(sel.m), float(self.motion == "position")], np.ravel(S_v), np.ravel(S_v_pinv),
+            np.ravel(S_f), np.ravel(S_f_pinv), self.velocity_gain.ravel(), self.second_gain.ravel(),
+            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.ravel(S_v_dot),
+        ])
 
     def force_coordinates(self, wrench: Any) -> np.ndarray:
         """λ = S_f† h_e (9.54)."""

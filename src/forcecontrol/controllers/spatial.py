@@ -34,7 +34,6 @@ from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
-from ..laws.layout import OS_PD
 from ..laws.spatial import desired_frame_terms, spatial_impedance_torque
 from ..robots.base import RobotModel
 from ..spatial import Wrench, euler_xyz_T, euler_xyz_T_dot, euler_xyz_T_inv, rotvec_T
@@ -146,13 +145,9 @@ def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md
     Without ``use_force`` the h_e^d term is left out (the motion loop of admittance control).
     """
     r = np.empty(6)
-    impedance_core(_f2(Md_inv), _f2(K_D), _f2(K_P), _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), use_force, np.empty(6), r)
+    G = np.concatenate([np.ravel(Md_inv), np.ravel(K_D), np.ravel(K_P)])
+    impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), use_force, np.empty(6), r)
     return r
-
-
-def _f2(a) -> np.ndarray:
-    """A (6, 6) gain as the C-contiguous float64 matrix :func:`forcecontrol.laws.impedance_core` is compiled for."""
-    return np.ascontiguousarray(a, dtype=np.float64).reshape(6, 6)
 
 
 def _f(a) -> np.ndarray:
@@ -311,7 +306,8 @@ class SpatialImpedanceController(_SpatialBase):
         c = np.concatenate([reference.acceleration[:3], phidd_d]) - JAdq
         h_A = np.concatenate([h[:3], euler_xyz_T(phi_e).T @ h[3:]])
         r = np.empty(6)
-        impedance_core(_f2(self._Md_inv), _f2(self.damping), _f2(self.stiffness), x, xd, c, h_A, True, np.empty(6), r)
+        G = np.concatenate([self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel()])
+        impedance_core(G, x, xd, c, h_A, True, np.empty(6), r)
         return self._redundant_torque(JA, r, q, qd, B, nv, J, h)
 
 
@@ -343,7 +339,7 @@ class SpatialComplianceController(_SpatialBase):
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
         self.damping = as_gain_matrix("damping", damping, 6)
-        self._params = OS_PD.pack(6, K_P=self.stiffness, K_D=self.damping)
+        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
         self._zero_ref = np.zeros(36)
         self._zero_h = np.zeros(6)
         self._ws = np.zeros(12)

@@ -15,7 +15,6 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import ParameterError
-from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID
 from ..robots.base import RobotModel
 from .base import Measurement, Reference
 from .hybrid import ForceLaw, _force_law_gains
@@ -127,11 +126,11 @@ class SpatialHybridController(_DesiredFrameHybrid):
         # pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) with r = S_vᵀ(−x̃) and gains
         # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement)
         l = 6 - k
-        self._params = HYBRID_COMPLIANT.pack(
-            6, l, k, task_dim=6, force_dim=k, position_mode=1.0, S_v=S_v, S_v_pinv=S_v.T, S_f_pinv=Q.T,
-            CpS_f=Q @ self.compliance, L_hat=np.linalg.solve(self.compliance, Q.T), K_1=S_v.T @ self.damping @ S_v,
-            K_2=S_v.T @ self.stiffness @ S_v, K_Dlam=self.force_damping, K_Plam=self.force_stiffness,
-        )
+        self._params = np.concatenate([
+            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.T.ravel(), (Q @ self.compliance).ravel(),
+            np.linalg.solve(self.compliance, Q.T).ravel(), (S_v.T @ self.damping @ S_v).ravel(),
+            (S_v.T @ self.stiffness @ S_v).ravel(), self.force_damping.ravel(), self.force_stiffness.ravel(),
+        ])
         self._integral = np.zeros(l)  # ∫(ν_d − ν) of (9.80): unused by the pose servo
         self._ws = np.zeros(9 * 6)
         self._ref = np.zeros(36)
@@ -196,11 +195,11 @@ class SpatialHybridRigidController(_DesiredFrameHybrid):
         self.damping = as_gain_matrix("damping", damping, 6)
         self.force_law = force_law
         self.force_gain, self.force_integral_gain = _force_law_gains(force_law, force_gain, force_integral_gain, k)
-        self._params = HYBRID_RIGID.pack(
-            6, l, k, task_dim=6, force_dim=k, position_mode=1.0, S_v=S_v, S_v_pinv=S_v.T, S_f=Q, S_f_pinv=Q.T,
-            K_1=S_v.T @ self.damping @ S_v, K_2=S_v.T @ self.stiffness @ S_v, K_Plam=self.force_gain,
-            K_Ilam=self.force_integral_gain, S_v_dot=np.zeros((6, l)),
-        )
+        self._params = np.concatenate([
+            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.ravel(), Q.T.ravel(),
+            (S_v.T @ self.damping @ S_v).ravel(), (S_v.T @ self.stiffness @ S_v).ravel(),
+            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.zeros(6 * l),
+        ])
         self.state = np.zeros(l + k)  # [∫(ν_d − ν) (unused by the pose servo), ∫(λ_d − λ)]
         self._ws = np.zeros(9 * 6)
         self._ref = np.zeros(36)

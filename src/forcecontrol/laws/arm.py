@@ -12,14 +12,10 @@ from typing import Any
 
 from numba import njit, types
 
-from ..core.axes import REFERENCE_FIELDS
 from ..core.numba_cache import kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
-from .layout import REFERENCE
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]
-
-_X_D, _V_D, _A_D, _F_D, _FD_D, _FDD_D = (REFERENCE.view(f) for f in REFERENCE_FIELDS)
 
 
 @njit(cache=True)
@@ -59,16 +55,14 @@ def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragm
     ok = math.isfinite(t)
     for i in range(n):
         ok = ok and math.isfinite(q[i]) and math.isfinite(qd[i])
-    r_x, r_v, r_a = _X_D(ref, m), _V_D(ref, m), _A_D(ref, m)
-    r_f, r_fd, r_fdd = _F_D(ref, m), _FD_D(ref, m), _FDD_D(ref, m)
     for i in range(m):
         ok = ok and math.isfinite(h[i])
-        r_x[i] = x_d[i]
-        r_v[i] = v_d[i]
-        r_a[i] = a_d[i]
-        r_f[i] = f_d[i]
-        r_fd[i] = fd_d[i]
-        r_fdd[i] = fdd_d[i]
+        ref[i] = x_d[i]
+        ref[m + i] = v_d[i]
+        ref[2 * m + i] = a_d[i]
+        ref[3 * m + i] = f_d[i]
+        ref[4 * m + i] = fd_d[i]
+        ref[5 * m + i] = fdd_d[i]
     for i in range(6 * m):
         ok = ok and math.isfinite(ref[i])
     if ok:

@@ -4,12 +4,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from .layout import JOINT_PD, OS_PD, REFERENCE
 from .pd import pd_action
-
-_K_P, _K_D = OS_PD.view("K_P"), OS_PD.view("K_D")
-_JK_P, _JK_D, _Q_D = JOINT_PD.view("K_P"), JOINT_PD.view("K_D"), JOINT_PD.view("q_d")
-_X_D = REFERENCE.view("position")
 
 
 @njit(cache=True, inline="always")
@@ -17,16 +12,15 @@ def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma
     """(8.110), (9.15): ``u = g(q) + Jᵀ(q) (K_P (x_d − x_e) − K_D J(q) q̇)``.
 
     In contact the equilibrium is (9.2)–(9.4), ``K_P (x_d − x_e) = h_A``.
-    ``p``: :data:`~forcecontrol.laws.layout.OS_PD`; no state.
+    ``p = [K_P (m²), K_D (m²)]``, row-major; no state.
     """
     m = x.shape[0]
     n = q.shape[0]
-    x_d = _X_D(ref, m)
     e = ws[0:m]
     for j in range(m):
-        e[j] = x_d[j] - x[j]
+        e[j] = ref[j] - x[j]
     w = ws[m : 2 * m]
-    pd_action(_K_P(p, m), e, _K_D(p, m), xd, -1.0, w)
+    pd_action(p, 0, e, m * m, xd, -1.0, w)
     for i in range(n):
         acc = 0.0
         for j in range(m):
@@ -39,14 +33,14 @@ def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma
 def joint_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
     """(8.51): ``u = g(q) + K_P (q_d − q) − K_D q̇``; in contact its equilibrium is (9.24).
 
-    ``p``: :data:`~forcecontrol.laws.layout.JOINT_PD` (in n); no state.
+    ``p = [K_P (n²), K_D (n²), q_d (n)]``, row-major; no state.
     """
     n = q.shape[0]
-    q_d = _Q_D(p, n)
+    nn = n * n
     e = ws[0:n]
     for j in range(n):
-        e[j] = q_d[j] - q[j]
-    pd_action(_JK_P(p, n), e, _JK_D(p, n), qd, -1.0, u)
+        e[j] = p[2 * nn + j] - q[j]
+    pd_action(p, 0, e, nn, qd, -1.0, u)
     for i in range(n):
         u[i] = g[i] + u[i]
     return True

@@ -1,12 +1,11 @@
 """Direct force control (Sect. 9.4): inner position loop, inner velocity loop, parallel control.
 
-Packed parameters shared by the three laws (m = task dimension):
-:data:`~forcecontrol.laws.layout.FORCE` ``= [M_d⁻¹ (m, m), K_D (m, m), K_P (m, m), K_F (m), K_I (m),
-anti-windup limit (m), R (m, m), bumpless]``.
+Packed parameters shared by the three laws (m = task dimension, row-major matrices)::
+
+    p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F (m), K_I (m), anti-windup limit (m), R (m²), bumpless (1)]
 
 K_F and K_I are the diagonals of C_F in the task frame whose axes are the columns of R (R = I:
-the base frame, the chapter's case). State of the PI schemes:
-:data:`~forcecontrol.laws.layout.FORCE_STATE` ``= [ξ (m), ξ₀ (m), f_s (m)]``,
+the base frame, the chapter's case). State of the PI schemes: ``s = [ξ (m), ξ₀ (m), f_s (m)]``,
 the integral action, the centre of its anti-windup band (its value after reset) and the force
 reference ``Rᵀ f_d`` of the previous sample, in task-frame coordinates; the inner velocity loop
 has no state. ``bumpless`` = 1 (``integrator_start = "tip"``): along axes with integral action a
@@ -19,14 +18,7 @@ from __future__ import annotations
 from numba import njit
 
 from .inner import inverse_dynamics_law
-from .layout import FORCE, FORCE_STATE, REFERENCE
 from .pd import pd_action
-
-_MD_INV, _K_D, _K_P, _K_F, _K_I, _LIMIT, _R, _BUMPLESS = (
-    FORCE.view(k) for k in ("Md_inv", "K_D", "K_P", "K_F", "K_I", "limit", "R", "bumpless")
-)
-_XI, _XI0, _F_S = (FORCE_STATE.view(k) for k in ("xi", "xi0", "f_s"))
-_X_D, _F_D = REFERENCE.view("position"), REFERENCE.view("force")
 
 
 @njit(cache=True, inline="always")
@@ -40,59 +32,54 @@ def force_reference(dt, h, ref, p, s, integral, x_F, e):  # pragma: no cover - c
     along axes with K_I > 0. Writes x_F (m,) and uses ``e`` (m,) as scratch.
     """
     m = h.shape[0]
-    R = _R(p, m)
-    K_F = _K_F(p, m)
-    K_I = _K_I(p, m)
-    f_d = _F_D(ref, m)
-    xi = _XI(s, m)  # empty for the inner velocity loop (no state), then never read
-    xi0 = _XI0(s, m)
-    if integral and _BUMPLESS(p, m) != 0.0:  # bumpless: a change of f_d does not move x_F
-        f_s = _F_S(s, m)
+    mm = m * m
+    oF = 3 * mm
+    oR = 3 * mm + 3 * m
+    if integral and p[oR + mm] != 0.0:  # bumpless: a change of f_d does not move x_F
         for i in range(m):
             acc = 0.0
             for j in range(m):
-                acc += R[j, i] * f_d[j]
-            if K_I[i] > 0.0:
-                shift = K_F[i] * (acc - f_s[i])
-                xi[i] -= shift
-                xi0[i] -= shift
-            f_s[i] = acc
+                acc += p[oR + j * m + i] * ref[3 * m + j]
+            if p[oF + m + i] > 0.0:
+                shift = p[oF + i] * (acc - s[2 * m + i])
+                s[i] -= shift
+                s[m + i] -= shift
+            s[2 * m + i] = acc
     for i in range(m):  # e = Rᵀ (f_d − f_e), the force error in the task frame
         acc = 0.0
         for j in range(m):
-            acc += R[j, i] * (f_d[j] - h[j])
+            acc += p[oR + j * m + i] * (ref[3 * m + j] - h[j])
         e[i] = acc
     for i in range(m):  # x_F = R (K_F e + ξ)
         acc = 0.0
         for j in range(m):
-            xi_j = xi[j] if integral else 0.0
-            acc += R[i, j] * (K_F[j] * e[j] + xi_j)
+            xi = s[j] if integral else 0.0
+            acc += p[oR + i * m + j] * (p[oF + j] * e[j] + xi)
         x_F[i] = acc
     if integral:
-        limit = _LIMIT(p, m)
         for i in range(m):
-            v = xi[i] + dt * K_I[i] * e[i]
-            lim = limit[i]
+            v = s[i] + dt * p[oF + m + i] * e[i]
+            lim = p[oF + 2 * m + i]
             if lim > 0.0:
-                lo = xi0[i] - lim
-                hi = xi0[i] + lim
+                lo = s[m + i] - lim
+                hi = s[m + i] + lim
                 if v < lo:
                     v = lo
                 elif v > hi:
                     v = hi
-            xi[i] = v
+            s[i] = v
 
 
 @njit(cache=True, inline="always")
 def _motion_acceleration(p, d, xd, a, w):  # pragma: no cover - compiled
     """``a = M_d⁻¹ (K_P d − K_D ẋ_e)``, the common form of (9.39), (9.45) and (9.48)."""
     m = d.shape[0]
-    Md_inv = _MD_INV(p, m)
-    pd_action(_K_P(p, m), d, _K_D(p, m), xd, -1.0, w)
+    mm = m * m
+    pd_action(p, 2 * mm, d, mm, xd, -1.0, w)
     for i in range(m):
         acc = 0.0
         for j in range(m):
-            acc += Md_inv[i, j] * w[j]
+            acc += p[i * m + j] * w[j]
         a[i] = acc
 
 
@@ -136,11 +123,10 @@ def parallel_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no 
     Equilibrium (9.49): ``x_e = x_d + C_F (K (x_r − x_e) + f_d)``.
     """
     m = x.shape[0]
-    x_d = _X_D(ref, m)
     d = ws[0:m]
     force_reference(dt, h, ref, p, s, True, d, ws[m : 2 * m])
     for i in range(m):
-        d[i] = x_d[i] - x[i] + d[i]
+        d[i] = ref[i] - x[i] + d[i]
         hc[i] = h[i]
     _motion_acceleration(p, d, xd, a, ws[m : 2 * m])
     return True

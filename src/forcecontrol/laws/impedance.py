@@ -5,18 +5,15 @@ from __future__ import annotations
 from numba import njit
 
 from .inner import inverse_dynamics_law
-from .layout import IMPEDANCE, REFERENCE
 from .pd import pd_action
-
-_MD_INV, _K_D, _K_P, _USE_FORCE = (IMPEDANCE.view(k) for k in ("Md_inv", "K_D", "K_P", "use_force"))
-_X_D, _V_D, _A_D = (REFERENCE.view(k) for k in ("position", "velocity", "acceleration"))
 
 
 @njit(cache=True, inline="always")
-def impedance_core(Md_inv, K_D, K_P, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma: no cover - compiled
+def impedance_core(G, x_tilde, x_tilde_dot, a_ff, h, use_force, w, a):  # pragma: no cover - compiled
     """(9.28), (9.31), (9.35): ``a = a_ff + M_d⁻¹ (K_D x̃̇ + K_P x̃ [− h])``, written into ``a``.
 
-    ``Md_inv``, ``K_D``, ``K_P`` are (m, m).
+    ``G = [M_d⁻¹ (m²), K_D (m²), K_P (m²)]``, row-major (the first blocks of the planar law's
+    parameters).
     The one impedance equation of the chapter, for any dimension m: in the base frame with
     ``x̃ = x_d − x_e`` and ``a_ff = ẍ_d`` ((9.28) without, (9.31) corrected with force
     measurement); on the desired frame (9.35) with the 6-D error (9.9), ``a_ff`` the part of x̃̈
@@ -25,14 +22,15 @@ def impedance_core(Md_inv, K_D, K_P, x_tilde, x_tilde_dot, a_ff, h, use_force, w
     ``w`` (m,) is scratch.
     """
     m = a.shape[0]
-    pd_action(K_P, x_tilde, K_D, x_tilde_dot, 1.0, w)
+    mm = m * m
+    pd_action(G, 2 * mm, x_tilde, mm, x_tilde_dot, 1.0, w)
     if use_force:
         for i in range(m):
             w[i] = w[i] - h[i]
     for i in range(m):
         acc = 0.0
         for j in range(m):
-            acc += Md_inv[i, j] * w[j]
+            acc += G[i * m + j] * w[j]
         a[i] = a_ff[i] + acc
 
 
@@ -43,20 +41,19 @@ def impedance_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no
     (9.31) in its corrected form: the first term is ``M_d ẍ_d`` as in (9.28), not the printed
     ``M_d x̃̈``. With force measurement the closed loop is (9.32)
     ``M_d x̃̈ + K_D x̃̇ + K_P x̃ = h_A``; without, (9.29) (coupled through B_A⁻¹).
-    ``p``: :data:`~forcecontrol.laws.layout.IMPEDANCE`; writes ``a`` and ``hc = h_e``;
+    ``p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), use_force]``; writes ``a`` and ``hc = h_e``;
     returns whether the inner loop compensates ``Jᵀ h_e`` (with force measurement).
     """
     m = x.shape[0]
-    use_force = _USE_FORCE(p, m) != 0.0
-    x_d = _X_D(ref, m)
-    v_d = _V_D(ref, m)
+    mm = m * m
+    use_force = p[3 * mm] != 0.0
     xt = ws[0:m]
     xtd = ws[m : 2 * m]
     for i in range(m):
-        xt[i] = x_d[i] - x[i]
-        xtd[i] = v_d[i] - xd[i]
+        xt[i] = ref[i] - x[i]
+        xtd[i] = ref[m + i] - xd[i]
         hc[i] = h[i]
-    impedance_core(_MD_INV(p, m), _K_D(p, m), _K_P(p, m), xt, xtd, _A_D(ref, m), h, use_force, ws[2 * m : 3 * m], a)
+    impedance_core(p, xt, xtd, ref[2 * m : 3 * m], h, use_force, ws[2 * m : 3 * m], a)
     return use_force
 
 

@@ -126,7 +126,8 @@ def spatial_impedance_torque(
     h_d[:3] = RdT @ h[:3]
     h_d[3:] = RdT @ h[3:]
     r = np.empty(6)
-    impedance_core(Md_inv, K_D, K_P, x, xd, c, h_d, use_force, np.empty(6), r)
+    G = np.concatenate((Md_inv.ravel(), K_D.ravel(), K_P.ravel()))
+    impedance_core(G, x, xd, c, h_d, use_force, np.empty(6), r)
     JJt = JAd @ JAd.T
     lam2 = 0.0
     if lmax > 0.0:
