@@ -163,6 +163,6 @@ def test_cli_option_checks(tmp_path, args):
 
 
 def test_angle_at_the_bound_is_accepted():
-    """The range is inclusive: a plane at 360° builds (and the normal agrees with 0°)."""
+    """The range is inclusive: a plane at exactly 360° is accepted (the bound itself is not refused)."""
     scn = _scenario().with_({"environment": {"type": "elastic-plane", "point": [1.0, 0.0], "angle": 360.0, "stiffness": 1e3}})
     assert scn.cases[0].config["environment"]["angle"] == 360.0
