@@ -168,8 +168,8 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
     """
     from ..errors import ParameterError
     from ..robots import PlanarTwoLink
-    from ..sim.limits import check_run_size, check_substeps
     from ..sim.contact import _contact_guarded, contact_rate
+    from ..sim.limits import check_run_size, check_substeps
     from ..sim.simulation import choose_substeps, contact_mobility, pre_start_wrench
 
     robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
