@@ -197,7 +197,7 @@ def test_clear_removes_only_this_librarys_folders(tmp_path: Path) -> None:
 
 
 def test_each_law_has_its_own_cache_files() -> None:
-    """Two laws' loops (both variants), sweep kernels and on_arm steps have different index files (were one each)."""
+    """Two laws' loops (both variants) and on_arm steps have different index files (were one each)."""
     from forcecontrol.laws import arm
     from forcecontrol.laws.force import inner_velocity, parallel
     from forcecontrol.sim.batch import kernels
@@ -209,6 +209,59 @@ def test_each_law_has_its_own_cache_files() -> None:
     for full_log in (True, False):
         assert index(planar_loop(inner_velocity, full_log)) != index(planar_loop(parallel, full_log))
     assert index(planar_loop(parallel, True)) != index(planar_loop(parallel, False))
-    assert index(kernels(inner_velocity)[1]) != index(kernels(parallel)[1])
-    assert index(kernels(inner_velocity)[0]) != index(kernels(parallel)[0])
+    # the sweeps' batch kernels are compiled per process, not cached on disk (see sim/batch.py)
+    from numba.core.caching import NullCache
+
+    assert all(isinstance(k._cache, NullCache) for k in (kernels(inner_velocity)[0], kernels(parallel)[1]))
     assert index(arm.on_arm(inner_velocity)) != index(arm.on_arm(parallel))
+
+
+BATCH_WORKER = textwrap.dedent(
+    r'''
+    import hashlib, sys
+    import numpy as np
+    import forcecontrol as fc
+    from forcecontrol.controllers.base import Measurement
+    from forcecontrol.sim.batch import run_case
+
+    ARM = fc.PlanarTwoLink()
+    Q0 = ARM.inverse_kinematics([1.0, 0.0], elbow="up")
+    MAKE = {
+        "inner_position": lambda: fc.InnerPositionForceController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0]),
+        "inner_velocity": lambda: fc.InnerVelocityForceController(ARM, 100, 500, 2500, [0.0024, 0]),
+        "parallel": lambda: fc.ParallelForcePositionController(ARM, 100, 500, 2500, [0.00064, 0], [0.0016, 0]),
+        "impedance": lambda: fc.ImpedanceController(ARM, 100, 500, 2500),
+    }
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4, damping=20.0)
+    ref = fc.LinearPath([1.0, 0.0], [1.05, 0.1], 0.5, force=[10.0, 0.0])
+    N, Ts = 300, 1e-3
+    sensor = fc.ForceSensor()
+    bias, noise = sensor.sequences(N + 1, 2)
+    for name in sys.argv[1:]:
+        ctl = MAKE[name]()
+        ctl.reset(Measurement(Q0, np.zeros(2), env.wrench(ARM.forward_kinematics(Q0), np.zeros(2))), ref.at(0.0))
+        y = np.empty(N + 1)
+        run_case(ctl.compiled_law, np.array(ARM._K), env.kind, env.packed(), np.array(ctl._params), ctl.state.copy(),
+                 ref.sample(np.arange(N + 1) * Ts), bias, noise, sensor.alpha(Ts), Q0, np.zeros(2), Ts, 1, N, 50.0,
+                 np.array([1.0, 0.0]), y)
+        print(f"{name}|{hashlib.sha256(y.tobytes()).hexdigest()}|{y[-1]!r}")
+    '''
+)
+
+
+def test_laws_compiled_in_separate_processes_run_their_own_code_when_loaded_together(tmp_path: Path) -> None:
+    """Each law's loop and sweep kernel compiled alone in its own process, then all loaded in one: bit for bit a fresh run.
+
+    Same-named closures compiled in separate processes got the same LLVM symbol (qualified name and a
+    per-process counter); a process that loaded two of them ran one law's body for the other (numba
+    issue 10486: wrong forces, a crash). Each closure now has a name from its identity.
+    """
+    script = tmp_path / "batch_worker.py"
+    script.write_text(BATCH_WORKER)
+    laws = ("inner_position", "inner_velocity", "parallel", "impedance")
+    reference = _finish(_worker(script, tmp_path / "fresh", laws))
+    shared = tmp_path / "shared"
+    for law in laws:  # one at a time, each in a fresh process: the same counters in each
+        assert _finish(_worker(script, shared, (law,)))[law] == reference[law]
+    together = _finish(_worker(script, shared, laws))
+    assert together == reference

@@ -449,7 +449,7 @@ def test_random_design_is_reproducible_and_within_its_distributions():
         ({"sensor.seed": "linspace(0, 1, 2)"}, {}, r"key 'seed' must be an integer"),
         ({"controller.force_gain[5]": "0.001"}, {}, r"index \[5\] needs a list of more than 5 entries"),
         ({"environment.stiffness": "1e4"}, {"cases": ["nope"]}, r"case 'nope' is not in scenario 'sweep-test'"),
-        ({"environment.stiffness": "1e4"}, {"design": "random"}, r"samples must be a positive integer"),
+        ({"environment.stiffness": "1e4"}, {"design": "random"}, r"samples must be an integer in \[1, "),
         ({}, {}, r"at least one parameter"),
     ],
 )
