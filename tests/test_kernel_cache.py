@@ -197,7 +197,7 @@ def test_clear_removes_only_this_librarys_folders(tmp_path: Path) -> None:
 
 
 def test_each_law_has_its_own_cache_files() -> None:
-    """Two laws' loops (both variants) and on_arm steps have different index files (were one each)."""
+    """Two laws' loops (both variants), sweep kernels and on_arm steps have their own index files and symbol names."""
     from forcecontrol.laws import arm
     from forcecontrol.laws.force import inner_velocity, parallel
     from forcecontrol.sim.batch import kernels
@@ -209,10 +209,13 @@ def test_each_law_has_its_own_cache_files() -> None:
     for full_log in (True, False):
         assert index(planar_loop(inner_velocity, full_log)) != index(planar_loop(parallel, full_log))
     assert index(planar_loop(parallel, True)) != index(planar_loop(parallel, False))
-    # the sweeps' batch kernels are compiled per process, not cached on disk (see sim/batch.py)
-    from numba.core.caching import NullCache
-
-    assert all(isinstance(k._cache, NullCache) for k in (kernels(inner_velocity)[0], kernels(parallel)[1]))
+    assert index(kernels(inner_velocity)[1]) != index(kernels(parallel)[1])
+    assert index(kernels(inner_velocity)[0]) != index(kernels(parallel)[0])
+    # and their compiled symbols have names of their own (same-named closures collide: numba issue 10486)
+    names = {planar_loop(inner_velocity, True).py_func.__qualname__, planar_loop(parallel, True).py_func.__qualname__,
+             kernels(inner_velocity)[0].py_func.__qualname__, kernels(parallel)[0].py_func.__qualname__,
+             arm.on_arm(inner_velocity).py_func.__qualname__, arm.on_arm(parallel).py_func.__qualname__}
+    assert len(names) == 6 and not any("<locals>" in n for n in names)
     assert index(arm.on_arm(inner_velocity)) != index(arm.on_arm(parallel))
 
 
@@ -254,7 +257,7 @@ def test_laws_compiled_in_separate_processes_run_their_own_code_when_loaded_toge
 
     Same-named closures compiled in separate processes got the same LLVM symbol (qualified name and a
     per-process counter); a process that loaded two of them ran one law's body for the other (numba
-    issue 10486: wrong forces, a crash). Each closure now has a name from its identity.
+    issue 10486: wrong forces, a crash). Each closure now has a name from its identity (fails without it).
     """
     script = tmp_path / "batch_worker.py"
     script.write_text(BATCH_WORKER)

@@ -200,6 +200,12 @@ class KernelCache(FunctionCache):
 def set_identity(dispatcher: Any, identity: str) -> None:
     """Give a compiled closure its own identity: its pickling uuid and its own cache index and data files."""
     dispatcher._set_uuid(identity)
+    # a name of its own for the compiled symbol: closures of one factory share a qualified name, and
+    # Numba's symbol is that name plus a per-process counter, so two laws' closures compiled in two
+    # processes got the same symbol and a process that loaded both ran one body for the other
+    # (numba issue 10486: wrong forces, crashes)
+    name = "k_" + re.sub(r"\W", "_", identity)
+    dispatcher.py_func.__name__ = dispatcher.py_func.__qualname__ = name
     if isinstance(getattr(dispatcher, "_cache", None), FunctionCache):
         dispatcher._cache = KernelCache(dispatcher.py_func, identity)
 

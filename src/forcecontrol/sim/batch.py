@@ -40,7 +40,7 @@ _NOUT = len(OUT_COLUMNS)
 
 
 def kernels(law: Any) -> tuple[Any, Any]:
-    """``(run_case, run_batch)`` compiled for control ``law`` (built once per law and process).
+    """``(run_case, run_batch)`` compiled for control ``law`` (built once per law, cached on disk).
 
     The law's loop (:func:`forcecontrol.sim.loop.planar_loop`) is a constant of these closures, so
     they are specialised per law like the loop itself.
@@ -49,7 +49,7 @@ def kernels(law: Any) -> tuple[Any, Any]:
     if k is None:
         k = _KERNELS[law] = _make_kernels(planar_loop(law, full_log=False))
         for name, fn in zip(("case", "one", "batch"), k[2]):
-            # a stable pickling identity per kernel and law (see stable_identities)
+            # its own identity, symbol name and cache files, per kernel and law (see core.kernel_cache)
             kernel_identity(fn, f"forcecontrol:_batch.{name}:{law._uuid}")
     return k[0], k[1]
 
@@ -66,11 +66,8 @@ def run_batch(law: Any, *args: Any) -> None:
 
 
 _KERNELS: dict[Any, tuple[Any, Any, tuple[Any, ...]]] = {}
-# Not cached on disk: a full test run once left batch entries whose machine code disagreed with
-# a fresh compile of the same key (wrong forces, one crash; root cause not found, see issue 27's
-# note). Compiled per process (about 0.6 s per law, the law's loop itself stays cached).
-_compiled = njit(cache=False)
-_compiled_nogil = njit(cache=False, nogil=True)
+_compiled = njit(cache=True)
+_compiled_nogil = njit(cache=True, nogil=True)
 
 
 def _make_kernels(loop: Any) -> tuple[Any, Any, tuple[Any, ...]]:  # pragma: no cover - compiled
