@@ -34,6 +34,9 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=True,  # --install-completion / --show-completion (bash, zsh, fish, PowerShell)
     pretty_exceptions_enable=False,
+    # plain help (click's formatter): with Rich markup, '[s]', '[deg]', '[N/m]' and '[k_min, k_max]' in help
+    # strings were read as tags and vanished from --help; every help text is printed as written
+    rich_markup_mode=None,
     context_settings={"help_option_names": ["-h", "--help"]},  # inherited by every command
 )
 console = Console(width=None if sys.stdout.isatty() else 132)
