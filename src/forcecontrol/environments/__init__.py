@@ -2,6 +2,7 @@
 
 from .base import Environment
 from .elastic import ElasticPlane, LinearSpring
+from .friction import FrictionalContact
 from .rigid import (
     CircleConstraint,
     HolonomicConstraint,
@@ -11,6 +12,7 @@ from .rigid import (
     RigidEnvironment,
 )
 from .spatial import ConstantWrench, SpatialSpring, Table
+from .surfaces import ElasticCylinder, ElasticSphere, ElasticSurface, HeightField
 
 __all__ = [
     "Environment",
@@ -25,4 +27,9 @@ __all__ = [
     "SpatialSpring",
     "Table",
     "ConstantWrench",
+    "ElasticSurface",
+    "ElasticSphere",
+    "ElasticCylinder",
+    "HeightField",
+    "FrictionalContact",
 ]

@@ -19,6 +19,10 @@ class Environment(ABC):
 
     #: id of this environment's branch in the compiled loop (0: not compiled).
     kind: ClassVar[int] = 0
+    #: True for an environment with a state of its own (e.g. friction's stick/slip): the simulator's
+    #: Python loop then calls ``start(robot, q0, q̇0, rows)`` before the run, ``advance(robot, q, q̇)``
+    #: after every integrator step, ``log_sample(k, x, ẋ)`` at every sample, and merges its ``signals()``.
+    stateful: ClassVar[bool] = False
     #: operational-space dimension the environment works in.
     dim: int
     #: ``describe()["type"]`` (None: the class name) and the attributes it lists.

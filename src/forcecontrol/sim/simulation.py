@@ -185,6 +185,8 @@ def simulate(
     check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python",
                    rate=rate, explicit=substeps is not None)
 
+    if getattr(environment, "stateful", False):  # e.g. friction's stick/slip state (Python loop only: such environments have kind 0)
+        environment.start(robot, q0, qd0, N + 1)  # type: ignore[attr-defined]
     # initial measurement for controllers whose reset depends on it
     h0 = pre_start_wrench(robot, environment, q0, qd0)
     rich = None if sensor.compiled_ok else cast("RealisticForceSensor", sensor)  # the stateful kind
@@ -231,6 +233,8 @@ def simulate(
     if events:
         meta["events"] = events  # saved with the log's metadata
     signals = _controller_signals(controller, times.shape[0])
+    if getattr(environment, "stateful", False):
+        signals.update(environment.signals())  # type: ignore[attr-defined]
     result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events, signals=signals, **logs)
     note = ""
     if use_compiled and status in (0, 1, 2):  # no guard inside the compiled loop: the samples in contact, after
@@ -312,6 +316,7 @@ def _python_loop(
     # the contact at any RK4 stage of the sample (it may come and go between two samples)
     touched = [False]
     guard = _contact_guarded(environment)
+    stateful = getattr(environment, "stateful", False)
     next_check = 0  # the contact mode is checked on a contact's first sample, then every 32 with a 2x margin
 
     def accel(q, qd, u):
@@ -343,6 +348,8 @@ def _python_loop(
             status = 3
         logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, T.x, T.xd
         logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, hm, u
+        if stateful:
+            environment.log_sample(k, T.x, T.xd)
         if status:
             return status, k
         if k == N:
@@ -358,6 +365,8 @@ def _python_loop(
                 a4 = accel(q + dt * v3, v4, u)
                 q = q + dt / 6.0 * (qd + 2 * v2 + 2 * v3 + v4)
                 qd = qd + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+                if stateful:
+                    environment.advance(robot, q, qd)
         except np.linalg.LinAlgError:
             return 1, k
         if guard and touched[0] and k >= next_check:

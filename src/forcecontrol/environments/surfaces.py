@@ -1,0 +1,298 @@
+"""Curved elastic surfaces: a sphere (a circle in 2-D), a cylinder and a height field.
+
+Each surface is one-sided and frictionless, like :class:`~forcecontrol.environments.elastic.ElasticPlane`,
+with the plane's normal replaced by the geometry's: with φ(x) the signed distance of the tip to the
+undeformed surface (negative inside the environment), δ = −φ the penetration, ν = ∇φ the outward
+unit normal at the closest surface point p_c = x − φ ν::
+
+    h_e = max(0, k δ − c ν·ẋ) (−ν)   while δ > 0, else 0     (never pulls)
+
+:meth:`ElasticSurface.geometry` gives (φ, p_c, ν). The surfaces work for the chapter's planar arm
+(``dim = 2``: a circle is the sphere's cut by the arm's plane) and in 3-D; a 3-D surface with
+``task_dim=6`` returns the 6-D wrench ``[f_e; 0]`` of a pose task (the contact acts at the
+end-effector origin: no moment), reading the position ``x[:3]`` of the pose.
+
+Add :class:`~forcecontrol.environments.friction.FrictionalContact` around any of them (or an
+elastic plane) for Coulomb friction with stiction.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..core.files import read_bytes_limited
+from ..core.validate import as_matrix, as_vector, nonnegative_scalar, positive_scalar
+from ..errors import DimensionError, ParameterError
+from .base import Environment
+
+__all__ = ["ElasticSurface", "ElasticSphere", "ElasticCylinder", "HeightField"]
+
+
+def _unit(name: str, value: Any, size: int) -> np.ndarray:
+    v = np.array(as_vector(name, value, size))
+    norm = float(np.linalg.norm(v))
+    if not norm > 1e-12:
+        raise ParameterError(f"{name} must be a non-zero vector; got {v.tolist()}")
+    return v / norm
+
+
+class ElasticSurface(Environment):
+    """A one-sided elastic surface given by its geometry (base class of the curved surfaces).
+
+    Subclasses give :meth:`geometry`; this class turns it into the contact wrench.
+
+    Args (common):
+        stiffness: k along the local normal [N/m], > 0.
+        damping: c along the local normal [N s/m], >= 0.
+        task_dim: the robot's task dimension: the geometry's (2 or 3), or 6 for a 3-D surface under
+            a pose task (``x = [o_e; φ_e]``).
+    """
+
+    #: the geometry's dimension (2 or 3).
+    space: int
+
+    def _common(self, space: int, stiffness: float, damping: float, task_dim: int | None) -> None:
+        self.space = space
+        self.stiffness = positive_scalar("stiffness", stiffness, "N/m")
+        self.damping = nonnegative_scalar("damping", damping, "N s/m")
+        td = space if task_dim is None else task_dim
+        if td != space and not (space == 3 and td == 6):
+            raise DimensionError(f"task_dim must be {space}" + (" or 6" if space == 3 else "") + f" for this surface; got {td!r}")
+        self.dim = int(td)
+
+    def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:  # pragma: no cover - abstract
+        """(φ, p_c, ν) at the point p (space,) [m]: the signed distance (negative inside), the closest
+        point of the undeformed surface and the outward unit normal there."""
+        raise NotImplementedError
+
+    def signed_distance(self, p: Any) -> float:
+        """φ(p) [m]: positive in free space, negative inside the environment."""
+        return self.geometry(np.asarray(p, dtype=np.float64)[: self.space])[0]
+
+    def penetration(self, x: Any) -> float:
+        """δ = −φ [m]: positive inside the environment."""
+        return -self.signed_distance(x)
+
+    def contact_point(self, p: Any) -> np.ndarray:
+        """The closest point of the undeformed surface to p, (space,) [m]."""
+        return self.geometry(np.asarray(p, dtype=np.float64)[: self.space])[1]
+
+    def normal(self, p: Any) -> np.ndarray:
+        """The outward unit normal at the closest surface point, (space,)."""
+        return self.geometry(np.asarray(p, dtype=np.float64)[: self.space])[2]
+
+    def normal_force(self, x: np.ndarray, xd: np.ndarray) -> tuple[float, np.ndarray, float]:
+        """(f_n, ν, δ): the normal force magnitude (>= 0) [N], the normal and the penetration [m]."""
+        p = np.asarray(x, dtype=np.float64)[: self.space]
+        phi, _, nu = self.geometry(p)
+        if phi >= 0.0:
+            return 0.0, nu, -phi
+        vn = float(nu @ np.asarray(xd, dtype=np.float64)[: self.space])
+        return max(0.0, -self.stiffness * phi - self.damping * vn), nu, -phi
+
+    def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
+        out = np.zeros(self.dim)
+        fn, nu, _ = self.normal_force(x, xd)
+        if fn > 0.0:
+            out[: self.space] = -fn * nu
+        return out
+
+    def max_stiffness(self) -> float:
+        return self.stiffness
+
+
+class ElasticSphere(ElasticSurface):
+    """An elastic ball (a disc in 2-D): the environment is inside ``|x − c| < R``.
+
+    φ = |x − c| − R, ν = (x − c)/|x − c|, p_c = c + R ν. In 2-D, the chapter's arm meets the circle
+    the sphere leaves in its plane.
+
+    Args:
+        center: c, (2,) or (3,) [m]; radius: R [m] > 0; stiffness, damping, task_dim: see
+            :class:`ElasticSurface`.
+    """
+
+    describe_type: ClassVar[str | None] = "elastic-sphere"
+    described: ClassVar[tuple[str, ...]] = ("center", "radius", "stiffness", "damping")
+
+    def __init__(self, center: Any, radius: float, stiffness: float, damping: float = 0.0, *,
+                 task_dim: int | None = None) -> None:
+        self.center = as_vector("center", center)
+        if self.center.shape[0] not in (2, 3):
+            raise DimensionError(f"center must have 2 or 3 components; got {self.center.shape[0]}")
+        self.radius = positive_scalar("radius", radius, "m")
+        self._common(int(self.center.shape[0]), stiffness, damping, task_dim)
+
+    def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        d = p - self.center
+        r = float(math.sqrt(float(d @ d)))
+        if r < 1e-12:  # at the centre every direction is a normal: pick the first axis
+            nu = np.zeros(self.space)
+            nu[0] = 1.0
+        else:
+            nu = d / r
+        return r - self.radius, self.center + self.radius * nu, nu
+
+
+class ElasticCylinder(ElasticSurface):
+    """An elastic solid cylinder of infinite length, its axis in any direction (3-D).
+
+    With a the axis point, u the axis direction and ``r = (x − a) − ((x − a)·u) u``:
+    φ = |r| − R, ν = r/|r|. (In 2-D a cylinder whose axis is normal to the arm's plane is the
+    circle of :class:`ElasticSphere`.)
+
+    Args:
+        point: a point of the axis (3,) [m]; axis: its direction (3,), normalised; radius: R [m] > 0.
+    """
+
+    describe_type: ClassVar[str | None] = "elastic-cylinder"
+    described: ClassVar[tuple[str, ...]] = ("point", "axis", "radius", "stiffness", "damping")
+
+    def __init__(self, point: Any, axis: Any, radius: float, stiffness: float, damping: float = 0.0, *,
+                 task_dim: int | None = None) -> None:
+        self.point = as_vector("point", point, 3)
+        self.axis = _unit("axis", axis, 3)
+        self.radius = positive_scalar("radius", radius, "m")
+        self._common(3, stiffness, damping, task_dim)
+
+    def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        d = p - self.point
+        r = d - float(d @ self.axis) * self.axis
+        rn = float(math.sqrt(float(r @ r)))
+        if rn < 1e-12:
+            helper = np.array([1.0, 0.0, 0.0]) if abs(self.axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+            nu = helper - float(helper @ self.axis) * self.axis
+            nu /= np.linalg.norm(nu)
+        else:
+            nu = r / rn
+        return rn - self.radius, p - r + self.radius * nu, nu
+
+
+class HeightField(ElasticSurface):
+    """An elastic height field: the environment lies below ``z = h(x, y)`` (3-D) or ``y = h(x)`` (2-D).
+
+    The heights are given on a regular grid and interpolated by a cubic spline (continuous normals,
+    so a tool sliding over the grid lines feels no steps). The closest surface point is found by
+    Gauss–Newton projection on the spline (from the point straight above/below), so φ is the true
+    signed distance to the interpolated surface where the projection is unique (within the
+    surface's radius of curvature); ν at p_c is the spline's normal. Outside the grid the surface
+    is the edge's spline extrapolated; keep the tool over the grid.
+
+    Args:
+        heights: h on the grid: (nx,) in 2-D, (nx, ny) in 3-D (``heights[i, j]`` at ``(x_i, y_j)``) [m];
+            at least 4 samples along each axis.
+        origin: the grid's first point, (1,) in 2-D (its x), (2,) in 3-D [m].
+        spacing: the grid steps [m] > 0, scalar or one per axis.
+        stiffness, damping, task_dim: see :class:`ElasticSurface`.
+    """
+
+    describe_type: ClassVar[str | None] = "height-field"
+    described: ClassVar[tuple[str, ...]] = ("origin", "spacing", "stiffness", "damping")
+
+    def __init__(self, heights: Any, origin: Any, spacing: Any, stiffness: float, damping: float = 0.0, *,
+                 task_dim: int | None = None) -> None:
+        from scipy.interpolate import InterpolatedUnivariateSpline, RectBivariateSpline
+
+        H = np.asarray(heights, dtype=np.float64) if not isinstance(heights, np.ndarray) else heights.astype(np.float64)
+        if H.ndim == 1:
+            H = as_vector("heights", H)
+        elif H.ndim == 2:
+            H = as_matrix("heights", H)
+        else:
+            raise DimensionError(f"heights must be a 1-D (planar) or 2-D (3-D) array; got {H.ndim} dimensions")
+        if min(H.shape) < 4:
+            raise ParameterError(f"heights must have at least 4 samples along each axis (a cubic spline); got shape {H.shape}")
+        axes = H.ndim
+        self.heights = H
+        self.origin = as_vector("origin", origin, axes)
+        sp = np.broadcast_to(np.asarray(spacing, dtype=np.float64), (axes,)).copy() if np.ndim(spacing) == 0 else \
+            np.array(as_vector("spacing", spacing, axes))
+        if not np.all(np.isfinite(sp)) or np.any(sp <= 0.0):
+            raise ParameterError(f"spacing must be positive and finite [m]; got {sp.tolist()}")
+        self.spacing = sp
+        grids = [self.origin[i] + sp[i] * np.arange(H.shape[i]) for i in range(axes)]
+        if axes == 1:
+            self._spline1 = InterpolatedUnivariateSpline(grids[0], H, k=3)
+            self._d1 = self._spline1.derivative(1)
+        else:
+            self._spline2 = RectBivariateSpline(grids[0], grids[1], H, kx=3, ky=3, s=0)
+        self._common(axes + 1, stiffness, damping, task_dim)
+
+    @classmethod
+    def from_file(cls, path: str | Path, origin: Any, spacing: Any, stiffness: float, damping: float = 0.0, *,
+                  height_scale: float = 1.0, task_dim: int | None = None, max_bytes: int = 16 * 2**20) -> HeightField:
+        """A height field read from a CSV table (rows along x, columns along y; one row: a 2-D profile)
+        or a grey-scale PNG (pixel value / 255 · ``height_scale``; rows along x), through the
+        library's safe reader (regular files only, ``max_bytes`` at most)."""
+        p = Path(path)
+        scale = positive_scalar("height_scale", height_scale, "m")
+        data = read_bytes_limited(p, "height field", max_bytes)
+        if p.suffix.lower() == ".png":
+            from PIL import Image
+
+            try:
+                img = Image.open(io.BytesIO(data))
+                img.load()
+            except Exception:
+                raise ParameterError(f"cannot read height field {str(p)!r}: not a readable PNG image") from None
+            if img.width * img.height > 4_000_000:
+                raise ParameterError(f"height field {str(p)!r} has {img.width * img.height} pixels; at most 4000000")
+            H = np.asarray(img.convert("L"), dtype=np.float64) / 255.0 * scale
+        elif p.suffix.lower() in (".csv", ".txt"):
+            try:
+                H = np.loadtxt(io.StringIO(data.decode("utf-8")), delimiter=",", ndmin=2) * scale
+            except (ValueError, UnicodeDecodeError):
+                raise ParameterError(
+                    f"cannot read height field {str(p)!r}: it must be comma-separated numbers (rows along x)"
+                ) from None
+            if H.shape[0] == 1:
+                H = H[0]
+        else:
+            raise ParameterError(f"height field file must be .csv or .png; got {p.suffix or 'no extension'!r} ({str(p)!r})")
+        return cls(H, origin, spacing, stiffness, damping, task_dim=task_dim)
+
+    def height(self, u: Any) -> float:
+        """h at the grid coordinates u: x in 2-D, (x, y) in 3-D [m]."""
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        if self.space == 2:
+            return float(self._spline1(u[0]))
+        return float(self._spline2.ev(u[0], u[1]))
+
+    def _surface(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The surface point s(u) and its tangents ∂s/∂u (space, space − 1)."""
+        if self.space == 2:
+            h = float(self._spline1(u[0]))
+            hx = float(self._d1(u[0]))
+            return np.array([u[0], h]), np.array([[1.0], [hx]])
+        sp = self._spline2
+        h = float(sp.ev(u[0], u[1]))
+        hx = float(sp.ev(u[0], u[1], dx=1))
+        hy = float(sp.ev(u[0], u[1], dy=1))
+        return np.array([u[0], u[1], h]), np.array([[1.0, 0.0], [0.0, 1.0], [hx, hy]])
+
+    def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        u = p[: self.space - 1].copy()
+        for _ in range(12):  # Gauss–Newton on |p − s(u)|²: the foot of the perpendicular
+            s, T = self._surface(u)
+            step = np.linalg.solve(T.T @ T, T.T @ (p - s))
+            u += step
+            if float(np.max(np.abs(step))) < 1e-13:
+                break
+        s, T = self._surface(u)
+        if self.space == 2:
+            nu = np.array([-T[1, 0], 1.0])
+        else:
+            nu = np.array([-T[2, 0], -T[2, 1], 1.0])
+        nu /= np.linalg.norm(nu)
+        return float(nu @ (p - s)), s, nu
+
+    def describe(self) -> dict[str, Any]:
+        out = super().describe()
+        out["shape"] = list(self.heights.shape)
+        out["height_range"] = [float(self.heights.min()), float(self.heights.max())]
+        return out

@@ -1,0 +1,90 @@
+"""Coulomb friction with stiction (issue 31, item 2): closed forms on a flat plane with the chapter's arm."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.environments.friction import FrictionalContact
+from forcecontrol.errors import ParameterError
+
+ARM = fc.PlanarTwoLink()
+Q0 = ARM.inverse_kinematics([1.0, 0.6])  # the tip on the undeformed plane y = 0.6
+KP, KD, MD = 4000.0, 400.0, 10.0  # critically damped impedance, omega_n = 20 rad/s
+K_ENV = 1e4
+# the tip pressed 1 cm below the surface: K_P (0.01 - delta) = k delta
+F_N = K_ENV * KP * 0.01 / (KP + K_ENV)
+
+
+def _contact(mu_s=0.5, mu_k=0.3, viscous=0.0):
+    return FrictionalContact(fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], K_ENV), mu_s, mu_k, viscous,
+                             stick_stiffness=1e5, stick_damping=200.0)
+
+
+def _run(env, ref, duration):
+    ctl = fc.ImpedanceController(ARM, MD, KD, KP)
+    return fc.simulate(ARM, env, ctl, ref, q0=Q0, duration=duration)
+
+
+def test_sliding_force_is_kinetic_coefficient_times_normal_force():
+    """While sliding at constant speed the tangential contact force is mu_k f_n within 1 %, both in the log
+    and as seen by the controller (K_P times the tangential lag), and f_n is the closed-form spring balance."""
+    env = _contact()
+    ref = fc.LinearPath([1.0, 0.59], [1.2, 0.59], duration=2.0, start_time=0.5)
+    r = _run(env, ref, 2.5)
+    fr, fn, stick = r.signals["friction"], r.signals["normal_force"], r.signals["stick"]
+    cruise = (r.t > 1.2) & (r.t < 2.0)  # constant reference speed 0.125 m/s, transients gone
+    assert np.all(stick[cruise] == 0.0)
+    assert np.all(r.xd[cruise, 0] > 0.12)
+    np.testing.assert_allclose(fn[cruise], F_N, rtol=1e-3)
+    np.testing.assert_allclose(fr[cruise, 0], 0.3 * fn[cruise], rtol=0.01)
+    np.testing.assert_allclose(r.wrench[cruise, 0], 0.3 * -r.wrench[cruise, 1], rtol=0.01)
+    lag = ref.sample(r.t[cruise])[:, 0] - r.x[cruise, 0]
+    np.testing.assert_allclose(KP * lag, 0.3 * fn[cruise], rtol=0.01)
+
+
+def test_viscous_friction_adds_b_times_speed():
+    """With viscous friction b the sliding force is mu_k f_n + b v within 1 %."""
+    env = _contact(viscous=20.0)
+    ref = fc.LinearPath([1.0, 0.59], [1.2, 0.59], duration=2.0, start_time=0.5)
+    r = _run(env, ref, 2.0)
+    cruise = (r.t > 1.2) & (r.t < 2.0)
+    expected = 0.3 * r.signals["normal_force"][cruise] + 20.0 * r.xd[cruise, 0]
+    np.testing.assert_allclose(r.signals["friction"][cruise, 0], expected, rtol=0.01)
+
+
+def _pull(force):
+    """A tangential pull K_P e = force applied as a slow ramp after the normal force has settled."""
+    return fc.LinearPath([1.0, 0.59], [1.0 + force / KP, 0.59], duration=0.5, start_time=0.8)
+
+
+def test_sticks_below_static_limit_without_creep():
+    """A pull between mu_k f_n and mu_s f_n holds the tool: it sticks, its speed stays below 1e-6 m/s."""
+    pull = 0.45 * F_N  # above mu_k f_n = 0.3 f_n (a kinetic-only model would slide), below mu_s f_n = 0.5 f_n
+    r = _run(_contact(), _pull(pull), 3.0)
+    late = r.t > 2.0
+    assert np.all(r.signals["stick"][r.t > 0.3] == 1.0)
+    assert np.max(np.abs(r.xd[late, 0])) < 1e-6
+    # the tool has not moved beyond the bristle's deflection pull / sigma_0
+    assert abs(r.x[-1, 0] - 1.0) < 1.05 * pull / 1e5
+    # K_P and the bristle sigma_0 in series: the held force is pull sigma_0 / (sigma_0 + K_P)
+    np.testing.assert_allclose(r.signals["friction"][-1, 0], pull * 1e5 / (1e5 + KP), rtol=1e-3)
+
+
+def test_breaks_away_above_static_limit():
+    """A pull above mu_s f_n breaks the stiction: the tool slides."""
+    r = _run(_contact(), _pull(0.55 * F_N), 3.0)
+    assert np.any(r.signals["stick"][r.t > 0.8] == 0.0)
+    assert r.x[-1, 0] - 1.0 > 0.01 * F_N / KP
+
+
+def test_friction_parameters_are_checked():
+    """Coefficients out of range or mu_k > mu_s are refused naming the key, the range and the value."""
+    plane = fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], K_ENV)
+    with pytest.raises(ParameterError, match=r"kinetic must not exceed static.*0\.6"):
+        FrictionalContact(plane, 0.5, 0.6)
+    with pytest.raises(ParameterError, match=r"static must be in \[0, 10\]; got 11"):
+        FrictionalContact(plane, 11.0, 0.3)
+    with pytest.raises(ParameterError, match="surface must be"):
+        FrictionalContact(fc.LinearSpring(1.0, [0.0, 0.0]), 0.5, 0.3)

@@ -1,0 +1,179 @@
+"""Curved elastic surfaces (issue 31, item 1): geometry vs finite differences and brute force, and the
+equilibrium on a circle under impedance control vs its closed form on the chapter's arm."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import forcecontrol as fc
+from forcecontrol.environments import ElasticCylinder, ElasticSphere, HeightField
+from forcecontrol.errors import DimensionError, ParameterError
+
+RNG = np.random.default_rng(31)
+
+
+def _grid3():
+    x = np.linspace(-0.2, 0.6, 33)
+    y = np.linspace(-0.3, 0.5, 41)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    return 0.05 * np.sin(4 * X) * np.cos(3 * Y) + 0.02 * X, (-0.2, -0.3), (0.025, 0.02)
+
+
+def _surfaces():
+    H, origin, spacing = _grid3()
+    xs = np.linspace(0.0, 2.0, 41)
+    return [
+        ElasticSphere([1.0, 0.35], 0.2, 1e4),
+        ElasticSphere([0.4, -0.1, 0.3], 0.15, 1e4),
+        ElasticCylinder([0.1, 0.2, -0.1], [1.0, -2.0, 0.5], 0.1, 1e4),
+        HeightField(0.1 * np.sin(3 * xs) + 0.3, [0.0], 0.05, 1e4),
+        HeightField(H, origin, spacing, 1e4),
+    ]
+
+
+def _near_points(s, count=12):
+    """Points within 3 cm of the surface, on both sides."""
+    out = []
+    while len(out) < count:
+        if isinstance(s, HeightField):
+            u = RNG.uniform(0.3, 1.7, 1) if s.space == 2 else RNG.uniform([0.0, -0.1], [0.4, 0.3])
+            base = np.append(u, s.height(u))
+        elif isinstance(s, ElasticSphere):
+            d = RNG.normal(size=s.space)
+            base = s.center + s.radius * d / np.linalg.norm(d)
+        else:
+            d = RNG.normal(size=3)
+            base = s.point + RNG.uniform(-0.3, 0.3) * s.axis + s.radius * (d - (d @ s.axis) * s.axis) / np.linalg.norm(
+                d - (d @ s.axis) * s.axis)
+        out.append(base + RNG.uniform(-0.03, 0.03, s.space))
+    return out
+
+
+@pytest.mark.parametrize("surface", _surfaces(), ids=lambda s: f"{type(s).__name__}-{s.space}d")
+def test_normal_and_contact_point_match_finite_differences(surface):
+    """The normal is the gradient of the signed distance (central differences) and p_c = p − φ ν lies on the surface."""
+    h = 1e-6
+    for p in _near_points(surface):
+        phi, pc, nu = surface.geometry(p)
+        grad = np.array([(surface.signed_distance(p + h * e) - surface.signed_distance(p - h * e)) / (2 * h)
+                         for e in np.eye(surface.space)])
+        np.testing.assert_allclose(nu, grad, atol=2e-6)
+        np.testing.assert_allclose(pc, p - phi * grad, atol=1e-9)
+        assert abs(surface.signed_distance(pc)) < 1e-10
+        assert abs(np.linalg.norm(p - pc) - abs(phi)) < 1e-12
+
+
+def test_height_field_distance_is_the_closest_point_by_brute_force():
+    """The height field's |φ| equals the smallest distance to a dense sampling of the spline surface (1e-6 m),
+    its sign is the side of the surface (below: negative)."""
+    H, origin, spacing = _grid3()
+    hf = HeightField(H, origin, spacing, 1e4)
+
+    def nearest(p, u, v):
+        U, V = np.meshgrid(u, v, indexing="ij")
+        S = np.stack([U, V, hf._spline2.ev(U, V)], axis=-1)
+        d = np.linalg.norm(S - p, axis=-1)
+        i, j = np.unravel_index(np.argmin(d), d.shape)
+        return d[i, j], u[i], v[j]
+
+    for p in ([0.2, 0.1, 0.02], [0.1, 0.0, -0.04], [0.25, 0.2, 0.05]):
+        p = np.array(p)
+        phi = hf.signed_distance(p)
+        _, u0, v0 = nearest(p, np.linspace(-0.05, 0.45, 401), np.linspace(-0.15, 0.35, 401))
+        d, _, _ = nearest(p, np.linspace(u0 - 0.003, u0 + 0.003, 601), np.linspace(v0 - 0.003, v0 + 0.003, 601))
+        assert -1e-12 <= d - abs(phi) < 1e-7  # the sampled minimum is never below the exact one
+        assert math.copysign(1.0, phi) == math.copysign(1.0, p[2] - hf.height(p[:2]))
+
+
+def test_height_field_from_csv_and_png(tmp_path):
+    """A CSV table and a grey PNG give the same surface as the array (PNG within its 1/255 quantisation)."""
+    from PIL import Image
+
+    H, origin, spacing = _grid3()
+    H = H - H.min()
+    csv = tmp_path / "h.csv"
+    np.savetxt(csv, H, delimiter=",")
+    a = HeightField(H, origin, spacing, 1e4)
+    b = HeightField.from_file(csv, origin, spacing, 1e4)
+    p = np.array([0.2, 0.1, 0.1])
+    assert b.signed_distance(p) == pytest.approx(a.signed_distance(p), abs=1e-12)
+    png = tmp_path / "h.png"
+    scale = float(H.max())
+    Image.fromarray(np.round(H / scale * 255).astype(np.uint8)).save(png)
+    c = HeightField.from_file(png, origin, spacing, 1e4, height_scale=scale)
+    assert c.signed_distance(p) == pytest.approx(a.signed_distance(p), abs=scale / 255)
+    bad = tmp_path / "h.txt"
+    bad.write_text("1,2\nx,y\n")
+    with pytest.raises(ParameterError, match="comma-separated numbers"):
+        HeightField.from_file(bad, origin, spacing, 1e4)
+    with pytest.raises(ParameterError, match="regular file"):
+        HeightField.from_file(tmp_path, origin, spacing, 1e4)
+
+
+def test_one_sided_and_pose_task():
+    """No pull: out of contact or leaving fast the wrench is zero; a 3-D surface under a pose task adds zero moments."""
+    s = ElasticSphere([0.0, 0.0, 0.0], 0.1, 1e4, damping=100.0, task_dim=6)
+    inside = np.array([0.0, 0.0, 0.099, 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(s.wrench(inside, np.zeros(6)), [0, 0, -10.0, 0, 0, 0], atol=1e-9)
+    assert not s.wrench(inside, np.array([0, 0, 1.0, 0, 0, 0])).any()  # k δ − c v_n < 0: no pull
+    assert not s.wrench(np.array([0, 0, 0.11, 0, 0, 0]), np.zeros(6)).any()
+    with pytest.raises(DimensionError, match="task_dim must be 2"):
+        ElasticSphere([0.0, 0.0], 0.1, 1e4, task_dim=6)
+    with pytest.raises(ParameterError, match="radius"):
+        ElasticSphere([0.0, 0.0], -0.1, 1e4)
+    with pytest.raises(ParameterError, match="at least 4 samples"):
+        HeightField([0.0, 0.1, 0.2], [0.0], 0.1, 1e4)
+
+
+ARM = fc.PlanarTwoLink()
+CENTER = np.array([1.0, 0.35])
+RADIUS, K_ENV = 0.2, 1e4
+
+
+def _settle(stiffness, x_d):
+    env = ElasticSphere(CENTER, RADIUS, K_ENV, damping=50.0)
+    ctl = fc.ImpedanceController(ARM, 10.0, np.diag(2 * np.sqrt(10.0 * np.diag(stiffness))), stiffness)
+    q0 = ARM.inverse_kinematics([1.0, 0.1])
+    r = fc.simulate(ARM, env, ctl, fc.Setpoint(x_d), q0=q0, duration=4.0)
+    return r.x[-1], r.wrench[-1]
+
+
+def test_sphere_equilibrium_along_a_radius_matches_closed_form():
+    """Impedance control, x_d inside the circle off the axes: the tip settles on the radius through x_d at
+    ρ = (k_p r_d + k R)/(k_p + k), with force k (R − ρ) along −ν."""
+    kp = 2500.0
+    u = np.array([math.cos(math.radians(-60)), math.sin(math.radians(-60))])
+    r_d = 0.1
+    x, h = _settle(kp * np.eye(2), CENTER + r_d * u)
+    rho = (kp * r_d + K_ENV * RADIUS) / (kp + K_ENV)
+    np.testing.assert_allclose(x, CENTER + rho * u, atol=1e-6)
+    np.testing.assert_allclose(h, -K_ENV * (RADIUS - rho) * u, rtol=1e-4)
+
+
+def test_sphere_equilibrium_with_anisotropic_stiffness_matches_closed_form():
+    """With K_P = diag(a, b) the tip settles off the radius through x_d: the angle φ solving
+    t(φ)ᵀ K_P (x_d − c − ρ(φ) ν(φ)) = 0 with ρ(φ) from the radial balance (a scalar root), vs simulation."""
+    a, b = 4000.0, 1000.0
+    KP = np.diag([a, b])
+    x_d = CENTER + 0.1 * np.array([math.cos(math.radians(-50)), math.sin(math.radians(-50))])
+
+    def rho(phi):  # radial balance: ν K_P (x_d − c − ρ ν) = −k (R − ρ)
+        nu = np.array([math.cos(phi), math.sin(phi)])
+        return (nu @ KP @ (x_d - CENTER) + K_ENV * RADIUS) / (nu @ KP @ nu + K_ENV)
+
+    def tangential(phi):
+        nu = np.array([math.cos(phi), math.sin(phi)])
+        t = np.array([-nu[1], nu[0]])
+        return t @ KP @ (x_d - CENTER - rho(phi) * nu)
+
+    phi = brentq(tangential, math.radians(-89), math.radians(-10))
+    nu = np.array([math.cos(phi), math.sin(phi)])
+    expected = CENTER + rho(phi) * nu
+    assert abs(math.degrees(phi) + 50) > 5  # truly off the radius through x_d
+    x, h = _settle(KP, x_d)
+    np.testing.assert_allclose(x, expected, atol=1e-6)
+    np.testing.assert_allclose(h, -K_ENV * (RADIUS - rho(phi)) * nu, rtol=1e-4)
