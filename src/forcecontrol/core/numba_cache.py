@@ -44,7 +44,7 @@ def _source_hash(root: Path) -> str:
 def configure() -> str | None:
     """Point Numba's cache at the folder of this source version; return it (None if unusable)."""
     global CACHE_DIR
-    name = f"forcecontrol-{_source_hash(Path(__file__).parent)}"
+    name = f"forcecontrol-{_source_hash(Path(__file__).parent.parent)}"  # the whole package, not core/ alone
     base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "forcecontrol", "numba"
     )
