@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..core.jsonsafe import json_safe
@@ -140,6 +141,10 @@ SWEEP_FIELDS: dict[str, Field] = {
 
 CASE_FIELDS = ("label", "expected")
 
+#: the resolution of the PNG files plot_results writes (the CLI's figures); tests/test_python_parity.py
+#: compares ScenarioRun.plot(path=...) with the CLI's file pixel by pixel.
+_PNG_DPI = 120
+
 
 @dataclass(frozen=True)
 class CaseSpec:
@@ -162,6 +167,11 @@ class CaseResult:
     analysis: dict[str, Any]
     checks: list[dict[str, Any]]
 
+    def __repr__(self) -> str:
+        ok = sum(bool(c["ok"]) for c in self.checks)
+        return (f"CaseResult({self.label!r}, {self.result.t.shape[0]} samples, {float(self.result.t[-1]):g} s, "
+                f"checks {ok}/{len(self.checks)} ok, engine={self.result.metadata.get('engine')!r})")
+
 
 @dataclass
 class ScenarioRun:
@@ -175,6 +185,77 @@ class ScenarioRun:
     def all_checks_pass(self) -> bool:
         """True when every expected value is met within tolerance."""
         return all(c["ok"] for case in self.cases for c in case.checks)
+
+    def __repr__(self) -> str:
+        checks = [c["ok"] for case in self.cases for c in case.checks]
+        ends = sorted({float(c.result.t[-1]) for c in self.cases})
+        span = " / ".join(f"{t:g}" for t in ends) + " s"
+        status = "no checks" if not checks else ("all checks pass" if all(checks) else f"{len(checks) - sum(checks)} MISSED")
+        return (f"ScenarioRun({self.scenario.name!r}, {len(self.cases)} case(s): "
+                f"{', '.join(repr(c.label) for c in self.cases)}; {span}; {status}; {len(self.files)} file(s))")
+
+    def _repr_html_(self) -> str:
+        """The summary ``forcecontrol run`` prints (settled values, peak force, the book's values and the
+        relative errors, files), as escaped HTML: what a notebook shows for a run."""
+        from .summary import html_summary
+
+        return html_summary(self)
+
+    def plot(self, figure: int | str = 0, *, path: str | Path | None = None) -> Any:
+        """The figure ``forcecontrol run`` writes: the scenario's ``[figure]`` signals of its cases,
+        the expected values marked (matplotlib).
+
+        Args:
+            figure: which of the scenario's ``[[figure]]`` tables: its index or its ``name``.
+            path: also save it there as a PNG (folders created; the same resolution as the CLI's).
+
+        Returns:
+            The matplotlib Figure (also when saved).
+
+        Raises:
+            ParameterError: ``figure`` names no figure of the scenario.
+        """
+        from ..errors import ParameterError
+        from ..viz.plotting import _figure_call, plot_results
+
+        figs = self.scenario.figures or ({},)
+        names = [f.get("name") or "" for f in figs]
+        if isinstance(figure, str):
+            if figure not in names:
+                raise ParameterError(f"figure must be the name of one of the scenario's figures ({names}); got {figure!r}")
+            figure = names.index(figure)
+        if isinstance(figure, bool) or not isinstance(figure, int) or not -len(figs) <= figure < len(figs):
+            raise ParameterError(f"figure must be an index in [0, {len(figs) - 1}] or a figure's name; got {figure!r}")
+        args, kwargs = _figure_call(self, figs[figure], None)
+        fig = plot_results(*args, **kwargs)
+        if path is not None:
+            out = Path(path)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            fig.savefig(out, dpi=_PNG_DPI)
+        return fig
+
+    def to_pandas(self) -> Any:
+        """Every case's log in one pandas DataFrame: a ``case`` column (the case's label) then the log's
+        columns (:meth:`SimulationResult.columns`: ``t``, ``q1``..., ``x``, ``fx``, ...), the cases' rows one
+        after the other (wide in signals, long in cases: ``df[df.case == label]`` is one case's log).
+
+        Units are in ``df.attrs["units"]`` (column -> SI unit, e.g. ``"fx": "N"``; ``""`` for the case
+        label and for a signal of unknown unit); ``df.attrs["scenario"]`` is the scenario's name.
+        Columns a case lacks (a controller's own signal) are NaN in the other cases' rows.
+        """
+        import pandas as pd
+
+        from .units import unit
+
+        frames = []
+        for c in self.cases:
+            frame = pd.DataFrame(c.result.columns())
+            frame.insert(0, "case", c.label)
+            frames.append(frame)
+        df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame({"case": []})
+        df.attrs["scenario"] = self.scenario.name
+        df.attrs["units"] = {col: "" if col == "case" else unit(col) for col in df.columns}
+        return df
 
     def to_json(self) -> dict[str, Any]:
         """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...).
@@ -207,7 +288,23 @@ class ScenarioRun:
             ],
             "all_checks_pass": self.all_checks_pass,
             "files": self.files,
+            "units": self._json_units(),
         }
+
+    def _json_units(self) -> dict[str, Any]:
+        """The ``units`` map of :meth:`to_json`: settled metrics, checked quantities and the final sample's
+        fields (a list, one unit per component, for ``tip_position`` and ``contact_force``)."""
+        from ..core.axes import axis_names
+        from .units import unit, units_map
+
+        names = {"t", "peak_contact_force_norm"}
+        names |= {k for c in self.cases for k in c.metrics} | {ch["metric"] for c in self.cases for ch in c.checks}
+        out: dict[str, Any] = units_map(names)
+        m = max((c.result.m for c in self.cases), default=2)
+        pose, _, wrench = axis_names(m)
+        out["tip_position"] = [unit(a) for a in pose]
+        out["contact_force"] = [unit(f) for f in wrench]
+        return dict(sorted(out.items()))
 
 
 def scenario_model() -> Any:

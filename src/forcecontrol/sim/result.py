@@ -54,6 +54,13 @@ class SimulationResult:
     signals: dict[str, np.ndarray] = field(default_factory=dict)
     torque_commanded: np.ndarray | None = None
 
+    def __repr__(self) -> str:
+        """A short summary (no arrays): label, samples, duration, dimensions, engine and logged events."""
+        n = int(self.t.shape[0])
+        span = f"{float(self.t[0]):g}..{float(self.t[-1]):g} s" if n else "empty"
+        return (f"SimulationResult({self.label!r}, {n} samples, t = {span}, joints={self.q.shape[1]}, m={self.m}, "
+                f"engine={self.metadata.get('engine')!r}, events={len(self.events)}, signals={sorted(self.signals)})")
+
     @property
     def m(self) -> int:
         """Operational-space dimension."""

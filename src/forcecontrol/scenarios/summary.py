@@ -1,0 +1,97 @@
+"""A run's summary as plain rows: what ``forcecontrol run`` prints and what a notebook shows.
+
+One source for both front ends: the CLI prints :func:`settled_table` and :func:`checks_table`
+with rich; :meth:`ScenarioRun._repr_html_ <forcecontrol.scenarios.model.ScenarioRun._repr_html_>`
+writes the same rows as escaped HTML (:func:`html_summary`). Units are in the column names
+(``"x [m]"``), as in every table and JSON field of the command line.
+"""
+
+from __future__ import annotations
+
+import html
+from typing import TYPE_CHECKING
+
+from .units import with_unit
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model import ScenarioRun
+
+__all__ = ["settled_table", "checks_table", "contact_warnings", "html_summary", "task_axes"]
+
+def task_axes(run: ScenarioRun) -> tuple[list[str], list[str]]:
+    """The position and force axes every case of the run has (``x y`` planar; ``x y z``, ``fx fy fz``
+    in 3-D and 6-D: the task's z and f_z are shown, not hidden)."""
+    from ..core.axes import axis_names
+
+    m = max(c.result.m for c in run.cases) if run.cases else 2
+    pose, _, wrench = axis_names(m)
+    return [a for a in pose if a in ("x", "y", "z")], [f for f in wrench if f in ("fx", "fy", "fz")]
+
+
+def settled_table(run: ScenarioRun) -> tuple[list[str], list[list[str]]]:
+    """Columns (with units) and rows of the settled values: per case ``t_end``, the settled tip
+    position and contact force along every translational task axis, the peak |f| and the engine."""
+    pose, force = task_axes(run)
+    cols = ["case", "t_end [s]", *(f"{a} [m]" for a in pose), *(f"{_force_name(f)} [N]" for f in force),
+            "peak |f| [N]", "engine"]
+    rows = []
+    for spec, c in zip(run.scenario.cases, run.cases):
+        values = c.result.settled_values(float(spec.config.get("settle_window", 0.1)))
+        row = [c.label, f"{c.result.t[-1]:.3f}"]
+        row += [f"{c.metrics.get(a, values.get(a, float('nan'))):.5f}" if a in values else "" for a in pose]
+        row += [f"{c.metrics.get(f, values.get(f, float('nan'))):.3f}" if f in values else "" for f in force]
+        row += [f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine"))]
+        rows.append(row)
+    return cols, rows
+
+
+def _force_name(f: str) -> str:
+    return f"f_{f[1:]}"
+
+
+def checks_table(run: ScenarioRun) -> tuple[list[str], list[list[str]]]:
+    """Columns and rows of the comparison with the book (or the closed form): simulated, expected,
+    tolerance, relative error and ok/MISSED per checked quantity (no rows when nothing is checked)."""
+    cols = ["case", "quantity", "simulated", "expected", "tolerance", "rel. error", ""]
+    rows = []
+    for c in run.cases:
+        for ch in c.checks:
+            rows.append([c.label, with_unit(ch["metric"]), f"{ch['value']:.6g}", f"{ch['expected']:.6g}",
+                         f"±{ch['tolerance']:.3g}", f"{100 * ch['relative_error']:+.3f} %", "ok" if ch["ok"] else "MISSED"])
+    return cols, rows
+
+
+def contact_warnings(run: ScenarioRun) -> list[str]:
+    """One line per case that lost contact after touching (allowed by the scenario or not)."""
+    out = []
+    for c in run.cases:
+        lost = int(c.metrics.get("contact_losses", 0))
+        if lost:
+            allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
+            out.append(f"{c.label}: contact lost {lost} time(s) after touching (peak |f| = "
+                       f"{c.result.peak_contact_force_norm():.4g} N)" + (" — allowed by the scenario" if allowed else ""))
+    return out
+
+
+def _html_table(title: str, cols: list[str], rows: list[list[str]]) -> str:
+    e = html.escape
+    head = "".join(f"<th>{e(c)}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(f"<td>{e(v)}</td>" for v in r) + "</tr>" for r in rows)
+    return f"<table><caption>{e(title)}</caption><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def html_summary(run: ScenarioRun) -> str:
+    """The summary ``forcecontrol run`` prints, as HTML (every text escaped): title, settled values,
+    contact warnings, the comparison with the book's values and the files written."""
+    e = html.escape
+    scn = run.scenario
+    parts = [f"<div class='forcecontrol-run'><strong>{e(scn.title or scn.name)}</strong>",
+             _html_table("Settled values (mean of the last samples) and peak contact force", *settled_table(run))]
+    parts += [f"<p>warning: {e(w)}</p>" for w in contact_warnings(run)]
+    cols, rows = checks_table(run)
+    if rows:
+        parts.append(_html_table("Against the book (or the closed form)", cols, rows))
+    if run.files:
+        parts.append("<ul>" + "".join(f"<li>{e(k)}: {e(v)}</li>" for k, v in run.files.items()) + "</ul>")
+    parts.append("</div>")
+    return "".join(parts)
