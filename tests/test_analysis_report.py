@@ -84,7 +84,7 @@ def _rows(output: str) -> dict[str, list[str]]:
     for line in output.splitlines():
         if line.startswith("│"):
             cells = [c.strip() for c in line.strip("│").split("│")]
-            rows.setdefault(cells[0], cells)
+            rows.setdefault(cells[0].split(" [", 1)[0], cells)  # the quantity without its unit ('steady_x [m]')
     return rows
 
 
@@ -123,7 +123,7 @@ def test_analyze_json_and_verify_on_a_tilted_plane(tmp_path):
     assert res.exit_code == 0, res.output
     ver = [line for line in res.output.splitlines() if "agrees" in line or "differs" in line]
     assert len(ver) == 5 and all("agrees" in line for line in ver), res.output  # x, y, fx, fy, the transient
-    sim = {line.split("│")[1].strip(): float(line.split("│")[3]) for line in ver if "steady_" in line}
+    sim = {line.split("│")[1].strip().split(" [", 1)[0]: float(line.split("│")[3]) for line in ver if "steady_" in line}
     np.testing.assert_allclose([sim["steady_x"], sim["steady_y"]], x, atol=0.01 * np.linalg.norm(_desired(120.0) - X_P))
     np.testing.assert_allclose([sim["steady_fx"], sim["steady_fy"]], h, atol=0.01 * np.linalg.norm(h))
 

@@ -6,6 +6,7 @@ the work is done by :func:`forcecontrol.scenarios.report.analyze_scenario`.
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 from typing import Annotated, Any
@@ -13,6 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from .app import JsonOut, _fail, compile_notice, err_console, print_json
+from .overrides import SetOption, apply_sets, parse_sets
 
 __all__ = ["analyze_command"]
 
@@ -28,6 +30,7 @@ def analyze_command(
     verify: Annotated[
         bool, typer.Option(help="also simulate each case and report how well the predicted equilibrium agrees")
     ] = False,
+    set_: SetOption = None,
 ) -> None:
     """Analyse a scenario without simulating: poles, ω_n, ζ, equilibria, sampled stability limit.
 
@@ -38,20 +41,28 @@ def analyze_command(
     from .safe import escape
 
     try:
+        from ..scenarios import load_scenario
         from ..scenarios.report import analyze_scenario
 
         if verify:
             compile_notice()
-        report = analyze_scenario(scenario, verify=verify)
+        sets = parse_sets(set_)
+        scn, set_notes = apply_sets(load_scenario(scenario), sets)
+        report = analyze_scenario(scn, verify=verify)
+        report["set"] = sets  # the keys --set changed (in every case), {} when none
         if figures:
             from ..scenarios.report import plot_scheme_figures
 
             compile_notice()
 
             folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
-            report["files"] = [str(p) for p in plot_scheme_figures(scenario, folder)]
+            report["files"] = [str(p) for p in plot_scheme_figures(scn, folder)]
     except ForceControlError as exc:
         _fail(exc)
+    for text in set_notes:
+        err_console.print(f"[yellow]note:[/] {escape(text)}", highlight=False)
+    if set_notes:
+        report["notes"] = set_notes
     for line in skip_notes(report):  # what was not analysed or verified, on stderr whatever the output
         err_console.print(f"[yellow]note:[/] {escape(line)}", highlight=False)
     if json_out:
@@ -104,10 +115,13 @@ def _print_tables(report: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
+    from ..scenarios.units import with_unit
     from .safe import escape
 
     console = Console(width=None if sys.stdout.isatty() else 132)
     console.print(f"[bold]{escape(report['title'] or report['scenario'])}[/]")
+    for key, value in report.get("set", {}).items():
+        console.print(f"set: {escape(key)} = {escape(json.dumps(value))}", highlight=False)
     for case in report["cases"]:
         expected = {c["metric"].split(".", 1)[1]: c for c in case["checks"]}
         t = Table(title=escape(f"{case['label']} ({case['controller']})"), title_justify="left")
@@ -116,7 +130,7 @@ def _print_tables(report: dict[str, Any]) -> None:
         for k in list(case["analysis"]) + [k for k in expected if k not in case["analysis"]]:
             c = expected.get(k)
             t.add_row(
-                k, format_value(case["analysis"].get(k)),
+                escape(with_unit(k)), format_value(case["analysis"].get(k)),
                 "" if c is None else format_value(c["expected"]),
                 "" if c is None or c["tolerance"] is None else f"±{c['tolerance']:.3g}",
                 "" if c is None else ("[green]ok[/]" if c["ok"] else "[red]MISSED[/]"),
@@ -134,6 +148,7 @@ def _print_tables(report: dict[str, Any]) -> None:
 def _print_verification(console: Any, ver: dict[str, Any]) -> None:
     from rich.table import Table
 
+    from ..scenarios.units import with_unit
     from .safe import escape
 
     if ver.get("skipped"):
@@ -143,7 +158,8 @@ def _print_verification(console: Any, ver: dict[str, Any]) -> None:
     for col in ("quantity", "predicted", "simulated", "difference", ""):
         vt.add_column(col, justify="left" if col == "quantity" else "right")
     for k, v in ver["quantities"].items():
-        vt.add_row(k, format_value(v["predicted"]), format_value(v["simulated"]), f"{100 * v['relative_difference']:.3f} %",
+        vt.add_row(escape(with_unit(k)), format_value(v["predicted"]), format_value(v["simulated"]),
+                   f"{100 * v['relative_difference']:.3f} %",
                    "[green]agrees[/]" if v["agrees"] else "[red]differs[/]")
     tr = ver.get("transient")
     if tr is not None:

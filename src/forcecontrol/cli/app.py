@@ -22,6 +22,7 @@ from ..core import numba_cache as _numba_cache
 from ..core.paths import MAX_NAME, inside
 from ..errors import ForceControlError
 from ..viz import render_process
+from .overrides import SetOption, apply_sets, parse_sets
 from .safe import escape, terminal_safe
 
 #: options shared by the commands.
@@ -251,6 +252,7 @@ def run_command(
     animate: Annotated[
         bool, typer.Option("--animate", help="also write an animation (GIF) of each case: the arm, the environment, the force")
     ] = False,
+    set_: SetOption = None,
 ) -> None:
     """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations."""
     # first: the figure process loads matplotlib on another core while this one loads the simulator;
@@ -262,7 +264,10 @@ def run_command(
 
         compile_notice()
         try:
-            scn = load_scenario(scenario)
+            sets = parse_sets(set_)
+            scn, set_notes = apply_sets(load_scenario(scenario), sets)
+            for text in set_notes:
+                say_note(text)
             writes = figure or animate or data is not DataFormat.none
             folder, note = prepare_output(out, _slug(scn.name), force) if writes else (Path(), None)
             say_note(note)
@@ -298,11 +303,13 @@ def run_command(
             run.files[f"metadata:{c.label}"] = str(m)
     if json_out:
         doc = run.to_json()
-        if note:
-            doc["notes"] = [*doc.get("notes", []), note]
+        doc["set"] = sets  # the keys --set changed (in every case), {} when none
+        more = [*set_notes, *([note] if note else [])]
+        if more:
+            doc["notes"] = [*doc.get("notes", []), *more]
         print_json(doc)
     else:
-        _print_summary(run)
+        _print_summary(run, sets)
     if check and not run.all_checks_pass:
         raise typer.Exit(code=1)
 
@@ -321,51 +328,32 @@ def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
     return out
 
 
-def _settled_z(spec, case) -> tuple[float, float] | None:
-    """A 6-D case's settled z and f_z (means over the scenario's settle window), None for a planar case."""
-    values = case.result.settled_values(float(spec.config.get("settle_window", 0.1)))
-    return (values["z"], values["fz"]) if "z" in values and "fz" in values else None
+def _print_summary(run, sets: dict[str, Any] | None = None) -> None:
+    """The run's tables (:mod:`forcecontrol.scenarios.summary`, the rows a notebook shows too): settled values
+    on every translational task axis (x y z, f_x f_y f_z of a 6-D case), contact warnings, the book's values."""
+    from ..scenarios.summary import checks_table, contact_warnings, settled_table
 
-
-def _print_summary(run) -> None:
     scn = run.scenario
     console.print(f"[bold]{escape(scn.title or scn.name)}[/]")
+    for key, value in (sets or {}).items():
+        console.print(f"set: {escape(key)} = {escape(json.dumps(value))}", highlight=False)
+    cols, rows = settled_table(run)
     t = Table(title="Settled values (mean of the last samples) and peak contact force", title_justify="left")
-    # a 6-D case (the Panda's) also has z and f_z: without them a 20 N press on a table reads f_x = f_y = 0
-    spatial = [_settled_z(spec, c) for spec, c in zip(scn.cases, run.cases)]
-    three = any(z is not None for z in spatial)
-    cols = ("case", "t_end [s]", "x [m]", "y [m]", *(("z [m]",) if three else ()), "f_x [N]", "f_y [N]",
-            *(("f_z [N]",) if three else ()), "peak |f| [N]", "engine")
     for col in cols:  # escaped: '[m]' and '[s]' are units, not rich markup
         t.add_column(escape(col), justify="right" if col != "case" else "left")
-    for c, zf in zip(run.cases, spatial):
-        m = c.metrics
-        z, fz = (f"{zf[0]:.5f}", f"{zf[1]:.3f}") if zf is not None else ("", "")
-        t.add_row(
-            escape(c.label), f"{c.result.t[-1]:.3f}", f"{m['x']:.5f}", f"{m['y']:.5f}", *((z,) if three else ()),
-            f"{m['fx']:.3f}", f"{m['fy']:.3f}", *((fz,) if three else ()),
-            f"{c.result.peak_contact_force_norm():.3f}", str(c.result.metadata.get("engine")),
-        )
+    for row in rows:
+        t.add_row(*(escape(v) for v in row))
     console.print(t)
-    for c in run.cases:
-        lost = int(c.metrics.get("contact_losses", 0))
-        if lost:
-            allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
-            console.print(
-                f"[yellow]warning:[/] {escape(c.label)}: contact lost {lost} time(s) after touching (peak |f| = "
-                f"{c.result.peak_contact_force_norm():.4g} N)" + (" — allowed by the scenario" if allowed else ""),
-                highlight=False,
-            )
-    if any(c.checks for c in run.cases):
+    for line in contact_warnings(run):
+        console.print(f"[yellow]warning:[/] {escape(line)}", highlight=False)
+    cols, rows = checks_table(run)
+    if rows:
         ct = Table(title="Against the book (or the closed form)", title_justify="left")
-        for col in ("case", "quantity", "simulated", "expected", "tolerance", "rel. error", ""):
+        for col in cols:
             ct.add_column(col, justify="left" if col in ("case", "quantity") else "right")
-        for c in run.cases:
-            for ch in c.checks:
-                ct.add_row(
-                    escape(c.label), ch["metric"], f"{ch['value']:.6g}", f"{ch['expected']:.6g}", f"±{ch['tolerance']:.3g}",
-                    f"{100 * ch['relative_error']:+.3f} %", "[green]ok[/]" if ch["ok"] else "[red]MISSED[/]",
-                )
+        for row in rows:
+            ok = "[green]ok[/]" if row[-1] == "ok" else "[red]MISSED[/]"
+            ct.add_row(*(escape(v) for v in row[:-1]), ok)
         console.print(ct)
     for k, v in run.files.items():
         console.print(terminal_safe(f"{k}: {v}"), markup=False, highlight=False)

@@ -60,8 +60,15 @@ def design_command(
             written = str(out)
     except ForceControlError as exc:
         _fail(exc)
+    from ..scenarios.units import design_gain_unit, unit
+
+    gain_units = {name: design_gain_unit(d.scheme, name) for name in d.gains}
     if json_out:
-        print_json({**d.as_dict(), "scenario": written})
+        doc = d.as_dict()
+        names = {"stiffness_range", *(k for c in doc["checks"] for k in c), *doc["requirements"]}
+        units = {n: u for n in sorted(names) if (u := unit(n))}
+        # gains share names with requirements in no scheme; a gain's unit depends on the scheme
+        print_json({**doc, "scenario": written, "units": {**units, **{f"gains.{k}": u for k, u in gain_units.items() if u}}})
         return
     from rich.console import Console
     from rich.table import Table
@@ -73,7 +80,7 @@ def design_command(
     g.add_column("gain")
     g.add_column("value", justify="right")
     for name, v in d.gains.items():
-        g.add_row(name, f"{v:.6g}")
+        g.add_row(escape(f"{name} [{gain_units[name]}]" if gain_units[name] else name), f"{v:.6g}")
     console.print(g)
     c = Table(title="the sampled loop at the ends and the middle of the range", title_justify="left")
     for col in ("k [N/m]", "phase margin [deg]", "gain margin [dB]", "settling 2 % [s]", "spectral radius"):

@@ -11,7 +11,9 @@ from typing import Annotated, Any
 
 import typer
 
+from ..scenarios.units import SWEEP_METRIC_UNITS
 from .app import JsonOut, print_json
+from .overrides import SetOption, apply_sets, parse_sets
 
 __all__ = ["sweep_command"]
 
@@ -46,6 +48,7 @@ def sweep_command(
     overwrite: Annotated[bool, typer.Option("--overwrite", "--force", help="replace a different sweep stored at --out, or "
                                             "a file there that is not a sweep table (never a folder)")] = False,
     json_out: JsonOut = False,
+    set_: SetOption = None,
 ) -> None:
     """Sweep scenario parameters (grid or Monte Carlo), locally or on a Dask cluster; resumable.
 
@@ -91,6 +94,10 @@ def sweep_command(
 
     try:
         scn, file_def = load_sweep_scenario(scenario)
+        sets = parse_sets(set_)
+        scn, set_notes = apply_sets(scn, sets)
+        for text in set_notes:
+            note(text)
         if param:
             definition = SweepDefinition.from_options(
                 param, design=design.value, samples=samples, seed=seed, cases=case or []
@@ -168,17 +175,21 @@ def sweep_command(
         "contact_lost": int(df["contact_lost"].sum()),
         "files": files,
         "notes": notes,
+        "set": sets,
+        "units": {"seconds": "s", "arm_steps_per_second": "1/s", **SWEEP_METRIC_UNITS},  # the table's metric columns too
     }
     if json_out:
         print_json(summary)
         return
     from rich.table import Table
 
+    for key, value in sets.items():
+        console.print(f"set: {escape(key)} = {escape(repr(value))}", highlight=False)
     t = Table(title=f"{scn.name}: {len(df)} cases ({result.ran} run now, {result.resumed} stored before)",
               title_justify="left")
     for col in ("case", "cases", "stable", "contact lost", "median settling [s]", "max overshoot [%]",
                 "max |ss error| [N]"):
-        t.add_column(col, justify="left" if col == "case" else "right")
+        t.add_column(escape(col), justify="left" if col == "case" else "right")  # '[s]' is a unit, not rich markup
     for label, g in df.groupby("case", sort=False):
         t.add_row(
             escape(str(label)), str(len(g)), str(int(g["stable"].sum())), str(int(g["contact_lost"].sum())),

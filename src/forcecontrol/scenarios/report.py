@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from ..analysis.verify import (
 )
 from ..core.paths import inside, safe_name
 from ..errors import ForceControlError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .core import Scenario
 
 __all__ = ["analyze_scenario", "plot_scheme_figures", "verify_case", "VERIFY_TOLERANCE", "TRANSIENT_TOLERANCE"]
 
@@ -140,17 +143,19 @@ def _verify_transient(parts: dict[str, Any], res: Any) -> tuple[dict[str, Any] |
     return compare_transient(predicted, times, res, float(parts["controller"].sample_time)), None
 
 
-def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = False) -> dict[str, Any]:
+def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: bool = False) -> dict[str, Any]:
     """The analytic predictions of every case of a scenario (nothing is simulated unless ``verify``).
 
     Args:
-        source: a built-in scenario name, a TOML path or a scenario dict.
+        source: a built-in scenario name, a TOML path, a scenario dict or a loaded
+            :class:`~forcecontrol.scenarios.Scenario` (e.g. one changed with ``with_``).
         verify: also simulate each case and compare the predicted equilibrium with it
             (:func:`verify_case`); the result goes in each case's ``verification``.
 
     Returns:
         ``{"scenario", "title", "source", "cases": [{"label", "controller", "analysis",
-        "checks"}], "all_checks_pass"}``; ``analysis`` maps names (``pole_re_x``,
+        "checks"}], "all_checks_pass", "units"}``; ``units`` maps each quantity to its SI unit
+        (:func:`forcecontrol.scenarios.units.unit`); ``analysis`` maps names (``pole_re_x``,
         ``stability_limit_x`` [N/m], ``omega_n_x`` [rad/s], ...) to numbers, with None for an
         infinite or undefined value; ``checks`` compares the scenario's ``analysis.*`` expected
         values (the other expected values need a simulation: ``forcecontrol run``).
@@ -158,9 +163,9 @@ def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = Fals
     Raises:
         ScenarioError: the scenario cannot be loaded or built.
     """
-    from .core import build_case, case_analysis, check_expected, load_scenario
+    from .core import Scenario, build_case, case_analysis, check_expected, load_scenario
 
-    scn = load_scenario(source)
+    scn = source if isinstance(source, Scenario) else load_scenario(source)
     cases = []
     for i, case in enumerate(scn.cases):
         parts = build_case(case, where=f"{scn.source}: [[case]] #{i + 1}")
@@ -190,12 +195,16 @@ def analyze_scenario(source: str | Path | dict[str, Any], *, verify: bool = Fals
         if verify:
             entry["verification"] = verify_case(parts, analysis)
         cases.append(entry)
+    from .units import units_map
+
+    names = [k for c in cases for k in c["analysis"]] + [ch["metric"] for c in cases for ch in c["checks"]]
     return {
         "scenario": scn.name,
         "title": scn.title,
         "source": scn.source,
         "cases": cases,
         "all_checks_pass": all(c["ok"] for case in cases for c in case["checks"]),
+        "units": units_map(names),
     }
 
 
@@ -243,7 +252,9 @@ def _linear_overlay(parts: dict[str, Any], t: Any) -> tuple[int, Any] | None:
     return i, np.asarray(resp.outputs[0])
 
 
-def plot_scheme_figures(source: str | Path | dict[str, Any], folder: str | Path, *, engine: str = "auto") -> list[Path]:
+def plot_scheme_figures(
+    source: str | Path | dict[str, Any] | Scenario, folder: str | Path, *, engine: str = "auto",
+) -> list[Path]:
     """Simulate a scenario and write one figure per controller type (like Figs. 9.9–9.11).
 
     Each figure shows x and f_x (the scenario's ``[figure]`` signals) of the cases that share a
@@ -261,9 +272,9 @@ def plot_scheme_figures(source: str | Path | dict[str, Any], folder: str | Path,
     import warnings
 
     from ..viz.plotting import SIGNAL_LABELS, plot_results
-    from .core import build_case, load_scenario, run_scenario
+    from .core import Scenario, build_case, load_scenario, run_scenario
 
-    scn = load_scenario(source)
+    scn = source if isinstance(source, Scenario) else load_scenario(source)
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         run = run_scenario(scn, engine=engine)
