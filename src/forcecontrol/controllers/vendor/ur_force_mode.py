@@ -1,0 +1,109 @@
+"""Universal Robots ``force_mode`` on a position-interface arm (documented semantics; inferred law, said so)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ...core.validate import positive_scalar
+from ...errors import ParameterError
+from ...laws.vendor import ur_force_mode_step
+from ...robots.ik import DifferentialIK, JointCommand
+from ...spatial.closed_form import rotation_to_euler_xyz, rotvec_to_rotation
+from ..base import Measurement, Reference
+from ..position_interface import PositionInterfaceController
+from .common import axis_vector, check_measurement, pose_error, require_pose_robot, target_pose
+
+__all__ = ["UrForceModeController"]
+
+
+class UrForceModeController(PositionInterfaceController):
+    """URScript ``force_mode(task_frame, selection_vector, wrench, type, limits)`` with
+    ``force_mode_set_damping`` and ``force_mode_set_gain_scaling``, once per interface cycle.
+
+    Law (:func:`forcecontrol.laws.vendor.ur_force_mode_step`, **inferred**: UR publishes the
+    semantics, not the equations): on each compliant axis of the task frame
+    ``v ← (1 − d) v + T G s_g (F_d − F)``, ``|v| ≤ limit``, offset ``+= T v``; non-compliant axes
+    follow the program's pose ``reference.position``. The commanded pose (program pose moved by the
+    offset along the task frame's axes) goes to the joints through a damped least-squares IK step
+    (:class:`~forcecontrol.robots.ik.DifferentialIK`). ``F`` is the measured wrench the robot
+    applies to the environment (h_e) in the task frame; the loop settles where it equals
+    ``wrench`` on the compliant axes. The non-compliant axes' ``limits`` are deviations before a
+    protective stop: the first excess is recorded in :attr:`deviation_exceeded` (time, axis, value).
+
+    Args:
+        robot: a :class:`~forcecontrol.robots.servo.PositionInterfaceRobot` on a 6-D arm.
+        task_frame: ``p[x, y, z, rx, ry, rz]`` relative to the base (rotation vector) [m, rad].
+        selection_vector: six 0/1; wrench: six numbers [N, N m]; frame_type: 2 ("not transformed";
+            types 1 and 3, which re-orient the frame from the TCP each cycle, are not modelled).
+        limits: six numbers (speed on compliant axes [m/s, rad/s]; deviation otherwise [m, rad]).
+        damping: d in [0, 1] (URScript default 0.005; the ROS driver and ur_rtde set 0.025).
+        gain_scaling: s_g in [0, 2] (default 1; the ROS driver and ur_rtde set 0.5).
+        gain: G [1/kg], the controller's internal admittance gain: NOT published; 0.05 is a nominal
+            value chosen so that d = 0.025 at 500 Hz gives a free-space speed of 4 cm/s per 10 N at
+            s_g = 1. Identify it from a recorded step.
+    """
+
+    GAINS: Any = ("task_frame", "selection_vector", "wrench", "frame_type", "limits", "damping", "gain_scaling", "gain",
+                  "servo_description")
+
+    def __init__(self, robot: Any, *, task_frame: Any = (0.0,) * 6, selection_vector: Any = (0, 0, 1, 0, 0, 0),
+                 wrench: Any = (0.0,) * 6, frame_type: int = 2, limits: Any = (0.1, 0.1, 0.1, 0.785, 0.785, 0.785),
+                 damping: float = 0.005, gain_scaling: float = 1.0, gain: float = 0.05, sample_time: float = 2e-4) -> None:
+        require_pose_robot("UrForceModeController", robot)
+        self.task_frame = axis_vector("task_frame", task_frame)
+        sel = axis_vector("selection_vector", selection_vector)
+        if not np.all((sel == 0.0) | (sel == 1.0)):
+            raise ParameterError(f"selection_vector must be six 0/1 values (1: compliant); got {list(selection_vector)!r}")
+        self.selection_vector = sel
+        self.wrench = axis_vector("wrench", wrench)
+        if frame_type != 2:
+            raise ParameterError(
+                f"frame_type must be 2 (the task frame is not transformed); got {frame_type!r}: types 1 (y axis towards the "
+                "frame's origin) and 3 (x axis along the TCP velocity) are not modelled"
+            )
+        self.frame_type = 2
+        self.limits = axis_vector("limits", limits, low=0.0, strict_low=True)
+        if not 0.0 <= float(damping) <= 1.0:
+            raise ParameterError(f"damping must be in [0, 1] (force_mode_set_damping); got {damping!r}")
+        if not 0.0 <= float(gain_scaling) <= 2.0:
+            raise ParameterError(f"gain_scaling must be in [0, 2] (force_mode_set_gain_scaling); got {gain_scaling!r}")
+        self.damping, self.gain_scaling = float(damping), float(gain_scaling)
+        self.gain = positive_scalar("gain", gain, "1/kg")
+        self.deviation_exceeded: tuple[float, str, float] | None = None
+        super().__init__(robot, sample_time)
+        self._R_task = rotvec_to_rotation(self.task_frame[3:])
+        self._p = np.concatenate([sel, self.wrench, self.limits, [self.gain, self.gain_scaling, self.damping]])
+        self._ik = DifferentialIK(robot, self.interface_period, damping=1e-3)
+
+    def law_state_size(self) -> int:
+        """``[v (6), offset (6), q_cmd (n)]``."""
+        return 12 + int(self.robot.nq)
+
+    def reset_law(self, measurement: Measurement | None, reference: Reference | None) -> None:
+        if measurement is not None:
+            self.law_state[12:] = np.asarray(measurement.q, dtype=np.float64)
+        self.deviation_exceeded = None
+
+    def command(self, t: float, measurement: Measurement, reference: Reference) -> JointCommand:
+        s = self.law_state
+        Rt = self._R_task
+        h = check_measurement("UrForceModeController", measurement.wrench)
+        F = np.concatenate([Rt.T @ h[:3], Rt.T @ h[3:]])
+        ur_force_mode_step(self.interface_period, F, self._p, s[:12])
+        R_p, p_p = target_pose(np.asarray(reference.position, dtype=np.float64))
+        off = s[6:12]
+        p_c = p_p + Rt @ off[:3]
+        R_c = rotvec_to_rotation(Rt @ off[3:]) @ R_p
+        if self.deviation_exceeded is None:
+            R_m, p_m = self.robot.frame_pose(np.asarray(measurement.q, dtype=np.float64))
+            dev = pose_error(np.asarray(R_m), np.asarray(p_m), R_p, p_p)
+            dev = np.concatenate([Rt.T @ dev[:3], Rt.T @ dev[3:]])
+            for i in range(6):
+                if self.selection_vector[i] == 0.0 and abs(dev[i]) > self.limits[i]:
+                    self.deviation_exceeded = (float(t), ("x", "y", "z", "rx", "ry", "rz")[i], float(dev[i]))
+                    break
+        cmd = self._ik.solve(s[12:], np.concatenate([p_c, rotation_to_euler_xyz(R_c)]))
+        s[12:] = cmd.q
+        return cmd
