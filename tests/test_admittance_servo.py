@@ -1,0 +1,189 @@
+"""Admittance control (9.37) on position-interface arms: equilibrium, the sampled loop's analysis, simulation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from forcecontrol.analysis.servo_loop import admittance_servo_loop
+from forcecontrol.analysis.servo_loop_check import chapter_arm_case, stable_in_simulation
+from forcecontrol.controllers.admittance_position import PositionAdmittanceController
+from forcecontrol.environments.elastic import ElasticPlane
+from forcecontrol.errors import ParameterError
+from forcecontrol.robots.planar_2r import PlanarTwoLink
+from forcecontrol.robots.servo import JointServo, PositionInterfaceRobot
+from forcecontrol.sim.simulation import simulate
+from forcecontrol.trajectories import Setpoint
+
+
+def _hand_loop_radius(M, D, K, k, T, w, z, delay):
+    """Second implementation: the 1-D loop along the normal written out by hand (numpy only, no python-control).
+
+    The arm's IK is exact and every joint has the same servo, so the tip along the normal follows the
+    servo's second order on the compliant frame's displacement. State [z, ż, u_{k−1..k−d}, x, ẋ].
+    """
+    from scipy.linalg import expm
+
+    A = np.array([[0.0, 1.0], [-K / M, -D / M]])
+    G = np.array([0.0, 1.0 / M])
+    E = expm(np.block([[A * T, G[:, None] * T], [np.zeros((1, 3))]]))
+    Ad, Gd = E[:2, :2], E[:2, 2]
+    As = np.array([[0.0, 1.0], [-w * w, -2 * z * w]])
+    Es = expm(np.block([[As * T, np.array([[0.0], [w * w]]) * T], [np.zeros((1, 3))]]))
+    Phi, Gam = Es[:2, :2], Es[:2, 2]
+    # f_k = k x_k (x: the tip's penetration); z_{k+1} = Ad z + Gd f; x_t,k = −z_{k+1} (penetration of the frame);
+    ns = 2 + delay + 2
+    Acl = np.zeros((ns, ns))
+    ix = 2 + delay
+    Acl[:2, :2] = Ad
+    Acl[:2, ix] = Gd * k
+    xt_row = np.zeros(ns)  # x_t,k as a row of the state
+    xt_row[:2] = -Ad[0]
+    xt_row[ix] = -Gd[0] * k
+    if delay:
+        Acl[2] = xt_row
+        for j in range(1, delay):
+            Acl[2 + j, 2 + j - 1] = 1.0
+        u_row = np.zeros(ns)
+        u_row[2 + delay - 1] = 1.0
+    else:
+        u_row = xt_row
+    Acl[ix : ix + 2, ix : ix + 2] = Phi
+    Acl[ix : ix + 2] += np.outer(Gam, u_row)
+    return float(np.max(np.abs(np.linalg.eigvals(Acl))))
+
+
+@pytest.mark.parametrize("rate, delay", [(500.0, 1), (250.0, 2), (125.0, 0)])
+def test_loop_poles_match_a_hand_built_one_dimensional_loop(rate, delay):
+    """python-control's loop (law + IK + delay + servo + contact) has the spectral radius of the hand-built 1-D loop."""
+    c = chapter_arm_case(rate, delay=delay)
+    loop = admittance_servo_loop(c["controller"], c["q0"], c["normal"])
+    loop_exact_ik = type(loop)(
+        inertia=loop.M, damping=loop.D, stiffness=loop.K, period=loop.T, bandwidth=loop.w, damping_ratio=loop.z,
+        delay=loop.delay, lowpass=1.0, J=loop.J, ik_damping=0.0, normal=loop.nu,
+    )
+    for k in (500.0, 3000.0, 9000.0):
+        ref = _hand_loop_radius(10.0, 200.0, 1000.0, k, 1 / rate, 44.7, 0.67, delay)
+        assert loop_exact_ik.spectral_radius(k) == pytest.approx(ref, rel=1e-9, abs=1e-12)
+        assert loop.spectral_radius(k) == pytest.approx(ref, rel=1e-4)  # λ = 1 mm: IK ≈ identity
+
+
+def test_stability_limit_is_where_the_spectral_radius_crosses_one_and_gain_margin_agrees():
+    """The bisected k_e limit puts the spectral radius at 1, and (ideal servo: loop ∝ k_e) equals k_e × gain margin."""
+    c = chapter_arm_case(500.0)
+    loop = admittance_servo_loop(c["controller"], c["q0"], c["normal"])
+    k = loop.stability_limit(rtol=1e-7)
+    assert loop.spectral_radius(0.999 * k) < 1.0 < loop.spectral_radius(1.001 * k)
+    rep = loop.report(2000.0)
+    assert rep.gain_margin * 2000.0 == pytest.approx(k, rel=2e-3)
+
+
+def test_equilibrium_force_closed_form_in_simulation():
+    """Against the plane x = 1 (k = 2000 N/m) the settled force is that of the springs in series, k K_Pt/(k + K_Pt) δ_d (9.22)."""
+    c = chapter_arm_case(500.0)
+    k = 2000.0
+    r = simulate(c["controller"].robot, ElasticPlane([1.0, 0.0], [-1.0, 0.0], k), c["controller"], Setpoint(c["x_d"]),
+                 q0=c["q0"], duration=3.0)
+    expected = k * 1000.0 / (k + 1000.0) * 0.01
+    assert r.wrench[-1, 0] == pytest.approx(expected, rel=1e-3)
+    loop = admittance_servo_loop(c["controller"], c["q0"], c["normal"])
+    assert loop.equilibrium_force(k) * 0.01 == pytest.approx(expected, rel=1e-12)
+
+
+def test_dynamic_servo_equilibrium_adds_the_servo_compliance():
+    """With the 'dynamic' servo (contact not compensated) the settled force has the servo's compliance J W⁻² B⁻¹ Jᵀ in series."""
+    arm = PlanarTwoLink()
+    servo = JointServo(nq=2, rate=500.0, bandwidth=44.7, damping=0.67, delay=1, tracking="dynamic")
+    pir = PositionInterfaceRobot(arm, servo)
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4)
+    k = 2000.0
+    r = simulate(pir, ElasticPlane([1.0, 0.0], [-1.0, 0.0], k), ctl, Setpoint([1.01, 0.0]), q0=q0, duration=3.0)
+    loop = admittance_servo_loop(ctl, q0, [-1.0, 0.0])
+    q_end = r.q[-1]
+    J, B = arm.jacobian(q_end), arm.mass_matrix(q_end)
+    c_servo = float((J @ np.linalg.solve(B, J.T))[0, 0]) / 44.7**2
+    expected = k / (1 + k * (1 / 1000.0 + c_servo)) * 0.01
+    assert r.wrench[-1, 0] == pytest.approx(expected, rel=5e-3)
+    assert loop.equilibrium_force(k) * 0.01 == pytest.approx(expected, rel=5e-3)  # B at q* vs at the end: 0.5 %
+    assert expected < k * 1000.0 / (k + 1000.0) * 0.01  # softer than the ideal servo's
+
+
+@pytest.mark.parametrize("rate", [500.0, 250.0])
+def test_predicted_stability_limit_brackets_the_simulated_one_within_5_percent(rate):
+    """The full simulation settles at 0.95 and grows at 1.05 times the predicted k_e limit (two interface rates)."""
+    c = chapter_arm_case(rate)
+    loop = admittance_servo_loop(c["controller"], c["q0"], c["normal"])
+    k = loop.stability_limit()
+    args = (c["controller"], c["q0"], c["x_d"], c["rest"], c["normal"])
+    assert stable_in_simulation(*args, 0.95 * k)
+    assert not stable_in_simulation(*args, 1.05 * k)
+
+
+def test_slower_interface_and_longer_delay_lower_the_limit():
+    """The same law and servo tolerate a stiffer environment at 500 Hz than at 125 Hz, and with 1 cycle of delay than with 3."""
+    k = {}
+    for rate, delay in ((500.0, 1), (125.0, 1), (500.0, 3)):
+        c = chapter_arm_case(rate, delay=delay)
+        k[rate, delay] = admittance_servo_loop(c["controller"], c["q0"], c["normal"]).stability_limit()
+    assert k[500.0, 1] > k[125.0, 1]
+    assert k[500.0, 1] > k[500.0, 3]
+
+
+def test_ur5_admittance_equilibrium_on_the_pose_task():
+    """UR5 (pose task, 500 Hz servo): pushing 1 cm into a 3000 N/m plane along −z settles at the series-spring force."""
+    from forcecontrol.robots.pinocchio import ur5
+
+    robot = ur5()
+    q0 = np.array([0.0, -1.2, 1.5, -1.9, -1.57, 0.0])
+    pir = PositionInterfaceRobot(robot, JointServo.servoj(gain=2000.0, lookahead_time=0.03))
+    K = [1000.0, 1000.0, 1000.0, 50.0, 50.0, 50.0]
+    ctl = PositionAdmittanceController(pir, [10.0] * 3 + [0.5] * 3, [200.0] * 3 + [10.0] * 3, K, sample_time=5e-4)
+    x0 = robot.forward_kinematics(q0)
+    k = 3000.0
+    from forcecontrol.environments.elastic import LinearSpring
+
+    Kenv = np.zeros((6, 6))
+    Kenv[2, 2] = k
+    x_d = x0.copy()
+    x_d[2] -= 0.01
+    r = simulate(pir, LinearSpring(Kenv, x0), ctl, Setpoint(x_d), q0=q0, duration=2.0)
+    expected = -k * 1000.0 / (k + 1000.0) * 0.01
+    assert r.wrench[-1, 2] == pytest.approx(expected, rel=2e-3)
+    loop = admittance_servo_loop(ctl, q0, [0.0, 0.0, 1.0])
+    assert loop.report(k).stable
+    assert loop.equilibrium_force(k) * 0.01 == pytest.approx(-expected, rel=2e-3)
+
+
+def test_analysis_refuses_what_it_does_not_model():
+    """The analysis names the options it does not model (velocity interface, velocity feed-forward)."""
+    arm = PlanarTwoLink()
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=40.0, interface="velocity"))
+    ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4)
+    with pytest.raises(ParameterError, match="interface = 'velocity'"):
+        admittance_servo_loop(ctl, q0, [-1.0, 0.0])
+    pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=40.0))
+    ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4, velocity_feedforward=True)
+    with pytest.raises(ParameterError, match="velocity_feedforward"):
+        admittance_servo_loop(ctl, q0, [-1.0, 0.0])
+
+
+def test_controller_needs_a_position_interface_robot():
+    """A plain torque robot is refused: the law needs the arm's servo."""
+    with pytest.raises(ParameterError, match="PositionInterfaceRobot"):
+        PositionAdmittanceController(PlanarTwoLink(), 10.0, 200.0, 1000.0)
+
+
+def test_modes_include_the_servo_and_admittance_free_modes():
+    """Out of contact along y the loop keeps the admittance's own mode (ω = √(K/M) = 10 rad/s) and the servo's (44.7 rad/s)."""
+    c = chapter_arm_case(500.0)
+    rep = admittance_servo_loop(c["controller"], c["q0"], c["normal"]).report(1000.0)
+    wn = [w for w, _ in rep.modes]
+    assert any(abs(w - 10.0) < 1e-3 for w in wn)
+    assert any(abs(w - 44.7) < 1e-3 for w in wn)
+    assert rep.phase_margin == math.inf  # |loop| < 1 at every frequency: no gain crossover at this k_e
+    near = admittance_servo_loop(c["controller"], c["q0"], c["normal"]).report(6000.0)
+    assert 0.0 < near.phase_margin < 10.0 and near.gain_margin > 1.0  # stable, little phase left near the limit
