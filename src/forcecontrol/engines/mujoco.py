@@ -43,6 +43,7 @@ from ..sim.simulation import SimulationResult
 from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 from .compare import DIFFERENCES, compare_engines
+from .mujoco_surfaces import add_surface_geom, quat_z_to
 from .urdf import _clean_urdf, _robot_source
 
 __all__ = ["MujocoPlant", "simulate_mujoco", "compare_engines", "DIFFERENCES"]
@@ -132,6 +133,7 @@ class MujocoPlant:
     def _add_environment(self, spec) -> bool:
         from ..environments.elastic import ElasticPlane, LinearSpring
         from ..environments.spatial import Table
+        from ..environments.surfaces import ElasticSurface
 
         mujoco = self._mujoco
         env = self.environment
@@ -146,6 +148,8 @@ class MujocoPlant:
             # a passive force MuJoCo evaluates at every integrator stage (see _spring_passive)
             self._spring = (np.asarray(env.stiffness), np.asarray(env.damping), np.asarray(env.rest_position))
             return False
+        if isinstance(env, ElasticSurface):  # a sphere or a cylinder: MuJoCo's primitive geom
+            return add_surface_geom(self, spec, env)
         if isinstance(env, (ElasticPlane, Table)):
             point = np.zeros(3)
             normal = np.zeros(3)
@@ -154,24 +158,15 @@ class MujocoPlant:
             self._k_env, self._c_env = float(env.stiffness), float(env.damping)
         else:
             raise ParameterError(
-                f"the MuJoCo engine supports ElasticPlane, Table and LinearSpring environments; got {type(env).__name__}"
+                "the MuJoCo engine supports ElasticPlane, Table and LinearSpring environments and the surfaces "
+                f"ElasticSphere and ElasticCylinder; got {type(env).__name__}"
             )
         g = spec.worldbody.add_geom()
         g.name = "environment"
         g.type = mujoco.mjtGeom.mjGEOM_PLANE
         g.size = [10.0, 10.0, 0.1]
         g.pos = point - self.radius * normal
-        # plane normal = local z: rotate z onto the normal
-        z = np.array([0.0, 0.0, 1.0])
-        ax = np.cross(z, normal)
-        s, c = float(np.linalg.norm(ax)), float(z @ normal)
-        if s < 1e-12:
-            quat = [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
-        else:
-            ang = math.atan2(s, c)
-            ax = ax / s
-            quat = [math.cos(ang / 2), *(math.sin(ang / 2) * ax)]
-        g.quat = quat
+        g.quat = quat_z_to(normal)  # plane normal = local z
         g.condim = 1
         g.solimp = [self.impedance, self.impedance, 1e-6, 0.5, 2.0]
         g.solref = [-1.0, -1.0]  # set by _calibrate
@@ -192,9 +187,10 @@ class MujocoPlant:
         probe = mujoco.MjData(m)
         probe.qpos[:] = 0.5 * (-1.0) ** np.arange(m.nq)  # away from the stretched-arm singularity
         mujoco.mj_forward(m, probe)
-        nrm = probe.geom_xmat[gid].reshape(3, 3)[:, 2]
+        depth = getattr(self, "_probe_depth", 0.0)  # a plane: 0 along its normal (local z); a sphere/cylinder: its radius
+        nrm = probe.geom_xmat[gid].reshape(3, 3)[:, 0 if depth else 2]
         saved = m.geom_pos[gid].copy()
-        m.geom_pos[gid] = probe.geom_xpos[self.ee_geom] - (self.radius - 1e-3) * nrm
+        m.geom_pos[gid] = probe.geom_xpos[self.ee_geom] - (depth + self.radius - 1e-3) * nrm
 
         def ratio(solref, use_velocity):
             m.geom_solref[gid] = m.geom_solref[self.ee_geom] = solref

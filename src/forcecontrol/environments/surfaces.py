@@ -24,13 +24,34 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from ..core.files import read_bytes_limited
 from ..core.validate import as_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 from .base import Environment
 
-__all__ = ["ElasticSurface", "ElasticSphere", "ElasticCylinder", "HeightField"]
+__all__ = ["ElasticSurface", "ElasticSphere", "ElasticCylinder", "HeightField", "circle_wrench2"]
+
+
+@njit(cache=True)
+def circle_wrench2(p, x0, x1, v0, v1):  # pragma: no cover - compiled
+    """h_e of an elastic circle for the compiled planar loop (kind 3), ``p = [c0, c1, R, k, c]``: the
+    arithmetic of :class:`ElasticSphere` in 2-D (``φ = |x − c| − R``, ``ν = (x − c)/|x − c|``)."""
+    d0 = x0 - p[0]
+    d1 = x1 - p[1]
+    r = math.sqrt(d0 * d0 + d1 * d1)
+    phi = r - p[2]
+    if phi >= 0.0:
+        return 0.0, 0.0
+    if r < 1e-12:
+        n0, n1 = 1.0, 0.0
+    else:
+        n0, n1 = d0 / r, d1 / r
+    mag = -p[3] * phi - p[4] * (n0 * v0 + n1 * v1)
+    if mag <= 0.0:
+        return 0.0, 0.0
+    return -mag * n0, -mag * n1
 
 
 def _unit(name: str, value: Any, size: int) -> np.ndarray:
@@ -127,6 +148,12 @@ class ElasticSphere(ElasticSurface):
             raise DimensionError(f"center must have 2 or 3 components; got {self.center.shape[0]}")
         self.radius = positive_scalar("radius", radius, "m")
         self._common(int(self.center.shape[0]), stiffness, damping, task_dim)
+        #: a circle of the planar arm runs in the compiled loop (kind 3: :func:`circle_wrench2`).
+        self.kind = 3 if self.dim == 2 else 0
+
+    def packed(self) -> np.ndarray:
+        """``[c (2), R, k, c]`` (the compiled circle, kind 3)."""
+        return np.concatenate([self.center, [self.radius, self.stiffness, self.damping]])
 
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         d = p - self.center

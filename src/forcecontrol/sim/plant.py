@@ -13,6 +13,7 @@ import math
 from numba import njit
 
 from ..core.linalg import solve2_spd
+from ..environments.surfaces import circle_wrench2
 
 __all__ = ["rk4_sample", "terms2", "wrench2", "fill_terms", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
 
@@ -40,6 +41,8 @@ def wrench2(env_kind, p, x0, x1, v0, v1):  # pragma: no cover - compiled
         h0 = (p[0] * e0 + p[1] * e1) + (p[4] * v0 + p[5] * v1)
         h1 = (p[2] * e0 + p[3] * e1) + (p[6] * v0 + p[7] * v1)
         return h0, h1
+    if env_kind == 3:  # an elastic circle [c0, c1, R, k, c] (environments.surfaces.circle_wrench2)
+        return circle_wrench2(p, x0, x1, v0, v1)
     return math.nan, math.nan
 
 

@@ -164,7 +164,7 @@ def simulate(
 
     compiled_ok = (
         isinstance(robot, PlanarTwoLink)
-        and environment.kind in (1, 2)
+        and environment.kind in (1, 2, 3)
         and controller.compiled_law is not None
         and sensor.compiled_ok
     )
@@ -185,7 +185,7 @@ def simulate(
     check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python",
                    rate=rate, explicit=substeps is not None)
 
-    if getattr(environment, "stateful", False):  # e.g. friction's stick/slip state (Python loop only: such environments have kind 0)
+    if getattr(environment, "stateful", False):  # e.g. friction's stick/slip (Python loop only: such environments have kind 0)
         environment.start(robot, q0, qd0, N + 1)  # type: ignore[attr-defined]
     # initial measurement for controllers whose reset depends on it
     h0 = pre_start_wrench(robot, environment, q0, qd0)
