@@ -1,0 +1,416 @@
+"""The vendor and ROS controllers' own configuration files: read unmodified, written back in place (issue 30).
+
+Formats (detected from the keys, or named with ``kind``):
+
+* ``ros2-admittance``: a ros2_controllers parameter file (``<controller>: ros__parameters:`` with
+  ``admittance:`` and ``kinematics:``; parameter names of ``admittance_controller_parameters.yaml``);
+* ``fzi-compliance`` / ``fzi-force``: FZI cartesian_controllers files, ROS 2 (``ros__parameters``,
+  optional ``controller_manager`` section with ``update_rate``) or ROS 1 (flat, with ``type:``);
+* ``franka-cartesian-impedance``: franka_ros's YAML (``type``, ``arm_id``, ``joint_names``; the
+  gains ``translational_stiffness``, ``rotational_stiffness``, ``nullspace_stiffness`` when set, else
+  the defaults of ``compliance_param.cfg``) or that ``.cfg`` file itself (``gen.add(...)`` lines);
+* ``ur-force-mode``: URScript lines (:mod:`.ur_script`).
+
+:func:`read_config` returns a :class:`VendorConfig`: the controller's parameters under the
+library's names (:mod:`forcecontrol.controllers.vendor`), the rate when the file gives it, and
+``notes``: every key that is not read or is mapped (frames, interfaces), said in words, so
+nothing is ignored silently. :meth:`VendorConfig.write` rewrites changed values in place
+(:mod:`.config_text`; ruamel.yaml for the structure and positions): everything else, comments
+included, stays byte for byte.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...errors import ParameterError
+from .config_text import Edit, apply_edits, format_number, plain_scalar_end
+from .ur_script import read_ur_script, write_ur_script
+
+__all__ = ["KINDS", "VendorConfig", "read_config", "detect_kind"]
+
+#: the formats, with the project they come from.
+KINDS = {
+    "ros2-admittance": "ros2_controllers admittance_controller",
+    "fzi-compliance": "FZI cartesian_compliance_controller",
+    "fzi-force": "FZI cartesian_force_controller",
+    "franka-cartesian-impedance": "franka_ros cartesian_impedance_example_controller",
+    "ur-force-mode": "URScript force_mode",
+}
+_AX = ("trans_x", "trans_y", "trans_z", "rot_x", "rot_y", "rot_z")
+_REQ = object()  # a required key (no default)
+
+# library parameter -> [(path in the controller's parameters, default)]
+_SLOTS: dict[str, dict[str, list[tuple[tuple[Any, ...], Any]]]] = {
+    "ros2-admittance": {
+        "mass": [(("admittance", "mass", i), _REQ) for i in range(6)],
+        "damping_ratio": [(("admittance", "damping_ratio", i), _REQ) for i in range(6)],
+        "stiffness": [(("admittance", "stiffness", i), _REQ) for i in range(6)],
+        "selected_axes": [(("admittance", "selected_axes", i), _REQ) for i in range(6)],
+        "joint_damping": [(("admittance", "joint_damping"), 5.0)],
+        "filter_coefficient": [(("ft_sensor", "filter_coefficient"), 0.05)],
+        "kinematics_alpha": [(("kinematics", "alpha"), 0.01)],
+        "payload_weight": [(("gravity_compensation", "CoG", "force"), 0.0)],
+        "payload_cog": [(("gravity_compensation", "CoG", "pos", i), _REQ) for i in range(3)],
+    },
+    "fzi-compliance": {
+        "stiffness": [(("stiffness", a), 500.0 if i < 3 else 50.0) for i, a in enumerate(_AX)],
+        "p": [(("pd_gains", a, "p"), 0.0) for a in _AX],
+        "d": [(("pd_gains", a, "d"), 0.0) for a in _AX],
+        "error_scale": [(("solver", "error_scale"), 1.0)],
+        "iterations": [(("solver", "iterations"), 1)],
+    },
+    "fzi-force": {
+        "p": [(("pd_gains", a, "p"), 0.0) for a in _AX],
+        "d": [(("pd_gains", a, "d"), 0.0) for a in _AX],
+        "error_scale": [(("solver", "error_scale"), 1.0)],
+    },
+    "franka-cartesian-impedance": {
+        "translational_stiffness": [(("translational_stiffness",), 200.0)],
+        "rotational_stiffness": [(("rotational_stiffness",), 10.0)],
+        "nullspace_stiffness": [(("nullspace_stiffness",), 0.5)],
+    },
+}
+
+# keys read for frames/interfaces or not modelled: each named in the notes with what happens to it
+_KNOWN: dict[str, dict[str, str]] = {
+    "ros2-admittance": {
+        **{k: "not needed in simulation" for k in (
+            "joints", "command_joints", "state_interfaces", "chainable_command_interfaces", "kinematics.plugin_name",
+            "kinematics.plugin_package", "kinematics.group_name", "ft_sensor.name", "ft_sensor.frame.external",
+            "control.frame.external", "fixed_world_frame.frame.external", "gravity_compensation.frame.external",
+            "robot_description")},
+        "command_interfaces": "the arm is simulated through its position interface (the servo model)",
+        "enable_parameter_update_without_reactivation": "parameters are constant during a simulation",
+        "kinematics.base": "the robot's base", "kinematics.tip": "the robot's controlled frame",
+        "ft_sensor.frame.id": "the robot's controlled frame (the sensor is taken at the tool)",
+        "control.frame.id": "'base' when it names kinematics.base, else the robot's controlled frame",
+        "fixed_world_frame.frame.id": "the robot's base (gravity along -z)",
+        "gravity_compensation.frame.id": "'base' when it names kinematics.base, else the robot's controlled frame",
+    },
+    "fzi": {
+        **{k: "not needed in simulation" for k in (
+            "joints", "type", "target_frame_topic", "robot_description", "solver.publish_state_feedback")},
+        "command_interfaces": "the arm is simulated through its position interface (the servo model)",
+        "robot_base_link": "the robot's base", "end_effector_link": "the robot's controlled frame",
+        "ft_sensor_ref_link": "the robot's controlled frame (the sensor is taken at the tool)",
+        "compliance_ref_link": "'base' when it names robot_base_link, else the robot's controlled frame",
+        "hand_frame_control": "the target wrench (reference force) is taken in the base frame",
+        "ik_solver": "only forward_dynamics is modelled",
+        "solver.forward_dynamics.link_mass": "not read: the virtual model is the measured end-effector inertia "
+                                             "(virtual_mass 1.3 kg, virtual_inertia 1 kg m^2)",
+    },
+    "franka-cartesian-impedance": {k: "not needed in simulation" for k in ("type", "arm_id", "joint_names")},
+}
+
+
+@dataclass
+class VendorConfig:
+    """A controller's configuration as read from its own file.
+
+    Attributes:
+        kind: one of :data:`KINDS`. source: the file (or ``<text>``). text: the file's text.
+        section: the controller's section in a YAML file (None for a script or .cfg).
+        parameters: the controller's keyword arguments (library names), defaults filled in.
+        rate: the controller's update rate [Hz] when the file gives it, else None.
+        notes: keys not read, mapped or defaulted, in words (printed on stderr and in --json).
+        layout: ``"ros2"``, ``"ros1"``, ``"cfg"`` or ``"urscript"``.
+    """
+
+    kind: str
+    source: str
+    text: str
+    section: str | None
+    parameters: dict[str, Any]
+    rate: float | None
+    notes: list[str] = field(default_factory=list)
+    layout: str = "ros2"
+    _node: Any = None
+    _spans: Any = None
+
+    def write(self, **changes: Any) -> str:
+        """The file's text with these parameters (library names) changed in place; every other byte kept.
+
+        Raises:
+            ParameterError: a name that is not one of the file's parameters, a value of the wrong
+                length, or a key whose parent table is missing (the message names it).
+        """
+        unknown = sorted(k for k in changes if k not in self.parameters or k not in self.writable())
+        if unknown:
+            raise ParameterError(f"cannot write {unknown[0]!r} to a {self.kind} file; writable: {', '.join(self.writable())}")
+        if self.layout == "urscript":
+            return write_ur_script(self.text, self._spans, self.parameters, changes)
+        if self.layout == "cfg":
+            return _write_cfg(self.text, self._spans, self.parameters, changes)
+        return _write_yaml(self.text, self._node, _SLOTS[self.kind], self.parameters, changes)
+
+    def writable(self) -> list[str]:
+        """The parameters :meth:`write` can change in this file's format."""
+        if self.layout == "urscript":
+            return ["task_frame", "selection_vector", "wrench", "limits", "damping", "gain_scaling"]
+        return list(_SLOTS[self.kind])
+
+
+def detect_kind(params: Any) -> str | None:
+    """The format of one controller's parameter table, from its keys (None: not a controller this reads)."""
+    if not isinstance(params, dict):
+        return None
+    typ = str(params.get("type", ""))
+    if "admittance" in params and "kinematics" in params:
+        return "ros2-admittance"
+    if "CartesianImpedanceExample" in typ or "translational_stiffness" in params:
+        return "franka-cartesian-impedance"
+    if "pd_gains" in params or "solver" in params or "cartesian_" in typ.lower() or "Cartesian" in typ:
+        if "Motion" in typ:
+            return "fzi-motion"
+        if "stiffness" in params or "compliance_ref_link" in params or "Compliance" in typ:
+            return "fzi-compliance"
+        return "fzi-force"
+    return None
+
+
+def read_config(
+    source: str | Path, kind: str | None = None, section: str | None = None, *, text: str | None = None
+) -> VendorConfig:
+    """Read a controller's configuration file (or ``text``) unmodified.
+
+    Args:
+        source: the file's path (or a label when ``text`` is given).
+        kind: one of :data:`KINDS` (default: detected from the keys).
+        section: the controller's section of a YAML file holding several (default: the first of the kind).
+
+    Raises:
+        ParameterError: unreadable file, unknown format or kind, a missing required key, a value
+            that is not a number (each message names the file, the key and what was given).
+    """
+    where = str(source)
+    if kind is not None and kind not in KINDS:
+        raise ParameterError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    if text is None:
+        try:
+            text = Path(source).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ParameterError(f"{where}: cannot be read as UTF-8 text: {exc}") from exc
+    if kind == "ur-force-mode" or (kind is None and re.search(r"^\s*force_mode\s*\(", text, re.M)):
+        params, notes, spans = read_ur_script(text, where)
+        return VendorConfig("ur-force-mode", where, text, None, params, None, notes, "urscript", None, spans)
+    if re.search(r"^\s*gen\.add\s*\(", text, re.M):
+        return _read_cfg(where, text, kind)
+    return _read_yaml(where, text, kind, section)
+
+
+def _load_yaml(where: str, text: str) -> Any:
+    try:
+        from ruamel.yaml import YAML
+        from ruamel.yaml.error import YAMLError
+    except ImportError as exc:  # pragma: no cover - the extra is installed in the tests
+        raise ParameterError("reading ROS parameter files needs ruamel.yaml: pip install 'forcecontrol[ros]'") from exc
+    try:
+        return YAML(typ="rt").load(text)
+    except YAMLError as exc:
+        raise ParameterError(f"{where}: not valid YAML: {exc}") from exc
+
+
+def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> VendorConfig:
+    doc = _load_yaml(where, text)
+    if not isinstance(doc, dict):
+        raise ParameterError(f"{where}: expected a YAML mapping of controller sections; got {type(doc).__name__}")
+    rate = None
+    cm = doc.get("controller_manager")
+    if isinstance(cm, dict) and isinstance(cm.get("ros__parameters"), dict) and "update_rate" in cm["ros__parameters"]:
+        rate = float(cm["ros__parameters"]["update_rate"])
+    found: list[tuple[str, str, Any, str]] = []
+    for name, sec in doc.items():
+        if name == "controller_manager" or not isinstance(sec, dict):
+            continue
+        layout = "ros2" if isinstance(sec.get("ros__parameters"), dict) else "ros1"
+        params = sec["ros__parameters"] if layout == "ros2" else sec
+        k = detect_kind(params)
+        if k is not None:
+            found.append((str(name), k, params, layout))
+    if section is not None:
+        found = [f for f in found if f[0] == section]
+        if not found:
+            raise ParameterError(f"{where}: no controller section {section!r}; sections: {', '.join(map(str, doc))}")
+    if kind is not None:
+        found = [f for f in found if f[1] == kind or (kind.startswith("fzi") and f[1].startswith("fzi"))]
+    if not found:
+        raise ParameterError(
+            f"{where}: no controller configuration found (expected a section with admittance+kinematics, pd_gains/solver, "
+            f"or translational_stiffness{'' if kind is None else ' of kind ' + kind}); top-level keys: {', '.join(map(str, doc))}"
+        )
+    name, k, params, layout = found[0]
+    k = kind or k
+    notes = [f"section {o[0]!r} ({o[1]}) not read (use --section)" for o in found[1:]]
+    if k == "fzi-motion":
+        raise ParameterError(f"{where}: section {name!r} is a cartesian_motion_controller: not one of {', '.join(KINDS)}")
+    values = _read_slots(where, params, _SLOTS[k], notes)
+    if k == "fzi-compliance" and layout == "ros1" and _get(params, ("solver", "iterations")) is _MISSING:
+        values["iterations"] = 10
+        notes.append("solver.iterations not set: the ROS 1 dynamic_reconfigure default 10 is used")
+    if k.startswith("fzi"):
+        if str(params.get("ik_solver", "forward_dynamics")) != "forward_dynamics":
+            raise ParameterError(f"{where}: ik_solver {params['ik_solver']!r} is not modelled (only forward_dynamics)")
+        base = params.get("robot_base_link")
+        if k == "fzi-compliance":
+            values["compliance_frame"] = "base" if base is not None and params.get("compliance_ref_link") == base else "tool"
+    if k == "ros2-admittance":
+        base = _get(params, ("kinematics", "base"))
+        values["control_frame"] = "base" if _get(params, ("control", "frame", "id")) == base else "tool"
+        values["payload_frame"] = "base" if _get(params, ("gravity_compensation", "frame", "id")) == base else "tool"
+        values["selected_axes"] = [bool(v) for v in values["selected_axes"]]
+    if k == "franka-cartesian-impedance" and not any(s in params for s in ("translational_stiffness", "rotational_stiffness")):
+        notes.append("no gains in the file: the defaults of franka_example_controllers/cfg/compliance_param.cfg are used "
+                     "(translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
+    known = _KNOWN["fzi" if k.startswith("fzi") else k]
+    read = {".".join(str(x) for x in path if not isinstance(x, int)) for slots in _SLOTS[k].values() for path, _ in slots}
+    for key in _leaves(params):
+        if key in read:
+            continue
+        if key in known:
+            notes.append(f"{key} = {_short(_get(params, tuple(key.split('.'))))}: {known[key]}")
+        elif not (k.startswith("fzi") and key.split(".")[0] in ("gravity", "tool")):
+            notes.append(f"{key}: unsupported key, not read")
+        else:
+            notes.append(f"{key}: ROS 1 gravity compensation of the force controllers is not modelled (not read)")
+    if rate is None:
+        notes.append("no controller_manager update_rate in the file: the rate comes from the scenario")
+    return VendorConfig(k, where, text, name, values, rate, notes, layout, params, None)
+
+
+_MISSING = object()
+
+
+def _get(node: Any, path: tuple[Any, ...]) -> Any:
+    for key in path:
+        if isinstance(key, int):
+            if not isinstance(node, list) or key >= len(node):
+                return _MISSING
+            node = node[key]
+        else:
+            if not isinstance(node, dict) or key not in node:
+                return _MISSING
+            node = node[key]
+    return node
+
+
+def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], notes: list[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name, entries in slots.items():
+        vals = []
+        missing = []
+        for path, default in entries:
+            v = _get(params, path)
+            dotted = ".".join(str(x) for x in path if not isinstance(x, int))
+            if v is _MISSING:
+                if default is _REQ:
+                    raise ParameterError(f"{where}: key {dotted!r} is required ({len(entries)} values); not found")
+                v = default
+                missing.append((dotted, default))
+            elif isinstance(v, bool) != (name == "selected_axes") or not isinstance(v, int | float):
+                what = "true/false" if name == "selected_axes" else "a number"
+                raise ParameterError(f"{where}: key {dotted!r} must be {what}; got {v!r}")
+            vals.append(v if isinstance(v, bool) else (int(v) if name == "iterations" else float(v)))
+        if missing:
+            keys = ", ".join(m[0] for m in missing)
+            defaults = sorted({m[1] for m in missing})
+            notes.append(f"{keys} not set: the project's default {' / '.join(map(repr, defaults))} is used")
+        out[name] = vals[0] if len(entries) == 1 else vals
+    return out
+
+
+def _leaves(node: Any, prefix: str = "") -> list[str]:
+    if isinstance(node, dict):
+        out = []
+        for k, v in node.items():
+            out += _leaves(v, f"{prefix}{k}.") if isinstance(v, dict) else [f"{prefix}{k}"]
+        return out
+    return [prefix.rstrip(".")]
+
+
+def _short(v: Any) -> str:
+    s = repr(list(v) if isinstance(v, list) else v)
+    return s if len(s) < 60 else s[:57] + "..."
+
+
+def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], old: dict[str, Any],
+                new: dict[str, Any]) -> str:
+    lines = text.splitlines(keepends=True)
+    edits: list[Edit] = []
+    for name, value in new.items():
+        entries = slots[name]
+        vals = list(value) if isinstance(value, list | tuple) else [value]
+        olds = old[name] if isinstance(old[name], list) else [old[name]]
+        if len(vals) != len(entries):
+            raise ParameterError(f"{name} must have {len(entries)} values; got {len(vals)}")
+        for (path, _), v, o in zip(entries, vals, olds):
+            if v == o:
+                continue
+            v = bool(v) if name == "selected_axes" else (int(v) if name == "iterations" else float(v))
+            cur = _get(params, path)
+            parent, key = _get(params, path[:-1]), path[-1]
+            dotted = ".".join(str(x) for x in path)
+            if parent is _MISSING or parent is None:
+                raise ParameterError(f"cannot write {dotted}: its parent key is not in the file; add it by hand")
+            if cur is not _MISSING:
+                line, col = parent.lc.item(key) if isinstance(key, int) else parent.lc.value(key)
+                end = plain_scalar_end(lines[line], col)
+                edits.append((line, col, end, format_number(v, lines[line][col:end])))
+            elif isinstance(key, int):
+                raise ParameterError(f"cannot write {dotted}: the list in the file is shorter; fix its length by hand")
+            elif parent.fa.flow_style():
+                last = list(parent)[-1]
+                line, col = parent.lc.value(last)
+                edits.append((line, plain_scalar_end(lines[line], col), None, f", {key}: {format_number(v)}"))
+            else:
+                line, col = parent.lc.key(next(iter(parent)))
+                edits.append((line, -1, None, f"{' ' * col}{key}: {format_number(v)}\n"))
+    return apply_edits(text, edits)
+
+
+_CFG = re.compile(r'gen\.add\(\s*"(\w+)"\s*,\s*\w+\s*,\s*[^,]+,\s*"[^"]*"\s*,\s*([^,]+?)\s*,\s*([^,]+?)\s*,\s*([^)]+?)\s*\)')
+
+
+def _read_cfg(where: str, text: str, kind: str | None) -> VendorConfig:
+    """franka_ros's ``compliance_param.cfg``: ``gen.add("name", double_t, level, "doc", default, min, max)``."""
+    if kind not in (None, "franka-cartesian-impedance"):
+        raise ParameterError(f"{where}: a dynamic_reconfigure .cfg is read as franka-cartesian-impedance; got kind {kind!r}")
+    values: dict[str, Any] = {}
+    spans: dict[str, Any] = {}
+    notes: list[str] = []
+    for i, line in enumerate(text.splitlines()):
+        m = _CFG.search(line)
+        if not m:
+            continue
+        name = m.group(1)
+        try:
+            default, lo, hi = float(m.group(2)), float(m.group(3)), float(m.group(4))
+        except ValueError as exc:
+            raise ParameterError(f"{where}: line {i + 1}: gen.add({name!r}, ...) needs literal default, min, max") from exc
+        if name in _SLOTS["franka-cartesian-impedance"]:
+            values[name] = default
+            spans[name] = (i, m.start(2), m.end(2), lo, hi)
+        else:
+            notes.append(f"line {i + 1}: parameter {name!r} not read (not a gain of the Cartesian impedance example)")
+    for name, slots in _SLOTS["franka-cartesian-impedance"].items():
+        if name not in values:
+            values[name] = slots[0][1]
+            notes.append(f"{name} not in the file: the project's default {slots[0][1]!r} is used")
+    notes.append("no rate in a .cfg file: the Franka's 1 kHz is used")
+    return VendorConfig("franka-cartesian-impedance", where, text, None, values, 1000.0, notes, "cfg", None, spans)
+
+
+def _write_cfg(text: str, spans: dict[str, Any], old: dict[str, Any], new: dict[str, Any]) -> str:
+    edits: list[Edit] = []
+    for name, v in new.items():
+        if name not in spans:
+            raise ParameterError(f"cannot write {name}: it has no gen.add line in the .cfg file; add it by hand")
+        line, a, b, lo, hi = spans[name]
+        if not lo <= float(v) <= hi:
+            raise ParameterError(f"{name} must be within the .cfg range [{lo:g}, {hi:g}]; got {v!r}")
+        if float(v) != float(old[name]):
+            edits.append((line, a, b, format_number(float(v))))
+    return apply_edits(text, edits)
