@@ -136,6 +136,10 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
         raise
     except ForceControlError as exc:
         raise ScenarioError(f"{where}: [robot]: {exc}") from exc
+    if rt.get("servo") is not None:  # a position/velocity-interface arm: the robot seen through its servo
+        from .servo_robot import servo_robot
+
+        robot = servo_robot(where, rt["servo"], robot)
     if robot_key is not None:
         memo[robot_key] = (robot, q0.copy())  # type: ignore[index]
     return _build_rest(case, where, memo, rt, robot, q0, sensor)

@@ -79,6 +79,7 @@ ROBOT_FIELDS: dict[str, Field] = {
     "elbow": Field("str", default="up", choices=("up", "down")),
     "qd0": Field("vector", low=-MAX_JOINT_SPEED, high=MAX_JOINT_SPEED, doc="initial joint velocities [rad/s]"),
     "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
+    "servo": Field("table", doc="the joint servo of a position/velocity-interface arm (see scenarios.servo_robot)"),
 }
 
 
