@@ -21,7 +21,15 @@ from .. import laws
 from ..core.validate import positive_scalar
 from ..errors import DimensionError, ForceControlError, MeasurementError, ParameterError, SingularityError
 from ..robots.base import RobotModel
-from .inputs import _check_inputs, _check_reference_finite, _check_step_arguments, _io_shapes
+from .inputs import (
+    _check_inputs,
+    _check_reference_finite,
+    _check_step_arguments,
+    _forget_time,
+    _io_shapes,
+    _time_rule,
+    _unusual_time,
+)
 from .signals import REFERENCE_FIELDS, Measurement, Reference, pack_reference
 
 
@@ -100,9 +108,15 @@ def _validated_step(fn: Any) -> Any:
 
     @functools.wraps(fn)
     def step(self: Controller, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
+        d = self.__dict__
+        prev = d.get("_t_prev")  # the last accepted step's t, kept only by a controller with state
         if runs_law and type(t) is float and type(measurement) is Measurement and type(reference) is Reference:
+            if prev is not None and not prev < t <= prev + d["_t_gap"]:
+                _unusual_time(self, t, prev)  # raises for a t that does not advance; warns once for a jump
             u = _fast_step(self, t, measurement, reference)
             if u is not None:
+                if prev is not None or (d["_time_rule"] if "_time_rule" in d else _time_rule(self)):
+                    d["_t_prev"] = t
                 return u
         outer = getattr(_SCOPE, "checked", None)
         shapes = _io_shapes(self)
@@ -115,11 +129,15 @@ def _validated_step(fn: Any) -> Any:
             _check_inputs(self, t, measurement, reference)
         # else: an enclosing layer (a safety layer, a supervisor) checked these very objects, for
         # the same shapes, within this call; nothing can have changed them since
+        if prev is not None and not prev < t <= prev + d["_t_gap"]:
+            _unusual_time(self, t, prev)
         state = self.state
         saved = state.copy() if state.size else None
         _SCOPE.checked = (measurement, reference, t, shapes)
+        done = False
         try:
-            return fn(self, t, measurement, reference)
+            u = fn(self, t, measurement, reference)
+            done = True
         except ForceControlError:
             if saved is not None:
                 state[:] = saved  # a failed sample leaves the integrators as they were
@@ -127,6 +145,14 @@ def _validated_step(fn: Any) -> Any:
             raise
         finally:
             _SCOPE.checked = outer
+            if not done:  # nor the time (a nested step of the same controller may have recorded it)
+                if prev is None:
+                    d.pop("_t_prev", None)
+                else:
+                    d["_t_prev"] = prev
+        if prev is not None or (d["_time_rule"] if "_time_rule" in d else _time_rule(self)):
+            d["_t_prev"] = float(t)
+        return u
 
     step._validates_inputs = True  # type: ignore[attr-defined]
     return step
@@ -142,6 +168,7 @@ def _validated_reset(fn: Any) -> Any:
     @functools.wraps(fn)
     def reset(self: Controller, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         _check_inputs(self, 0.0, measurement, reference)
+        _forget_time(self)
         return fn(self, measurement, reference)
 
     reset._validates_inputs = True  # type: ignore[attr-defined]
@@ -152,6 +179,7 @@ def reset_prechecked(controller: Controller, measurement: Measurement, reference
     """``controller.reset(measurement, reference)`` without the input check, for inputs the library
     built itself from parts it has already checked (a sweep resets one controller per case)."""
     fn = type(controller).reset
+    _forget_time(controller)
     getattr(fn, "__wrapped__", fn)(controller, measurement, reference)
 
 
@@ -234,12 +262,29 @@ class Controller(ABC):
         return int(self.robot.task_dim)
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
-        """Reset the internal state (integrators) to its documented initial value."""
+        """Reset the internal state (integrators) to its documented initial value (and forget the last step's t)."""
+        _forget_time(self)
         self.state[:] = 0.0
 
     @abstractmethod
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
-        """Torques u, (n,) [N m], to hold for one sample time."""
+        """Torques u, (n,) [N m], to hold for one sample time.
+
+        One call is one sample: the integrators (``state``) advance by ``sample_time`` per call,
+        whatever ``t`` is. So the time must follow the samples:
+
+        * a controller with integrator state (a non-empty ``state``, or wrapping one that has)
+          refuses a ``t`` that does not increase past the previous step's (``ParameterError``
+          naming both times): a repeated ``t`` would integrate twice for one sample;
+        * a wrapper of stateless controllers (a safety layer, a supervisor, encoder feedback:
+          per-sample memory of its own) refuses a ``t`` that goes back, and accepts a repeat;
+        * a stateless controller accepts any finite ``t``.
+
+        ``reset()`` starts the time again (``t = 0`` is accepted next). A step that fails records
+        neither its time nor any change of state. A ``t`` more than 1.5 sample times after the
+        previous step's warns once (until ``reset()``): the integrators still advance by one
+        ``sample_time`` (call ``step`` once per sample).
+        """
 
     def gains(self) -> dict[str, Any]:
         """The controller's parameters as plain values (for metadata and reports): those named in ``GAINS``."""

@@ -1,4 +1,4 @@
-"""What ``Controller.step`` checks before it runs: argument types, signal shapes and finiteness.
+"""What ``Controller.step`` checks before it runs: argument types, signal shapes and finiteness, time.
 
 Split from :mod:`.base` (which wraps every ``step`` and ``reset`` with these checks); the names
 stay importable from there.
@@ -7,6 +7,7 @@ stay importable from there.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -103,3 +104,60 @@ def _check_step_arguments(t: Any, measurement: Any, reference: Any) -> None:
             "reference must be a forcecontrol Reference (e.g. Reference.setpoint(x_d) or a ReferenceSignal's "
             f".at(t)); got {type(reference).__name__}"
         )
+
+
+#: the rules ``Controller.step`` applies to its time t (see its docstring): any finite t, t that
+#: does not go back, t that advances.
+ANY_TIME, NON_DECREASING, INCREASING = 0, 1, 2
+#: a step more than this many sample times after the previous one warns (once until reset()).
+JUMP_SAMPLES = 1.5
+
+
+def _time_rule(ctl: Controller) -> int:
+    """The time rule of ``ctl`` (kept on it until ``reset()``): INCREASING with integrator state of
+    its own (a non-empty ``state``) or in a controller it wraps, NON_DECREASING for a wrapper of
+    stateless controllers (a safety layer, a supervisor, encoder feedback: per-sample memory of its
+    own), ANY_TIME for a stateless controller."""
+    d = ctl.__dict__
+    rule = d.get("_time_rule")
+    if rule is None:
+        rule = INCREASING if ctl.state.size else ANY_TIME
+        for v in list(d.values()):
+            if v is not ctl and getattr(getattr(type(v), "step", None), "_validates_inputs", False):  # a Controller
+                rule = max(rule, NON_DECREASING, _time_rule(v))
+        d["_time_rule"] = rule
+        d["_t_gap"] = JUMP_SAMPLES * ctl.sample_time if ctl.state.size else math.inf
+    return rule
+
+
+def _unusual_time(ctl: Controller, t: float, prev: float) -> None:
+    """A step whose t does not advance past the previous step's (refused) or jumps ahead (warned once)."""
+    name, t = type(ctl).__name__, float(t)  # (a NumPy float prints as a number)
+    if t != t or t in (math.inf, -math.inf):
+        raise ParameterError(f"t must be finite; got {t!r}")
+    if t < prev or (t == prev and _time_rule(ctl) == INCREASING):
+        what = "goes back before" if t < prev else "repeats"
+        why = (
+            "integrator state advances once per call (a repeated t would integrate twice for one sample)"
+            if _time_rule(ctl) == INCREASING else "state of its own advances once per call"
+        )
+        raise ParameterError(
+            f"{name}.step: t = {t!r} s {what} the previous step's t = {prev!r} s; a controller whose {why}, so t "
+            "must increase from step to step: pass the next sample's time, or call reset() to start again"
+        )
+    if t > prev + ctl.__dict__["_t_gap"]:
+        ctl.__dict__["_t_gap"] = math.inf  # once until reset()
+        warnings.warn(
+            f"{name}.step: t jumped from {prev!r} s to {t!r} s, {(t - prev) / ctl.sample_time:.6g} sample times; the "
+            f"integrators advance by sample_time = {ctl.sample_time!r} s per call whatever t is: call step once per "
+            "sample (this warning is shown once until reset())",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
+def _forget_time(ctl: Controller) -> None:
+    """A reset starts the time again (and the time rule is found again from the state)."""
+    d = ctl.__dict__
+    for key in ("_t_prev", "_time_rule", "_t_gap"):
+        d.pop(key, None)
