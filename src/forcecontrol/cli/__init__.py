@@ -6,12 +6,12 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, cache, calibrate, compare, compare_trace, convert, design, replay, report, sweep, task, tune
+from . import analyze, cache, calibrate, compare, compare_trace, config, convert, design, replay, report, sweep, task, tune
 from .app import app, main
 
 # each module's ``*_command`` functions, in the order of ``forcecontrol --help``:
 # ``calibrate_plan_command`` is the command ``calibrate-plan``
-for _module in (analyze, task, sweep, compare, calibrate, replay, compare_trace, convert, design, tune, report, cache):
+for _module in (analyze, task, sweep, compare, calibrate, replay, compare_trace, convert, config, design, tune, report, cache):
     for _name, _fn in vars(_module).items():
         if _name.endswith("_command") and getattr(_fn, "__module__", None) == _module.__name__:
             app.command(_name.removesuffix("_command").replace("_", "-"))(_fn)

@@ -155,7 +155,7 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
     if duration <= 0:
         raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
-    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0}
+    ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0, "where": where}
     env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx, memo)
     ctx["environment"] = env
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx, memo)

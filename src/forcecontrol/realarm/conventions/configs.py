@@ -75,10 +75,11 @@ _SLOTS: dict[str, dict[str, list[tuple[tuple[Any, ...], Any]]]] = {
     },
 }
 
+_NOT_NEEDED = "not needed in simulation (kept in the file)"
 # keys read for frames/interfaces or not modelled: each named in the notes with what happens to it
 _KNOWN: dict[str, dict[str, str]] = {
     "ros2-admittance": {
-        **{k: "not needed in simulation" for k in (
+        **{k: _NOT_NEEDED for k in (
             "joints", "command_joints", "state_interfaces", "chainable_command_interfaces", "kinematics.plugin_name",
             "kinematics.plugin_package", "kinematics.group_name", "ft_sensor.name", "ft_sensor.frame.external",
             "control.frame.external", "fixed_world_frame.frame.external", "gravity_compensation.frame.external",
@@ -92,7 +93,7 @@ _KNOWN: dict[str, dict[str, str]] = {
         "gravity_compensation.frame.id": "'base' when it names kinematics.base, else the robot's controlled frame",
     },
     "fzi": {
-        **{k: "not needed in simulation" for k in (
+        **{k: _NOT_NEEDED for k in (
             "joints", "type", "target_frame_topic", "robot_description", "solver.publish_state_feedback")},
         "command_interfaces": "the arm is simulated through its position interface (the servo model)",
         "robot_base_link": "the robot's base", "end_effector_link": "the robot's controlled frame",
@@ -103,7 +104,7 @@ _KNOWN: dict[str, dict[str, str]] = {
         "solver.forward_dynamics.link_mass": "not read: the virtual model is the measured end-effector inertia "
                                              "(virtual_mass 1.3 kg, virtual_inertia 1 kg m^2)",
     },
-    "franka-cartesian-impedance": {k: "not needed in simulation" for k in ("type", "arm_id", "joint_names")},
+    "franka-cartesian-impedance": {k: _NOT_NEEDED for k in ("type", "arm_id", "joint_names")},
 }
 
 
@@ -267,15 +268,18 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
                      "(translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
     known = _KNOWN["fzi" if k.startswith("fzi") else k]
     read = {".".join(str(x) for x in path if not isinstance(x, int)) for slots in _SLOTS[k].values() for path, _ in slots}
+    grouped: dict[str, list[str]] = {}
     for key in _leaves(params):
         if key in read:
             continue
         if key in known:
-            notes.append(f"{key} = {_short(_get(params, tuple(key.split('.'))))}: {known[key]}")
+            shown = key if known[key] == _NOT_NEEDED else f"{key} = {_short(_get(params, tuple(key.split('.'))))}"
+            grouped.setdefault(known[key], []).append(shown)
         elif not (k.startswith("fzi") and key.split(".")[0] in ("gravity", "tool")):
             notes.append(f"{key}: unsupported key, not read")
         else:
             notes.append(f"{key}: ROS 1 gravity compensation of the force controllers is not modelled (not read)")
+    notes += [f"{', '.join(keys)}: {reason}" for reason, keys in grouped.items()]
     if rate is None:
         notes.append("no controller_manager update_rate in the file: the rate comes from the scenario")
     return VendorConfig(k, where, text, name, values, rate, notes, layout, params, None)
