@@ -72,6 +72,7 @@ class Engine(str, Enum):
 
 
 class DataFormat(str, Enum):
+    auto = "auto"
     none = "none"
     csv = "csv"
     parquet = "parquet"
@@ -245,7 +246,9 @@ def run_command(
     json_out: JsonOut = False,
     out: OutFolder = None,
     figure: Annotated[bool, typer.Option(help="write the figure (PNG)")] = True,
-    data: Annotated[DataFormat, typer.Option(help="also write each case's log (+ JSON metadata)")] = DataFormat.none,
+    data: Annotated[DataFormat, typer.Option(
+        help="each case's log (+ JSON metadata), what 'forcecontrol report FOLDER' reads; auto: csv when the run "
+             "writes its folder (a figure or an animation), none with --no-figure")] = DataFormat.auto,
     engine: Annotated[Engine, typer.Option(help="simulator engine")] = Engine.auto,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected value is missed")] = False,
     force: ForceOverwrite = False,
@@ -263,6 +266,8 @@ def run_command(
         from ..scenarios import load_scenario, run_scenario
 
         compile_notice()
+        if data is DataFormat.auto:  # the run's folder keeps what 'report' reads; no folder, no files
+            data = DataFormat.csv if figure or animate else DataFormat.none
         try:
             sets = parse_sets(set_)
             scn, set_notes = apply_sets(load_scenario(scenario), sets)
@@ -292,7 +297,7 @@ def run_command(
                 run.files[f"figure:{p.stem}"] = str(p)
     if animate:
         try:
-            for label, p in _animate_cases(run, folder, _slug(scn.name)):
+            for label, p in _animate_cases(run, folder, _slug(scn.name), quiet=json_out):
                 run.files[f"animation:{label}"] = str(p)
         except ForceControlError as exc:
             _fail(exc)
@@ -314,17 +319,26 @@ def run_command(
         raise typer.Exit(code=1)
 
 
-def _animate_cases(run, folder: Path, stem: str) -> list[tuple[str, Path]]:
-    """One GIF per case, ``folder/stem-<case>.gif`` (the robot and environment rebuilt from the scenario)."""
+def _animate_cases(run, folder: Path, stem: str, quiet: bool = False) -> list[tuple[str, Path]]:
+    """One GIF per case, ``folder/stem-<case>.gif`` (the robot and environment rebuilt from the scenario), with a
+    progress bar of the frames on stderr (an animation takes seconds to a minute per case); ``quiet``: no bar."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     from ..scenarios import build_case
     from ..viz.animation import animate_run
 
     out = []
-    for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
-        parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
-        name = f"{stem}-{_slug(c.label)}" if len(run.cases) > 1 else stem
-        out.append((c.label, animate_run(c.result, parts["robot"], parts["environment"], inside(folder, f"{name}.gif"),
-                                         title=f"{run.scenario.name}: {c.label}")))
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                  TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console, transient=True,
+                  disable=quiet, redirect_stdout=False, redirect_stderr=False) as bar:
+        for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
+            parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
+            name = f"{stem}-{_slug(c.label)}" if len(run.cases) > 1 else stem
+            task = bar.add_task(escape(f"animating {c.label} ({i + 1}/{len(run.cases)})"), total=None)
+            path = animate_run(c.result, parts["robot"], parts["environment"], inside(folder, f"{name}.gif"),
+                               title=f"{run.scenario.name}: {c.label}",
+                               progress=lambda done, total, task=task: bar.update(task, completed=done, total=total))
+            out.append((c.label, path))
     return out
 
 

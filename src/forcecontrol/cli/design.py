@@ -62,7 +62,7 @@ def design_command(
         _fail(exc)
     from ..scenarios.units import design_gain_unit, unit
 
-    gain_units = {name: design_gain_unit(d.scheme, name) for name in d.gains}
+    gain_units = {name: design_gain_unit(scheme, name) for name in d.gains}
     if json_out:
         doc = d.as_dict()
         names = {"stiffness_range", *(k for c in doc["checks"] for k in c), *doc["requirements"]}

@@ -12,7 +12,8 @@ __all__ = ["report_command"]
 
 def report_command(
     source: Annotated[Path, typer.Argument(
-        help="a run's output folder (forcecontrol run NAME --data csv|parquet) or a sweep table / its folder")],
+        help="a run's output folder (what 'forcecontrol run NAME' writes: its logs are kept by default) or a sweep "
+             "table / its folder")],
     out: Annotated[Path | None, typer.Option(  # noqa: UP007 - typer needs Optional
         help="the HTML file (default: report.html in the folder, or SWEEP.html beside the table)")] = None,
     force: Annotated[bool, typer.Option("--force", help="overwrite an existing report file")] = False,

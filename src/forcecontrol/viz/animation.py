@@ -16,6 +16,7 @@ GIF files are written with Pillow (matplotlib's ``PillowWriter``), MP4 with ffmp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -69,6 +70,7 @@ def animate_run(
     speed: float = 1.0,
     max_frames: int = 120,
     title: str = "",
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Write an animation of one run: the arm moving, the environment and the contact force arrow.
 
@@ -82,6 +84,7 @@ def animate_run(
         fps: frames per second; speed: simulated seconds per second (1 = real time);
         max_frames: cap on the frames (longer runs are shown faster).
         title: text above the drawing (the time is appended).
+        progress: called as ``progress(frames_written, total_frames)`` after each frame (a progress bar).
 
     Returns:
         The written file.
@@ -128,7 +131,8 @@ def animate_run(
     anim = animation.FuncAnimation(fig, update, frames=len(idx), blit=False)
     path.parent.mkdir(parents=True, exist_ok=True)
     writer: Any = animation.PillowWriter(fps=fps) if suffix == ".gif" else animation.FFMpegWriter(fps=fps)
-    anim.save(path, writer=writer, dpi=90)
+    anim.save(path, writer=writer, dpi=90,
+              progress_callback=None if progress is None else (lambda i, n: progress(i + 1, n)))
     plt.close(fig)
     return path
 
