@@ -197,3 +197,39 @@ def test_built_in_servo_scenarios_pass_their_checks(name):
 
     run = run_scenario(name)
     assert run.all_checks_pass, [c for case in run.cases for c in case.checks if not c["ok"]]
+
+
+def test_redundant_panda_loop_has_no_marginal_null_space_pole():
+    """On the 7-joint Panda the IK's null-space motion (unseen by the force) leaves no pole at z = 1: the loop is
+    stable with the same limit as the chapter's arm (same servo on every joint, IK ≈ identity)."""
+    from forcecontrol.robots.pinocchio import PANDA_READY, panda
+
+    pir = PositionInterfaceRobot(panda(), JointServo(nq=7, rate=500.0, bandwidth=44.7, damping=0.67))
+    ctl = PositionAdmittanceController(pir, [10.0] * 3 + [0.5] * 3, [200.0] * 3 + [10.0] * 3, [1000.0] * 3 + [50.0] * 3,
+                                       sample_time=5e-4)
+    loop = admittance_servo_loop(ctl, PANDA_READY, [0.0, 0.0, 1.0])
+    assert loop.spectral_radius(3000.0) < 0.999
+    c = chapter_arm_case(500.0)
+    ref = admittance_servo_loop(c["controller"], c["q0"], c["normal"]).stability_limit()
+    assert loop.stability_limit() == pytest.approx(ref, rel=1e-3)
+
+
+def test_design_keeps_the_margins_and_its_scenario_runs_for_ur5_and_panda(tmp_path):
+    """`design admittance-position` finds a damping whose loop keeps 45 deg / 6 dB at k_max in simulation terms
+    (stable there), and writes scenarios for the UR5 and the Panda that validate."""
+    from dataclasses import replace
+
+    from forcecontrol.analysis.servo_design import design_admittance_servo
+    from forcecontrol.scenarios import load_scenario
+
+    d = design_admittance_servo((500.0, 5000.0), inertia=10.0, stiffness=1000.0)
+    assert all(c["phase_margin_deg"] >= 45.0 and c["gain_margin_db"] >= 6.0 for c in d.checks)
+    c = chapter_arm_case(500.0)
+    ctl = PositionAdmittanceController(c["controller"].robot, 10.0, d.gains["damping"], 1000.0, sample_time=5e-4)
+    assert stable_in_simulation(ctl, c["q0"], c["x_d"], c["rest"], c["normal"], 5000.0, duration=2.0)
+    for robot in ("ur5", "panda"):
+        dr = replace(d, requirements={**d.requirements, "robot": robot})  # the loop does not depend on the arm
+        path = tmp_path / f"{robot}.toml"
+        path.write_text(dr.scenario_toml(name=robot), encoding="utf-8")
+        scn = load_scenario(path)
+        assert len(scn.cases) == 3

@@ -116,6 +116,18 @@ class ServoLoop:
         if tracking == "dynamic" and B is None:
             raise ParameterError("the 'dynamic' servo realisation needs B(q*) (its stiffness is Λ ω²)")
         self.B = None if B is None else np.asarray(B, dtype=np.float64)
+        # IK map and the joints' coordinates: with the same servo on every joint, x = J q follows that servo
+        # from J q_c, so the loop is written exactly in task coordinates (a redundant arm's null-space
+        # motion, neither excited by the force nor seen in it, then leaves no pole at z = 1)
+        Jp = self.J.T @ np.linalg.inv(self.J @ self.J.T + self.lam**2 * np.eye(self.m))
+        Binv = None if self.B is None else np.linalg.inv(self.B)
+        if np.allclose(self.w, self.w[0]) and np.allclose(self.z, self.z[0]):
+            self._Jp, self._Jx = self.J @ Jp, np.eye(self.m)
+            self._Binv = None if Binv is None else self.J @ Binv @ self.J.T
+            self.w, self.z = np.full(self.m, self.w[0]), np.full(self.m, self.z[0])
+            self.n = self.m
+        else:
+            self._Jp, self._Jx, self._Binv = Jp, self.J, Binv
         self.Ad, self.Gd, _, _ = discretise_admittance(self.M, self.D, self.K, self.T)
         self._ctrl = self._controller()
 
@@ -125,8 +137,7 @@ class ServoLoop:
         import control  # type: ignore[import-untyped]
 
         m, n, d = self.m, self.n, self.delay
-        J = self.J
-        Jp = J.T @ np.linalg.inv(J @ J.T + self.lam**2 * np.eye(m))
+        J, Jp = self._Jx, self._Jp
         Cz = np.hstack([np.eye(m), np.zeros((m, m))])
         # x_t = −P Cz (Ad ζ + Gd Pᵀ h);   q_c = (I − Jp J) q_prev + Jp x_t
         Xz, Xh = -self.P @ Cz @ self.Ad, -self.P @ Cz @ self.Gd @ self.P.T
@@ -179,10 +190,10 @@ class ServoLoop:
         A[n:, :n] = -W2
         A[n:, n:] = -ZW
         if self.tracking == "dynamic":
-            A[n:, :n] -= np.linalg.solve(self.B, self.J.T @ (k_e * N) @ self.J)
+            A[n:, :n] -= self._Binv @ self._Jx.T @ (k_e * N) @ self._Jx
         Bc = np.zeros((2 * n, n))
         Bc[n:] = W2
-        C = np.hstack([k_e * N @ self.J, np.zeros((m, n))])
+        C = np.hstack([k_e * N @ self._Jx, np.zeros((m, n))])
         return control.c2d(control.ss(A, Bc, C, np.zeros((m, n))), self.T, method="zoh")
 
     def closed_loop(self, k_e: float) -> Any:
@@ -248,7 +259,7 @@ class ServoLoop:
         """
         c = float(self.nu @ self.P @ np.linalg.solve(self.K, self.P.T @ self.nu))
         if self.tracking == "dynamic":
-            Cs = self.J @ np.diag(1.0 / self.w**2) @ np.linalg.solve(self.B, self.J.T)
+            Cs = self._Jx @ np.diag(1.0 / self.w**2) @ self._Binv @ self._Jx.T
             c += float(self.nu @ Cs @ self.nu)
         return k_e / (1.0 + k_e * c)
 

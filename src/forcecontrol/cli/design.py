@@ -14,11 +14,17 @@ __all__ = ["design_command"]
 
 
 def design_command(
-    scheme: Annotated[str, typer.Argument(help="impedance, inner-position, inner-velocity, parallel or hybrid")],
+    scheme: Annotated[
+        str, typer.Argument(help="impedance, inner-position, inner-velocity, parallel, hybrid or admittance-position")
+    ],
     k_min: Annotated[float, typer.Option("--k-min", help="lowest environment stiffness [N/m]")],
     k_max: Annotated[float, typer.Option("--k-max", help="highest environment stiffness [N/m]")],
-    sample_time: Annotated[float, typer.Option(help="control period Ts [s]")] = 1e-3,
-    delay: Annotated[int, typer.Option(help="sensor delay [samples]")] = 0,
+    sample_time: Annotated[
+        float | None, typer.Option(help="control period Ts [s] (default 0.001; admittance-position: the servo step, 1/(4 rate))")
+    ] = None,
+    delay: Annotated[
+        int, typer.Option(help="sensor delay [samples] (admittance-position: transport delay [cycles], default 1)")
+    ] = 0,
     filter_cutoff: Annotated[float | None, typer.Option(help="sensor first-order filter cutoff [Hz] (default: none)")] = None,
     phase_margin: Annotated[float, typer.Option(help="required phase margin [deg]")] = 45.0,
     gain_margin: Annotated[float, typer.Option(help="required gain margin [dB]")] = 6.0,
@@ -29,6 +35,15 @@ def design_command(
     inertia: Annotated[float, typer.Option(help="M_d / m_d [kg]")] = 100.0,
     stiffness: Annotated[float, typer.Option(help="K_P / k_P [N/m] (the task's choice, kept)")] = 2500.0,
     arm_inertia: Annotated[float | None, typer.Option(help="the arm's operational mass along the axis [kg]")] = None,
+    rate: Annotated[float, typer.Option(help="admittance-position: interface rate [Hz]")] = 500.0,
+    servo_bandwidth: Annotated[float, typer.Option(help="admittance-position: joint servo ω_s [rad/s]")] = 44.7,
+    servo_damping: Annotated[float, typer.Option(help="admittance-position: joint servo ζ_s")] = 0.67,
+    lowpass_cutoff: Annotated[
+        float | None, typer.Option(help="admittance-position: command low-pass [Hz] (default: none)")
+    ] = None,
+    robot: Annotated[
+        str, typer.Option(help="admittance-position: the --out scenario's robot: chapter-arm, ur5 or panda")
+    ] = "chapter-arm",
     out: Annotated[Path | None, typer.Option(help="write a scenario (TOML) with one case per checked stiffness")] = None,
     force: Annotated[bool, typer.Option("--force", help="overwrite --out if it exists")] = False,
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
@@ -43,11 +58,22 @@ def design_command(
     try:
         from ..analysis.gain_design import design_gains
 
-        d = design_gains(
-            scheme, (k_min, k_max), sample_time, delay_samples=delay, filter_cutoff=filter_cutoff,
-            phase_margin=phase_margin, gain_margin=gain_margin, settling_time=settling_time,
-            damping_ratio=damping_ratio, inertia=inertia, stiffness=stiffness, arm_inertia=arm_inertia,
-        )
+        if scheme == "admittance-position":  # (9.37) behind a position-interface arm's servo (analysis.servo_design)
+            from ..analysis.servo_design import design_admittance_servo
+
+            d = design_admittance_servo(
+                (k_min, k_max), rate=rate, servo_bandwidth=servo_bandwidth, servo_damping=servo_damping,
+                delay_cycles=delay or 1, lowpass_cutoff=lowpass_cutoff, inertia=inertia, stiffness=stiffness,
+                phase_margin=phase_margin, gain_margin=gain_margin, settling_time=settling_time, robot=robot,
+                sample_time=sample_time,
+            )
+        else:
+            d = design_gains(
+                scheme, (k_min, k_max), 1e-3 if sample_time is None else sample_time, delay_samples=delay,
+                filter_cutoff=filter_cutoff, phase_margin=phase_margin, gain_margin=gain_margin,
+                settling_time=settling_time, damping_ratio=damping_ratio, inertia=inertia, stiffness=stiffness,
+                arm_inertia=arm_inertia,
+            )
         written = None
         if out is not None:
             if out.exists() and not force:
