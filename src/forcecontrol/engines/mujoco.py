@@ -95,7 +95,8 @@ class MujocoPlant:
         self.radius = float(contact_radius)
         self.impedance = float(impedance)
         self._spring: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        urdf, frame, locked, armature, gravity, task = _robot_source(robot)
+        # a position-interface arm (robots.servo): MuJoCo integrates its torque robot; the servo is in the controller
+        urdf, frame, locked, armature, gravity, task = _robot_source(getattr(robot, "torque_robot", robot))
         self.task = task
         spec = mujoco.MjSpec.from_string(_clean_urdf(urdf.read_text(), locked))
         spec.option.timestep = self.sample_time / self.substeps

@@ -416,6 +416,11 @@ class PositionInterfaceRobot:
         self.nq = int(robot.nq)
         self.task_dim = int(robot.task_dim)
 
+    @property
+    def torque_robot(self) -> RobotModel:
+        """The wrapped torque robot (what a plant, e.g. MuJoCo, integrates)."""
+        return self.robot
+
     def __getattr__(self, name: str) -> Any:  # everything else (spatial_terms, model, task, ...) from the robot
         if name in ("robot", "servo"):
             raise AttributeError(name)
