@@ -83,3 +83,67 @@ def test_animate_run_reports_every_frame(tmp_path):
                 progress=lambda i, n: calls.append((i, n)))
     n = len(frame_indices(run.cases[0].result.t, 20.0))
     assert calls == [(i, n) for i in range(1, n + 1)]
+
+
+def _recording_busy(seen):
+    from contextlib import contextmanager
+
+    @contextmanager
+    def fake(description, *, quiet=False):
+        seen.append((description, quiet))
+        yield lambda text: seen.append((text, quiet))
+
+    return fake
+
+
+def test_replay_shows_each_long_step(tmp_path, monkeypatch):
+    """`replay` names each step on its progress line (reading the log, replaying N samples, writing); --json hides it."""
+    import importlib
+
+    replay_module = importlib.import_module("forcecontrol.cli.replay")
+    res = runner.invoke(app, ["run", "example-9.2", "--no-figure", "--data", "csv", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    log = tmp_path / "example-9.2" / "example-9.2-k-x-1e4-n-m.csv"
+    for json_out in (False, True):
+        seen: list[tuple[str, bool]] = []
+        monkeypatch.setattr(replay_module, "busy", _recording_busy(seen))
+        args = ["replay", "example-9.2", str(log), "--out", str(tmp_path / f"r{json_out}")] + (["--json"] if json_out else [])
+        res = runner.invoke(app, args)
+        assert res.exit_code == 0, res.output
+        texts = [t for t, _ in seen]
+        assert texts[0] == "loading example-9.2" and texts[1] == f"reading {log}"
+        assert texts[2].startswith("replaying 4001 samples") and texts[3].startswith("writing the table")
+        assert all(quiet is json_out for _, quiet in seen)
+
+
+def test_analyze_verify_shows_a_progress_line(monkeypatch):
+    """`analyze --verify` (it simulates every case) runs under a progress line naming the cases; plain analyze is quiet."""
+    import importlib
+
+    analyze_module = importlib.import_module("forcecontrol.cli.analyze")
+    for verify, quiet in ((True, False), (False, True)):
+        seen: list[tuple[str, bool]] = []
+        monkeypatch.setattr(analyze_module, "busy", _recording_busy(seen))
+        res = runner.invoke(app, ["analyze", "example-9.2", *(["--verify"] if verify else [])])
+        assert res.exit_code == 0, res.output
+        assert seen[0][1] is quiet
+        assert ("simulating its 2 case(s) to verify" in seen[0][0]) is verify
+
+
+def test_busy_draws_its_steps_on_a_terminal(monkeypatch):
+    """busy() draws a spinner line with the current step on a terminal's stderr, and nothing when quiet."""
+    import importlib
+    import time
+
+    from forcecontrol.cli.busy import busy
+
+    app_module = importlib.import_module("forcecontrol.cli.app")
+    for quiet in (False, True):
+        buffer = io.StringIO()
+        monkeypatch.setattr(app_module, "err_console", Console(file=buffer, force_terminal=True, width=100))
+        with busy("reading the log", quiet=quiet) as step:
+            time.sleep(0.3)  # the line refreshes 10 times a second
+            step("replaying 9 samples")
+            time.sleep(0.3)
+        shown = buffer.getvalue()
+        assert ("reading the log" in shown and "replaying 9 samples" in shown) is not quiet, shown

@@ -14,6 +14,7 @@ from typing import Annotated, Any
 import typer
 
 from .app import JsonOut, _fail, compile_notice, err_console, print_json
+from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 
 __all__ = ["analyze_command"]
@@ -48,7 +49,9 @@ def analyze_command(
             compile_notice()
         sets = parse_sets(set_)
         scn, set_notes = apply_sets(load_scenario(scenario), sets)
-        report = analyze_scenario(scn, verify=verify)
+        with busy(f"analysing {scn.name}" + (f": simulating its {len(scn.cases)} case(s) to verify (compiling on a first "
+                                             "run)" if verify else ""), quiet=json_out or not verify):
+            report = analyze_scenario(scn, verify=verify)
         report["set"] = sets  # the keys --set changed (in every case), {} when none
         if figures:
             from ..scenarios.report import plot_scheme_figures
@@ -56,7 +59,8 @@ def analyze_command(
             compile_notice()
 
             folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
-            report["files"] = [str(p) for p in plot_scheme_figures(scn, folder)]
+            with busy(f"simulating {scn.name} for its figures", quiet=json_out):
+                report["files"] = [str(p) for p in plot_scheme_figures(scn, folder)]
     except ForceControlError as exc:
         _fail(exc)
     for text in set_notes:

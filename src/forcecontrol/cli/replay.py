@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
+from .busy import busy
 from .safe import terminal_safe
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
@@ -78,17 +79,21 @@ def replay_command(
 
     compile_notice()
     try:
-        scn = load_scenario(scenario)
-        spec, parts = pick_case(scn, case)
-        robot = parts["robot"]
-        rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense)
-        result = replay(parts["controller"], rec, parts["reference"], robot)
-        folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force)
+        with busy(f"loading {scenario}", quiet=json_out) as step:  # a long log takes seconds at each step
+            scn = load_scenario(scenario)
+            spec, parts = pick_case(scn, case)
+            robot = parts["robot"]
+            step(f"reading {data}")
+            rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense)
+            step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
+            result = replay(parts["controller"], rec, parts["reference"], robot)
+            folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force)
+            step(f"writing the table and the figure of {len(rec.t)} samples")
+            stem = _slug(spec.label)
+            table = folder / f"{stem}.csv"
+            result.to_pandas().to_csv(table, index=False)
+            figure = result.plot(folder / f"{stem}.png")
         say_note(note)
-        stem = _slug(spec.label)
-        table = folder / f"{stem}.csv"
-        result.to_pandas().to_csv(table, index=False)
-        figure = result.plot(folder / f"{stem}.png")
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
         return
