@@ -158,3 +158,27 @@ def test_set_reads_a_bare_word_as_a_string():
     """--set robot.elbow=down (not TOML) is read as the string 'down', as a file's "down"; the JSON shows it."""
     doc = _json("analyze", "example-9.2", "--set", "robot.elbow=down")
     assert doc["set"] == {"robot.elbow": "down"}
+
+
+def test_replay_and_compare_trace_json_and_table_carry_units(tmp_path):
+    """`replay` and `compare-trace` over a run's log: every metric of the JSON has its unit; replay's table has a unit column."""
+    res = runner.invoke(app, ["run", "example-9.2", "--no-figure", "--data", "csv", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    log = str(tmp_path / "example-9.2" / "example-9.2-k-x-1e4-n-m.csv")
+    doc = _json("replay", "example-9.2", log, "--out", str(tmp_path / "r"))
+    assert set(doc["metrics"]) <= set(doc["units"]) and doc["units"]["torque_difference_max"] == "N m"
+    assert doc["units"]["period"] == "s" and doc["units"]["force_error_rms"] == "N"
+    rows = rich_tables(runner.invoke(app, ["replay", "example-9.2", log, "--out", str(tmp_path / "r2")]).stdout)[0]
+    assert {r["quantity"]: r["unit"] for r in rows}["torque_difference_rms"] == "N m"
+    doc = _json("compare-trace", "example-9.2", log, "--out", str(tmp_path / "c"))
+    assert set(doc["metrics"]) == set(doc["units"]) and doc["units"]["shift"] == "s"
+
+
+def test_compare_json_units_cover_each_engine_metric():
+    """`compare example-9.2 --json` (built-in vs MuJoCo) names the unit of every number of each engine's metrics."""
+    pytest.importorskip("mujoco")
+    doc = _json("compare", "example-9.2")
+    for case in doc["cases"]:
+        for key in ("builtin", "mujoco"):
+            assert set(case[key]) <= set(doc["units"]), set(case[key]) - set(doc["units"])
+        assert doc["units"]["steady_force_difference_percent"] == "%"

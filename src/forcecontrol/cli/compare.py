@@ -9,7 +9,11 @@ import typer
 
 from .app import JsonOut, _fail, compile_notice, print_json
 
-__all__ = ["compare_command", "compare_scenario"]
+__all__ = ["compare_command", "compare_scenario", "COMPARE_UNITS"]
+
+#: units of each engine's contact-force metrics and of the differences in --json
+COMPARE_UNITS = {"steady": "N", "peak": "N", "peak_time": "s", "overshoot_percent": "%", "settling_time_2pc": "s",
+                 "steady_force_difference_percent": "%", "max_force_difference_over_peak_percent": "%"}
 
 
 def compare_scenario(name: str) -> dict[str, Any]:
@@ -46,7 +50,7 @@ def compare_command(
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:
-        print_json(report)
+        print_json({**report, "units": COMPARE_UNITS})
         return
     console = Console(width=None if sys.stdout.isatty() else 132)  # piped: as the other commands (80 cut the numbers)
     t = Table(title=f"{report['scenario']}: contact force, built-in simulator vs MuJoCo", title_justify="left")

@@ -77,8 +77,10 @@ def compare_trace_command(
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
         return
+    units = {"shift": "s", "position_error_rms": "rad", "position_error_max": "rad", "force_error_rms": "N",
+             "force_error_max": "N"}
     report = {"simulated": name, "recorded": str(recorded), "samples": int(cmp.t.size), "metrics": cmp.metrics,
-              "files": {"figure": str(figure)}}
+              "files": {"figure": str(figure)}, "units": {k: u for k, u in units.items() if k in cmp.metrics}}
     if note:
         report["notes"] = [note]
     if json_out:
@@ -87,8 +89,6 @@ def compare_trace_command(
     t = Table(title=f"{name} against {recorded}", title_justify="left")
     t.add_column("metric")
     t.add_column("value", justify="right")
-    units = {"shift": "s", "position_error_rms": "rad", "position_error_max": "rad", "force_error_rms": "N",
-             "force_error_max": "N"}
     for k, v in cmp.metrics.items():
         t.add_row(k, f"{v:.6g} {units.get(k, '')}")
     console.print(t)

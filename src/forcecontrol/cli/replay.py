@@ -22,6 +22,11 @@ RecordedLog = Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet,
 CaseLabel = Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")]
 
 
+#: units of replay's JSON fields and metrics (the force error's norm takes moments' N m as N in 6-D)
+REPLAY_UNITS = {"period": "s", "torque_difference_rms": "N m", "torque_difference_max": "N m", "force_error_rms": "N",
+                "force_error_max": "N"}
+
+
 class RecordFormat(str, Enum):
     auto = "auto"
     csv = "csv"
@@ -99,7 +104,7 @@ def replay_command(
         return
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
-              "files": {"table": str(table), "figure": str(figure)}}
+              "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS}
     if note:
         report["notes"] = [note]
     if json_out:
@@ -108,9 +113,10 @@ def replay_command(
     t = Table(title=f"{scn.name} ({spec.label}) replayed over {data}", title_justify="left")
     t.add_column("quantity")
     t.add_column("value", justify="right")
-    t.add_row("samples", f"{result.t.size} at Ts = {result.metadata['period']:.6g} s")
+    t.add_column("unit")
+    t.add_row("samples", f"{result.t.size} at Ts = {result.metadata['period']:.6g} s", "")
     for k, v in report["metrics"].items():
-        t.add_row(k, f"{v:.6g}")
+        t.add_row(k, f"{v:.6g}", REPLAY_UNITS.get(k, ""))
     console.print(t)
     for k, v in report["files"].items():
         console.print(terminal_safe(f"{k}: {v}"), markup=False, highlight=False)
