@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import laws
 from ..core.validate import as_gain_matrix, as_vector
+from ..laws.layout import JOINT_PD, OS_PD
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
 
@@ -52,7 +53,7 @@ class OperationalSpacePD(Controller):
         m = self.m
         self.stiffness = as_gain_matrix("stiffness", stiffness, m)
         self.damping = as_gain_matrix("damping", damping, m)
-        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel()])
+        self._params = OS_PD.pack(m, K_P=self.stiffness, K_D=self.damping)
 
     @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
@@ -89,7 +90,7 @@ class JointSpacePD(Controller):
         self.stiffness = as_gain_matrix("stiffness", stiffness, n)
         self.damping = as_gain_matrix("damping", damping, n)
         self.joint_setpoint = as_vector("joint_setpoint", joint_setpoint, n)
-        self._params = np.concatenate([self.stiffness.ravel(), self.damping.ravel(), self.joint_setpoint])
+        self._params = JOINT_PD.pack(n, K_P=self.stiffness, K_D=self.damping, q_d=self.joint_setpoint)
 
     @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:

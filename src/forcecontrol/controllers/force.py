@@ -46,6 +46,7 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix, readonly
 from ..errors import ParameterError
+from ..laws.layout import FORCE, FORCE_STATE
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
 from .force_checks import _check_force_reference, _diagonal_gain, _limit, check_force_reference
@@ -137,13 +138,13 @@ class _DirectForceController(Controller):
         self._consistent_reference: bytes | None = None
         self._task_rotation = readonly(np.eye(m) if self.task_frame is None else np.array(self.task_frame))
         self._Md_inv = readonly(np.linalg.inv(self.inertia))
-        self._params = np.concatenate([
-            self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(),
-            self.force_gain, self.integral_gain, self.integral_limit,
-            (np.eye(m) if self.task_frame is None else self.task_frame).ravel(),
-            [1.0 if self._has_integral and start == "tip" else 0.0],
-        ])
-        self.state = np.zeros(3 * m if self._has_integral else 0)
+        self._params = FORCE.pack(
+            m, M_d_inv=self._Md_inv, K_D=self.damping, K_P=self.stiffness,
+            K_F=self.force_gain, K_I=self.integral_gain, limit=self.integral_limit,
+            R=np.eye(m) if self.task_frame is None else self.task_frame,
+            bumpless=1.0 if self._has_integral and start == "tip" else 0.0,
+        )
+        self.state = np.zeros(FORCE_STATE.size(m) if self._has_integral else 0)
 
     @property
     def force_axes(self) -> np.ndarray:
@@ -153,7 +154,7 @@ class _DirectForceController(Controller):
     @property
     def integral_action(self) -> np.ndarray:
         """The integral action ξ = K_I ∫ (f_d − f_e) [m] (plus its initial value), (m,)."""
-        return self.state[: self.m].copy() if self._has_integral else np.zeros(self.m)
+        return self.state[FORCE_STATE.slice("xi", self.m)].copy() if self._has_integral else np.zeros(self.m)
 
     def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
         """What x_F must equal at t = 0 for the chosen start (overridden by the parallel scheme)."""
@@ -206,7 +207,7 @@ class _DirectForceController(Controller):
             return
         f_ref = np.asarray(reference.force, dtype=np.float64)
         if self.integrator_start == "tip":  # the reference the bumpless shift starts from (unused otherwise)
-            self.state[2 * m :] = R.T @ f_ref if turned else f_ref
+            self.state[FORCE_STATE.slice("f_s", m)] = R.T @ f_ref if turned else f_ref
         if measurement is None or self.integrator_start == "zero":
             return
         f_pre = f_ref if self.integrator_start == "tip" else np.zeros(m)
@@ -217,8 +218,8 @@ class _DirectForceController(Controller):
         xi0 = np.where(self.integral_gain > 0.0, target - self.force_gain * error, 0.0)
         if self._holds_free_axes and self._framed:
             xi0 = np.where(self.force_axes, xi0, target)
-        self.state[:m] = xi0
-        self.state[m : 2 * m] = xi0
+        self.state[FORCE_STATE.slice("xi", m)] = xi0
+        self.state[FORCE_STATE.slice("xi0", m)] = xi0
 
     def gains(self) -> dict[str, Any]:
         out = super().gains()

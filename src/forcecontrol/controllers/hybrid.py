@@ -32,6 +32,7 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import DimensionError, ParameterError
+from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID, HYBRID_STATE
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task
 from .base import Controller, Measurement, Reference, runs_law
@@ -115,12 +116,12 @@ class HybridCompliantController(Controller):
         self._S_v = np.ascontiguousarray(sel.velocity_selection)
         self._S_v_pinv = np.ascontiguousarray(sel.velocity_pinv)
         self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
-        self.state = np.zeros(l)
-        self._params = np.concatenate([
-            [float(d), float(k), 0.0], self._S_v.ravel(), self._S_v_pinv.ravel(), self._S_f_pinv.ravel(),
-            self._CpS_f.ravel(), self._L_hat.ravel(), self.velocity_gain.ravel(),
-            self.velocity_integral_gain.ravel(), self.force_rate_gain.ravel(), self.force_gain.ravel(),
-        ])
+        self.state = np.zeros(HYBRID_STATE.size(l, 0))  # the block nu_integral only
+        self._params = HYBRID_COMPLIANT.pack(
+            d, l, k, task_dim=d, force_dim=k, position_mode=0.0, S_v=self._S_v, S_v_pinv=self._S_v_pinv,
+            S_f_pinv=self._S_f_pinv, CpS_f=self._CpS_f, L_hat=self._L_hat, K_1=self.velocity_gain,
+            K_2=self.velocity_integral_gain, K_Dlam=self.force_rate_gain, K_Plam=self.force_gain,
+        )
 
     def force_coordinates(self, wrench: Any) -> np.ndarray:
         """λ = S_f† h_e (9.54)."""
@@ -260,17 +261,17 @@ class HybridRigidController(Controller):
         self._S_f = np.ascontiguousarray(sel.force_selection)
         self._S_f_pinv = np.ascontiguousarray(sel.force_pinv)
         self._S_v_dot = np.zeros((d, l))
-        self.state = np.zeros(l + k)
+        self.state = np.zeros(HYBRID_STATE.size(l, k))
         self._params = self._pack(self._S_v, self._S_v_pinv, self._S_f, self._S_f_pinv, self._S_v_dot)
 
     def _pack(self, S_v, S_v_pinv, S_f, S_f_pinv, S_v_dot) -> np.ndarray:
         """The parameters of :func:`forcecontrol.laws.hybrid_rigid` for this selection."""
-        sel = self.selection
-        return np.concatenate([
-            [float(sel.dim), float(sel.m), float(self.motion == "position")], np.ravel(S_v), np.ravel(S_v_pinv),
-            np.ravel(S_f), np.ravel(S_f_pinv), self.velocity_gain.ravel(), self.second_gain.ravel(),
-            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.ravel(S_v_dot),
-        ])
+        d, k = self.selection.dim, self.selection.m
+        return HYBRID_RIGID.pack(
+            d, d - k, k, task_dim=d, force_dim=k, position_mode=float(self.motion == "position"), S_v=S_v,
+            S_v_pinv=S_v_pinv, S_f=S_f, S_f_pinv=S_f_pinv, K_1=self.velocity_gain, K_2=self.second_gain,
+            K_Plam=self.force_gain, K_Ilam=self.force_integral_gain, S_v_dot=S_v_dot,
+        )
 
     def force_coordinates(self, wrench: Any) -> np.ndarray:
         """λ = S_f† h_e (9.54)."""

@@ -22,6 +22,7 @@ import numpy as np
 
 from .. import laws
 from ..core.validate import as_gain_matrix
+from ..laws.layout import IMPEDANCE
 from ..robots.base import RobotModel
 from .base import Controller, Measurement, Reference, runs_law
 
@@ -72,8 +73,8 @@ class ImpedanceController(Controller):
         self.force_measurement = bool(force_measurement)
         self._Md_inv = np.linalg.inv(self.inertia)
         self._Md_inv.flags.writeable = False
-        self._params = np.concatenate(
-            [self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel(), [float(self.force_measurement)]]
+        self._params = IMPEDANCE.pack(
+            m, M_d_inv=self._Md_inv, K_D=self.damping, K_P=self.stiffness, use_force=float(self.force_measurement)
         )
 
     @property

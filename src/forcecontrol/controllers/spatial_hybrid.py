@@ -15,6 +15,7 @@ import numpy as np
 from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import ParameterError
+from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID, HYBRID_STATE, REFERENCE
 from ..robots.base import RobotModel
 from .base import Measurement, Reference
 from .hybrid import ForceLaw, _force_law_gains
@@ -48,9 +49,10 @@ def _desired_frame(err: Any, reference: Reference, h: np.ndarray, ref: np.ndarra
     reference row ``ref`` (6 × 6) with h_d, ḣ_d, ḧ_d on the desired frame (pose blocks stay zero:
     the desired frame in its own coordinates)."""
     RdT = err.R_d.T
-    for i, w in enumerate((reference.force, reference.force_rate, reference.force_accel)):
-        ref[18 + 6 * i : 21 + 6 * i] = RdT @ w[:3]
-        ref[21 + 6 * i : 24 + 6 * i] = RdT @ w[3:]
+    for block, w in (("f_d", reference.force), ("fdot_d", reference.force_rate), ("fddot_d", reference.force_accel)):
+        o = REFERENCE.offset(block, 6)
+        ref[o : o + 3] = RdT @ w[:3]
+        ref[o + 3 : o + 6] = RdT @ w[3:]
     return np.concatenate([RdT @ h[:3], RdT @ h[3:]])
 
 
@@ -126,14 +128,14 @@ class SpatialHybridController(_DesiredFrameHybrid):
         # pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) with r = S_vᵀ(−x̃) and gains
         # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement)
         l = 6 - k
-        self._params = np.concatenate([
-            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.T.ravel(), (Q @ self.compliance).ravel(),
-            np.linalg.solve(self.compliance, Q.T).ravel(), (S_v.T @ self.damping @ S_v).ravel(),
-            (S_v.T @ self.stiffness @ S_v).ravel(), self.force_damping.ravel(), self.force_stiffness.ravel(),
-        ])
-        self._integral = np.zeros(l)  # ∫(ν_d − ν) of (9.80): unused by the pose servo
+        self._params = HYBRID_COMPLIANT.pack(
+            6, l, k, task_dim=6, force_dim=k, position_mode=1.0, S_v=S_v, S_v_pinv=S_v.T, S_f_pinv=Q.T,
+            CpS_f=Q @ self.compliance, L_hat=np.linalg.solve(self.compliance, Q.T), K_1=S_v.T @ self.damping @ S_v,
+            K_2=S_v.T @ self.stiffness @ S_v, K_Dlam=self.force_damping, K_Plam=self.force_stiffness,
+        )
+        self._integral = np.zeros(HYBRID_STATE.size(l, 0))  # ∫(ν_d − ν) of (9.80): unused by the pose servo
         self._ws = np.zeros(9 * 6)
-        self._ref = np.zeros(36)
+        self._ref = np.zeros(REFERENCE.size(6))
         self._hc = np.zeros(6)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
@@ -195,14 +197,14 @@ class SpatialHybridRigidController(_DesiredFrameHybrid):
         self.damping = as_gain_matrix("damping", damping, 6)
         self.force_law = force_law
         self.force_gain, self.force_integral_gain = _force_law_gains(force_law, force_gain, force_integral_gain, k)
-        self._params = np.concatenate([
-            [6.0, float(k), 1.0], S_v.ravel(), S_v.T.ravel(), Q.ravel(), Q.T.ravel(),
-            (S_v.T @ self.damping @ S_v).ravel(), (S_v.T @ self.stiffness @ S_v).ravel(),
-            self.force_gain.ravel(), self.force_integral_gain.ravel(), np.zeros(6 * l),
-        ])
-        self.state = np.zeros(l + k)  # [∫(ν_d − ν) (unused by the pose servo), ∫(λ_d − λ)]
+        self._params = HYBRID_RIGID.pack(
+            6, l, k, task_dim=6, force_dim=k, position_mode=1.0, S_v=S_v, S_v_pinv=S_v.T, S_f=Q, S_f_pinv=Q.T,
+            K_1=S_v.T @ self.damping @ S_v, K_2=S_v.T @ self.stiffness @ S_v, K_Plam=self.force_gain,
+            K_Ilam=self.force_integral_gain, S_v_dot=np.zeros((6, l)),
+        )
+        self.state = np.zeros(HYBRID_STATE.size(l, k))  # [∫(ν_d − ν) (unused by the pose servo), ∫(λ_d − λ)]
         self._ws = np.zeros(9 * 6)
-        self._ref = np.zeros(36)
+        self._ref = np.zeros(REFERENCE.size(6))
         self._hc = np.zeros(6)
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:

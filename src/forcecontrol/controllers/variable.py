@@ -35,6 +35,7 @@ import numpy as np
 
 from ..core.validate import as_gain_matrix, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
+from ..laws.layout import IMPEDANCE
 from ..robots.base import RobotModel
 from .admittance import AdmittanceController
 from .base import Measurement, Reference
@@ -302,9 +303,8 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
         xtd = np.asarray(reference.velocity, dtype=np.float64) - T.xd
         K, D, K_s = self._scheduled_gains(t, xt, xtd, self._K, self._D, self.m, self._last_xtd)
         self._K, self._D, self._last_xtd = K, D, xtd
-        mm = self.m * self.m
-        self._params[mm : 2 * mm] = np.ravel(D)  # the layout of forcecontrol.laws.impedance
-        self._params[2 * mm : 3 * mm] = np.ravel(K)
+        self._params[IMPEDANCE.slice("K_D", self.m)] = np.ravel(D)
+        self._params[IMPEDANCE.slice("K_P", self.m)] = np.ravel(K)
         u = self._law_step(t, measurement, reference, T)
         self._record(K, K_s, D, 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
         return u

@@ -8,10 +8,12 @@ Every law is one Numba function with the same signature::
   ``J`` (m, n), ``Jdq`` = J̇ q̇ (m,), ``B`` (n, n), ``nv`` = C q̇ + F q̇ + g (n,), ``g`` (n,);
 * ``h`` (m,): the measured end-effector force (base frame);
 * ``ref`` (6 m,): the reference row ``[x_d, ẋ_d, ẍ_d, f_d, ḟ_d, f̈_d]``
-  (:data:`forcecontrol.controllers.base.REFERENCE_FIELDS`);
-* ``p``: the controller's packed parameters (layout documented with each law and built by the
-  controller class, the only place that packs it); ``s``: its state (integrators), advanced in
-  place by one sample ``dt``;
+  (:data:`forcecontrol.laws.layout.REFERENCE`, one block per
+  :data:`forcecontrol.controllers.base.REFERENCE_FIELDS` entry);
+* ``p``: the controller's packed parameters; ``s``: its state (integrators), advanced in place by
+  one sample ``dt``. Each law's layouts are declared once in :mod:`forcecontrol.laws.layout`
+  (``IMPEDANCE``, ``FORCE``, ``FORCE_STATE``, ...): the controller class packs through the
+  declaration, and the law reads every block by name (``p[impedance_K_P(m) + i * m + j]``);
 * ``ws``: scratch of at least :func:`workspace_size` (m, n) floats; ``u`` (n,): the torques,
   written in place. Nothing is allocated.
 

@@ -14,6 +14,7 @@ from numba import njit, types
 
 from ..core.numba_cache import kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
+from .layout import REF_X_D, ref_a_d, ref_f_d, ref_fddot_d, ref_fdot_d, ref_size, ref_v_d
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]
 
@@ -22,10 +23,10 @@ __all__ = ["on_arm", "arm_inputs", "arm_finish"]
 def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragma: no cover - compiled
     """Check a step's inputs on the chapter's arm and lay out what a law reads, in ``ws``.
 
-    Returns ``(ok, x, ẋ, J, J̇q̇, B, n, g, ref, rest)`` (views of ``ws``; ``rest`` is the law's
-    scratch). ``ok`` is False when an input has the wrong length or (t, q, q̇, h_e or a
-    reference, used by the law or not) is not finite; the terms are then not computed. The state
-    ``s`` is saved for :func:`arm_finish`.
+    Returns ``(ok, x, ẋ, J, J̇q̇, B, n, g, ref, rest)`` (views of ``ws``; ``ref`` packed as
+    :data:`~forcecontrol.laws.layout.REFERENCE`; ``rest`` is the law's scratch). ``ok`` is False
+    when an input has the wrong length or (t, q, q̇, h_e or a reference, used by the law or not) is
+    not finite; the terms are then not computed. The state ``s`` is saved for :func:`arm_finish`.
     """
     n = 2
     m = 2
@@ -46,8 +47,8 @@ def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragm
     o += n
     g = ws[o : o + n]
     o += n
-    ref = ws[o : o + 6 * m]
-    o += 6 * m
+    ref = ws[o : o + ref_size(m)]
+    o += ref_size(m)
     saved = ws[o : o + s.shape[0]]
     o += s.shape[0]
     if not ok:
@@ -57,13 +58,13 @@ def arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws):  # pragm
         ok = ok and math.isfinite(q[i]) and math.isfinite(qd[i])
     for i in range(m):
         ok = ok and math.isfinite(h[i])
-        ref[i] = x_d[i]
-        ref[m + i] = v_d[i]
-        ref[2 * m + i] = a_d[i]
-        ref[3 * m + i] = f_d[i]
-        ref[4 * m + i] = fd_d[i]
-        ref[5 * m + i] = fdd_d[i]
-    for i in range(6 * m):
+        ref[REF_X_D + i] = x_d[i]
+        ref[ref_v_d(m) + i] = v_d[i]
+        ref[ref_a_d(m) + i] = a_d[i]
+        ref[ref_f_d(m) + i] = f_d[i]
+        ref[ref_fdot_d(m) + i] = fd_d[i]
+        ref[ref_fddot_d(m) + i] = fdd_d[i]
+    for i in range(ref_size(m)):
         ok = ok and math.isfinite(ref[i])
     if ok:
         _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from numba import njit
 
+from .layout import JOINT_PD_K_P, OS_PD_K_P, REF_X_D, joint_pd_K_D, joint_pd_q_d, os_pd_K_D
 from .pd import pd_action
 
 
@@ -12,15 +13,16 @@ def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma
     """(8.110), (9.15): ``u = g(q) + Jᵀ(q) (K_P (x_d − x_e) − K_D J(q) q̇)``.
 
     In contact the equilibrium is (9.2)–(9.4), ``K_P (x_d − x_e) = h_A``.
-    ``p = [K_P (m²), K_D (m²)]``, row-major; no state.
+    ``p``: :data:`~forcecontrol.laws.layout.OS_PD`; ``ref``: x_d of
+    :data:`~forcecontrol.laws.layout.REFERENCE`; no state.
     """
     m = x.shape[0]
     n = q.shape[0]
     e = ws[0:m]
     for j in range(m):
-        e[j] = ref[j] - x[j]
+        e[j] = ref[REF_X_D + j] - x[j]
     w = ws[m : 2 * m]
-    pd_action(p, 0, e, m * m, xd, -1.0, w)
+    pd_action(p, OS_PD_K_P, e, os_pd_K_D(m), xd, -1.0, w)
     for i in range(n):
         acc = 0.0
         for j in range(m):
@@ -33,14 +35,13 @@ def os_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma
 def joint_pd(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, ws, u):  # pragma: no cover - compiled
     """(8.51): ``u = g(q) + K_P (q_d − q) − K_D q̇``; in contact its equilibrium is (9.24).
 
-    ``p = [K_P (n²), K_D (n²), q_d (n)]``, row-major; no state.
+    ``p``: :data:`~forcecontrol.laws.layout.JOINT_PD` (in the number of joints n); no state.
     """
     n = q.shape[0]
-    nn = n * n
     e = ws[0:n]
     for j in range(n):
-        e[j] = p[2 * nn + j] - q[j]
-    pd_action(p, 0, e, nn, qd, -1.0, u)
+        e[j] = p[joint_pd_q_d(n) + j] - q[j]
+    pd_action(p, JOINT_PD_K_P, e, joint_pd_K_D(n), qd, -1.0, u)
     for i in range(n):
         u[i] = g[i] + u[i]
     return True

@@ -1,12 +1,13 @@
 """Direct force control (Sect. 9.4): inner position loop, inner velocity loop, parallel control.
 
-Packed parameters shared by the three laws (m = task dimension, row-major matrices)::
-
-    p = [M_d⁻¹ (m²), K_D (m²), K_P (m²), K_F (m), K_I (m), anti-windup limit (m), R (m²), bumpless (1)]
+Packed parameters shared by the three laws (m = task dimension, row-major matrices):
+:data:`~forcecontrol.laws.layout.FORCE`, the blocks ``M_d_inv, K_D, K_P`` (m²), ``K_F, K_I, limit``
+(m, the anti-windup limit), ``R`` (m²), ``bumpless`` (1).
 
 K_F and K_I are the diagonals of C_F in the task frame whose axes are the columns of R (R = I:
-the base frame, the chapter's case). State of the PI schemes: ``s = [ξ (m), ξ₀ (m), f_s (m)]``,
-the integral action, the centre of its anti-windup band (its value after reset) and the force
+the base frame, the chapter's case). State of the PI schemes:
+:data:`~forcecontrol.laws.layout.FORCE_STATE`, the blocks ``xi, xi0, f_s`` (m each): ξ, the
+integral action, ξ₀, the centre of its anti-windup band (its value after reset) and f_s, the force
 reference ``Rᵀ f_d`` of the previous sample, in task-frame coordinates; the inner velocity loop
 has no state. ``bumpless`` = 1 (``integrator_start = "tip"``): along axes with integral action a
 change of f_d moves ξ and ξ₀ by ``−K_F Rᵀ Δf_d``, so x_F does not jump (the proportional action
@@ -18,6 +19,21 @@ from __future__ import annotations
 from numba import njit
 
 from .inner import inverse_dynamics_law
+from .layout import (
+    FORCE_M_D_INV,
+    FORCE_STATE_XI,
+    REF_X_D,
+    force_bumpless,
+    force_K_D,
+    force_K_F,
+    force_K_I,
+    force_K_P,
+    force_limit,
+    force_R,
+    force_state_f_s,
+    force_state_xi0,
+    ref_f_d,
+)
 from .pd import pd_action
 
 
@@ -32,54 +48,57 @@ def force_reference(dt, h, ref, p, s, integral, x_F, e):  # pragma: no cover - c
     along axes with K_I > 0. Writes x_F (m,) and uses ``e`` (m,) as scratch.
     """
     m = h.shape[0]
-    mm = m * m
-    oF = 3 * mm
-    oR = 3 * mm + 3 * m
-    if integral and p[oR + mm] != 0.0:  # bumpless: a change of f_d does not move x_F
+    oF = force_K_F(m)
+    oI = force_K_I(m)
+    oR = force_R(m)
+    o_xi0 = force_state_xi0(m)
+    o_fs = force_state_f_s(m)
+    o_fd = ref_f_d(m)
+    if integral and p[force_bumpless(m)] != 0.0:  # bumpless: a change of f_d does not move x_F
         for i in range(m):
             acc = 0.0
             for j in range(m):
-                acc += p[oR + j * m + i] * ref[3 * m + j]
-            if p[oF + m + i] > 0.0:
-                shift = p[oF + i] * (acc - s[2 * m + i])
-                s[i] -= shift
-                s[m + i] -= shift
-            s[2 * m + i] = acc
+                acc += p[oR + j * m + i] * ref[o_fd + j]
+            if p[oI + i] > 0.0:
+                shift = p[oF + i] * (acc - s[o_fs + i])
+                s[FORCE_STATE_XI + i] -= shift
+                s[o_xi0 + i] -= shift
+            s[o_fs + i] = acc
     for i in range(m):  # e = Rᵀ (f_d − f_e), the force error in the task frame
         acc = 0.0
         for j in range(m):
-            acc += p[oR + j * m + i] * (ref[3 * m + j] - h[j])
+            acc += p[oR + j * m + i] * (ref[o_fd + j] - h[j])
         e[i] = acc
     for i in range(m):  # x_F = R (K_F e + ξ)
         acc = 0.0
         for j in range(m):
-            xi = s[j] if integral else 0.0
+            xi = s[FORCE_STATE_XI + j] if integral else 0.0
             acc += p[oR + i * m + j] * (p[oF + j] * e[j] + xi)
         x_F[i] = acc
     if integral:
+        oL = force_limit(m)
         for i in range(m):
-            v = s[i] + dt * p[oF + m + i] * e[i]
-            lim = p[oF + 2 * m + i]
+            v = s[FORCE_STATE_XI + i] + dt * p[oI + i] * e[i]
+            lim = p[oL + i]
             if lim > 0.0:
-                lo = s[m + i] - lim
-                hi = s[m + i] + lim
+                lo = s[o_xi0 + i] - lim
+                hi = s[o_xi0 + i] + lim
                 if v < lo:
                     v = lo
                 elif v > hi:
                     v = hi
-            s[i] = v
+            s[FORCE_STATE_XI + i] = v
 
 
 @njit(cache=True, inline="always")
 def _motion_acceleration(p, d, xd, a, w):  # pragma: no cover - compiled
     """``a = M_d⁻¹ (K_P d − K_D ẋ_e)``, the common form of (9.39), (9.45) and (9.48)."""
     m = d.shape[0]
-    mm = m * m
-    pd_action(p, 2 * mm, d, mm, xd, -1.0, w)
+    pd_action(p, force_K_P(m), d, force_K_D(m), xd, -1.0, w)
     for i in range(m):
         acc = 0.0
         for j in range(m):
-            acc += p[i * m + j] * w[j]
+            acc += p[FORCE_M_D_INV + i * m + j] * w[j]
         a[i] = acc
 
 
@@ -126,7 +145,7 @@ def parallel_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma: no 
     d = ws[0:m]
     force_reference(dt, h, ref, p, s, True, d, ws[m : 2 * m])
     for i in range(m):
-        d[i] = ref[i] - x[i] + d[i]
+        d[i] = ref[REF_X_D + i] - x[i] + d[i]
         hc[i] = h[i]
     _motion_acceleration(p, d, xd, a, ws[m : 2 * m])
     return True

@@ -126,7 +126,7 @@ def spatial_impedance_torque(
     h_d[:3] = RdT @ h[:3]
     h_d[3:] = RdT @ h[3:]
     r = np.empty(6)
-    G = np.concatenate((Md_inv.ravel(), K_D.ravel(), K_P.ravel()))
+    G = np.concatenate((Md_inv.ravel(), K_D.ravel(), K_P.ravel()))  # the blocks M_d_inv, K_D, K_P of layout.IMPEDANCE
     impedance_core(G, x, xd, c, h_d, use_force, np.empty(6), r)
     JJt = JAd @ JAd.T
     lam2 = 0.0
