@@ -84,7 +84,9 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
     loop = admittance_servo_loop(ctl, parts["q0"], nu)
     rep = loop.report(k, limit=True)
     slow = min(rep.modes, key=lambda m: m[1]) if rep.modes else (math.nan, math.nan)
+    out = _steady_force(parts, nu, rep.force)
     return {
+        **out,
         "servo_loop_spectral_radius": rep.spectral_radius,
         "servo_loop_stable": rep.stable,
         "servo_loop_stability_limit": rep.stability_limit,
@@ -94,6 +96,27 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
         "servo_loop_least_damped_zeta": slow[1],
         "servo_loop_force_per_penetration": rep.force,
     }
+
+
+def _steady_force(parts: dict[str, Any], nu: np.ndarray, per_metre: float) -> dict[str, float]:
+    """``steady_f*``: the equilibrium contact force (closed form; an unstable loop does not reach it).
+
+    The desired frame's penetration ``δ_d = ν·(p − x_d)`` (p: the plane's point or the spring's rest
+    position) times the series stiffness; the force the arm exerts is ``−ν f`` (none when δ_d ≤ 0
+    against a one-sided plane).
+    """
+    from ..core.axes import axis_names
+
+    env = parts["environment"]
+    ref = parts["reference"].at(float(parts["duration"]))
+    m = int(parts["robot"].task_dim)
+    p = np.asarray(getattr(env, "point", getattr(env, "rest_position", None)), dtype=float)[: nu.size]
+    x_d = np.asarray(ref.position, dtype=float)[: nu.size]
+    depth = float(nu @ (p - x_d))
+    one_sided = hasattr(env, "normal")
+    f = per_metre * depth if depth > 0 or not one_sided else 0.0
+    names = axis_names(m)[2]
+    return {f"steady_{names[i]}": float(-nu[i] * f) + 0.0 for i in range(nu.size)}
 
 
 register_analysis(_applies, _analysis)
