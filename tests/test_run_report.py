@@ -147,3 +147,19 @@ def test_busy_draws_its_steps_on_a_terminal(monkeypatch):
             time.sleep(0.3)
         shown = buffer.getvalue()
         assert ("reading the log" in shown and "replaying 9 samples" in shown) is not quiet, shown
+
+
+def test_report_shows_a_progress_line(tmp_path, monkeypatch):
+    """`report FOLDER` writes its page under a progress line naming the folder (seconds for long runs)."""
+    import forcecontrol.cli.busy as busy_module
+
+    pytest.importorskip("plotly")
+    res = runner.invoke(app, ["run", "example-9.2", "--out", str(tmp_path), "--no-figure", "--data", "csv",
+                              "--set", "duration=0.2"])
+    assert res.exit_code == 0, res.output
+    seen: list[tuple[str, bool]] = []
+    monkeypatch.setattr(busy_module, "busy", _recording_busy(seen))
+    res = runner.invoke(app, ["report", str(tmp_path / "example-9.2")])
+    assert res.exit_code == 0, res.output
+    assert seen == [(f"writing the report of {tmp_path / 'example-9.2'} (plotly, every sample of every case)", False)]
+    assert (tmp_path / "example-9.2" / "report.html").exists()

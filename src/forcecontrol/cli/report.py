@@ -27,6 +27,7 @@ def report_command(
     from ..errors import ForceControlError, OutputError
     from ..workbench import require
     from .app import _fail, console
+    from .busy import busy
     from .safe import terminal_safe
 
     try:
@@ -39,7 +40,8 @@ def report_command(
         path = out or default_report_path(source)
         if path.exists() and not force:
             raise OutputError(f"{str(path)!r} already exists; pass --force to overwrite it, or --out to write elsewhere")
-        written = write_report(source, path)
+        with busy(f"writing the report of {source} (plotly, every sample of every case)"):
+            written = write_report(source, path)
     except ForceControlError as exc:
         _fail(exc)
         return
