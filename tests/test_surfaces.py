@@ -212,3 +212,19 @@ def test_mujoco_sphere_force_matches_the_builtin_engine():
     assert abs(fb.mean() - fa.mean()) <= 0.05 * fa.mean()
     assert abs(np.sqrt(np.mean(fb**2)) - np.sqrt(np.mean(fa**2))) <= 0.05 * np.sqrt(np.mean(fa**2))
     np.testing.assert_allclose(b.x[-1], a.x[-1], atol=1e-4)
+
+
+def test_arm_circle_contour_scenario_traces_at_constant_normal_force():
+    """The built-in 'arm-circle-contour': while tracing at 5 cm/s the normal force stays within ±1 N of the
+    closed form k k_p (R − r_d)/(k_p + k) = 20 N, and with friction the friction force is μ_k f_n (1 %)."""
+    run = fc.scenario("arm-circle-contour").run()
+    expected = 1e4 * 2500.0 * (0.2 - 0.19) / (2500.0 + 1e4)
+    for case in run.cases:
+        r = case.result
+        cruise = (r.t > 1.5) & (r.t < 9.0)
+        np.testing.assert_allclose(r.signals["tangential_speed"][cruise], 0.05, rtol=0.01)
+        assert np.max(np.abs(r.signals["normal_force"][cruise] - expected)) < 1.0
+        mu_k = r.metadata["environment"]["kinetic"]
+        np.testing.assert_allclose(r.signals["friction_force"][cruise], mu_k * r.signals["normal_force"][cruise],
+                                   rtol=0.01, atol=1e-9)
+    assert run.all_checks_pass and run.cases[0].checks  # the frictionless case settles at 20 N (its expected table)

@@ -20,7 +20,8 @@ RK4): stick turns to slip when the bristle force exceeds the static limit, ``|σ
 ``|v_t| <= stick_speed``, else in slip.
 
 The run's log gets the signals ``friction`` (the tangential part of h_e, (N+1, m) [N]),
-``normal_force`` (f_n >= 0 [N]) and ``stick`` (1 while sticking, 0 while slipping or free).
+``normal_force`` (f_n >= 0 [N]), ``friction_force`` (|h_t| [N]), ``tangential_speed`` (|v_t| [m/s],
+v_t relative to the surface normal at the contact) and ``stick`` (1 while sticking, 0 while slipping or free).
 """
 
 from __future__ import annotations
@@ -63,6 +64,8 @@ class FrictionalContact(Environment):
     """
 
     stateful: ClassVar[bool] = True
+    #: the scalar signals it logs (plottable columns of the run).
+    SIGNALS: ClassVar[tuple[str, ...]] = ("normal_force", "friction_force", "tangential_speed", "stick")
     describe_type: ClassVar[str | None] = "frictional-contact"
 
     def __init__(self, surface: Environment, static: float, kinetic: float, viscous: float = 0.0, *,
@@ -186,11 +189,8 @@ class FrictionalContact(Environment):
         """Start a run of ``rows`` samples at (q0, q̇0): the state from the initial contact, logs cleared."""
         self._clear()
         self._update(*self._pose(robot, q0, qd0))
-        self._log = {
-            "friction": np.full((rows, self.dim), np.nan),
-            "normal_force": np.full(rows, np.nan),
-            "stick": np.full(rows, np.nan),
-        }
+        self._log = {"friction": np.full((rows, self.dim), np.nan)}
+        self._log.update({name: np.full(rows, np.nan) for name in self.SIGNALS})
 
     def advance(self, robot: Any, q: np.ndarray, qd: np.ndarray) -> None:
         """Update the stick/slip state after an integrator step ending at (q, q̇)."""
@@ -200,14 +200,17 @@ class FrictionalContact(Environment):
         """Log sample k's friction force, normal force and mode."""
         if not self._log:
             return
-        fn, _, _, ht = self.components(x, xd)
+        fn, nu, _, ht = self.components(x, xd)
+        v = np.asarray(xd, dtype=np.float64)[: self.space]
         self._log["friction"][k] = 0.0
         self._log["friction"][k, : self.space] = ht
         self._log["normal_force"][k] = fn
+        self._log["friction_force"][k] = math.sqrt(float(ht @ ht))
+        self._log["tangential_speed"][k] = float(np.linalg.norm(v - float(nu @ v) * nu))
         self._log["stick"][k] = 1.0 if self.mode == STICK else 0.0
 
     def signals(self) -> dict[str, np.ndarray]:
-        """The logged signals of the last run (``friction``, ``normal_force``, ``stick``)."""
+        """The logged signals of the last run (``friction`` and :attr:`SIGNALS`)."""
         return dict(self._log)
 
     def describe(self) -> dict[str, Any]:

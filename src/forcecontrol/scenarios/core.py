@@ -270,7 +270,8 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
         if not cases:
             signals = _signal_names(int(built["robot"].nq), int(built["robot"].task_dim))
         # a controller may log signals of its own (``SIGNALS``, e.g. a tank's energy): plottable too
-        signals = list(dict.fromkeys([*signals, *getattr(built["controller"], "SIGNALS", ())]))
+        signals = list(dict.fromkeys([*signals, *getattr(built["controller"], "SIGNALS", ()),
+                                      *getattr(built["environment"], "SIGNALS", ())]))  # and an environment's (friction)
         cases.append(spec)
     if not single:
         _check_shadowed(where, base, cases)
