@@ -128,7 +128,8 @@ class FziComplianceController(PositionInterfaceController):
                 )
             R_cur, p_cur, J = pose(self.robot, q)
         q_last[:] = q
-        return JointCommand(q.copy(), law[:n].copy())
+        # the position command interface: positions only (the servo gets no velocity feed-forward)
+        return JointCommand(q.copy(), None)  # type: ignore[arg-type]
 
 
 class FziForceController(FziComplianceController):

@@ -121,5 +121,6 @@ class Ros2AdmittanceController(PositionInterfaceController):
         law = s[n:]
         if not ros2_admittance_rule(self.interface_period, J, R6, x, w, self._p, law):
             self.kinematics_failures += 1
-            return JointCommand(ref.q.copy(), ref.qd.copy())  # the project writes the reference unchanged
-        return JointCommand(ref.q + law[:n], ref.qd + law[n : 2 * n])
+            return JointCommand(ref.q.copy(), None)  # type: ignore[arg-type]  # the project writes the reference unchanged
+        # the position command interface (the example's command_interfaces): positions only, no velocity feed-forward
+        return JointCommand(ref.q + law[:n], None)  # type: ignore[arg-type]

@@ -1,0 +1,93 @@
+"""FZI's reported problems (#21, #151, #171): the sampled loop's analysis, checked by simulation; the reproductions (issue 30).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from forcecontrol.analysis.vendor_fzi import FdccLoop, fdcc_design_error_scale, fdcc_stability_limit
+
+CONFIGS = Path(str(resources.files("forcecontrol.scenarios"))) / "configs"
+W, Z = math.sqrt(2000.0), 0.03 * math.sqrt(2000.0) / 2.0  # servoj gain 2000, lookahead 0.03 s (inferred mapping)
+
+
+def test_ideal_servo_limit_is_the_closed_form_one_ninth():
+    """With a servo that reaches the command within one cycle (no delay), the limit is m_v/(9 s p h²) (survey §2.5)."""
+    loop = FdccLoop(p=0.05, d=0.0, error_scale=0.5, stiffness=0.0, iterations=1, rate=500.0, bandwidth=1e5,
+                    damping=1.0, delay=0)
+    assert fdcc_stability_limit(loop) == pytest.approx(1.3 / (9 * 0.5 * 0.05 * 0.02**2), rel=1e-3)
+
+
+def test_designed_error_scale_meets_the_margin_and_no_more():
+    """fdcc_design_error_scale: at the returned error_scale the limit is >= 2 k_e; 1 % above it, it is below."""
+    loop = FdccLoop(p=0.021, d=0.001, error_scale=0.68, stiffness=900.0, iterations=2, rate=500.0, bandwidth=W, damping=Z)
+    s = fdcc_design_error_scale(loop, 1e5)
+    assert fdcc_stability_limit(dataclasses.replace(loop, error_scale=s)) >= 2e5
+    assert fdcc_stability_limit(dataclasses.replace(loop, error_scale=1.01 * s)) < 2e5
+
+
+pytest.importorskip("pinocchio")
+
+
+def _force_run(rate: float, k_e: float) -> np.ndarray:
+    from forcecontrol.controllers.vendor import FziForceController
+    from forcecontrol.environments.spatial import Table
+    from forcecontrol.robots.pinocchio import ur5
+    from forcecontrol.robots.servo import JointServo, PositionInterfaceRobot
+    from forcecontrol.sim.simulation import simulate
+    from forcecontrol.trajectories.profiles import Setpoint
+
+    q0 = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
+    arm = ur5()
+    robot = PositionInterfaceRobot(arm, JointServo.servoj(nq=6, gain=2000.0, lookahead_time=0.03, rate=rate))
+    _, p = arm.frame_pose(q0)
+    Ts = (1.0 / rate) / math.ceil((1.0 / rate) / 5e-4 - 1e-9)
+    ctl = FziForceController(robot, p=[0.05] * 3 + [1.5] * 3, error_scale=0.5, sample_time=Ts)
+    res = simulate(robot, Table(p, stiffness=k_e), ctl, Setpoint(arm.forward_kinematics(q0), [0, 0, -10.0, 0, 0, 0]),
+                   q0=q0, duration=1.5)
+    return np.asarray(res.wrench)[:, 2]
+
+
+@pytest.mark.parametrize("rate", [100.0, 500.0])
+def test_predicted_limit_brackets_the_simulated_one_within_5_percent(rate):
+    """The README force gains on the UR5 through servoj at 100 and 500 Hz: at 0.95 × the predicted limit the contact
+    holds and the force's oscillation decays; at 1.05 × the tool bounces (contact lost, the force does not settle)."""
+    loop = FdccLoop(p=0.05, d=0.0, error_scale=0.5, stiffness=0.0, iterations=1, rate=rate, bandwidth=W, damping=Z)
+    limit = fdcc_stability_limit(loop)
+    below, above = _force_run(rate, 0.95 * limit), _force_run(rate, 1.05 * limit)
+    n = len(below)
+    assert not np.any(below[n // 2 :] > -1e-9) and np.std(below[3 * n // 4 :]) < np.std(below[n // 2 : 3 * n // 4])
+    assert np.any(above[n // 2 :] > -1e-9)
+
+
+@pytest.mark.parametrize("name, k_e, stiffness, loop_kw", [
+    ("fzi_issue_21.toml", 2e5, 140.0,
+     dict(p=0.005, d=0.0001, error_scale=1.0, iterations=5, solver="instantaneous",
+          proposed={"iterations": 1, "error_scale": 0.7})),
+    ("fzi_issue_171.toml", 1e5, 900.0, dict(p=0.021, d=0.001, error_scale=0.68, iterations=2, proposed={"error_scale": 0.2})),
+    ("fzi_issue_151.toml", 3e4, 900.0, dict(p=0.057, d=0.001, error_scale=0.68, iterations=2, proposed={"error_scale": 0.2})),
+])
+def test_reported_problem_reproduces_and_the_proposed_setting_settles(name, k_e, stiffness, loop_kw):
+    """The published parameters bounce on the surface (the analysis puts its stiffness beyond the limit); the proposed
+    setting (limit at least 2 k_e) holds contact and settles at f = f_d k_e/(K + k_e) within 1 %."""
+    from forcecontrol.scenarios import run_scenario
+
+    kw = dict(loop_kw)
+    proposed = kw.pop("proposed")
+    loop = FdccLoop(stiffness=stiffness, rate=500.0, bandwidth=W, damping=Z, **kw)
+    assert fdcc_stability_limit(loop) < k_e <= 0.5 * fdcc_stability_limit(dataclasses.replace(loop, **proposed))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = run_scenario(CONFIGS / name)
+    reported, fixed = (np.asarray(c.result.wrench)[:, 2] for c in run.cases)
+    n = len(reported)
+    assert np.any(reported[n // 2 :] > -1e-9)  # contact lost again and again: the bounce
+    assert not np.any(fixed[n // 2 :] > -1e-9)
+    assert fixed[-1] == pytest.approx(-10.0 * k_e / (stiffness + k_e), rel=0.01)
