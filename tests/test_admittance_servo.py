@@ -246,3 +246,30 @@ def test_mujoco_engine_runs_the_position_interface_arm():
     assert stable.checks and all(c["ok"] for c in stable.checks)
     assert stable.result.metadata["engine"] == "mujoco"
     assert beyond.metrics["contact_losses"] > 0
+
+
+def test_design_cli_refuses_options_the_scheme_does_not_read():
+    """`design` refuses a servo option with another scheme and a sensor option with admittance-position (no silent ignore)."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    res = CliRunner().invoke(app, ["design", "impedance", "--k-min", "100", "--k-max", "1000", "--robot", "ur5"])
+    assert res.exit_code != 0 and "--robot do(es) not apply to the impedance scheme" in res.output
+    res = CliRunner().invoke(app, ["design", "admittance-position", "--k-min", "100", "--k-max", "1000", "--arm-inertia", "3"])
+    assert res.exit_code != 0 and "--arm-inertia do(es) not apply" in res.output
+
+
+def test_design_cli_zero_delay_is_zero_not_the_default():
+    """`design admittance-position --delay 0` designs for no transport delay (the default is one cycle)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    args = ["design", "admittance-position", "--k-min", "1000", "--k-max", "3000", "--inertia", "10", "--stiffness", "1000",
+            "--json"]
+    zero = json.loads(CliRunner().invoke(app, [*args, "--delay", "0"]).output)
+    one = json.loads(CliRunner().invoke(app, args).output)
+    assert zero["requirements"]["delay_cycles"] == 0 and one["requirements"]["delay_cycles"] == 1

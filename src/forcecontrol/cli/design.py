@@ -23,8 +23,9 @@ def design_command(
         float | None, typer.Option(help="control period Ts [s] (default 0.001; admittance-position: the servo step, 1/(4 rate))")
     ] = None,
     delay: Annotated[
-        int, typer.Option(help="sensor delay [samples] (admittance-position: transport delay [cycles], default 1)")
-    ] = 0,
+        int | None,
+        typer.Option(help="sensor delay [samples] (default 0; admittance-position: transport delay [cycles], default 1)"),
+    ] = None,
     filter_cutoff: Annotated[float | None, typer.Option(help="sensor first-order filter cutoff [Hz] (default: none)")] = None,
     phase_margin: Annotated[float, typer.Option(help="required phase margin [deg]")] = 45.0,
     gain_margin: Annotated[float, typer.Option(help="required gain margin [dB]")] = 6.0,
@@ -57,19 +58,31 @@ def design_command(
 
     try:
         from ..analysis.gain_design import design_gains
+        from ..errors import ParameterError
 
+        servo_opts = {"--rate": rate != 500.0, "--servo-bandwidth": servo_bandwidth != 44.7,
+                      "--servo-damping": servo_damping != 0.67, "--lowpass-cutoff": lowpass_cutoff is not None,
+                      "--robot": robot != "chapter-arm"}
+        other_opts = {"--filter-cutoff": filter_cutoff is not None, "--arm-inertia": arm_inertia is not None}
+        unused = [k for k, v in (other_opts if scheme == "admittance-position" else servo_opts).items() if v]
+        if unused:  # an option the scheme does not read is refused, not silently ignored
+            raise ParameterError(
+                f"{', '.join(unused)} do(es) not apply to the {scheme} scheme; "
+                + ("--rate, --servo-bandwidth, --servo-damping, --lowpass-cutoff and --robot are for admittance-position"
+                   if scheme != "admittance-position" else "admittance-position reads no sensor filter or arm inertia")
+            )
         if scheme == "admittance-position":  # (9.37) behind a position-interface arm's servo (analysis.servo_design)
             from ..analysis.servo_design import design_admittance_servo
 
             d = design_admittance_servo(
                 (k_min, k_max), rate=rate, servo_bandwidth=servo_bandwidth, servo_damping=servo_damping,
-                delay_cycles=delay or 1, lowpass_cutoff=lowpass_cutoff, inertia=inertia, stiffness=stiffness,
+                delay_cycles=1 if delay is None else delay, lowpass_cutoff=lowpass_cutoff, inertia=inertia, stiffness=stiffness,
                 phase_margin=phase_margin, gain_margin=gain_margin, settling_time=settling_time, robot=robot,
                 sample_time=sample_time,
             )
         else:
             d = design_gains(
-                scheme, (k_min, k_max), 1e-3 if sample_time is None else sample_time, delay_samples=delay,
+                scheme, (k_min, k_max), 1e-3 if sample_time is None else sample_time, delay_samples=delay or 0,
                 filter_cutoff=filter_cutoff, phase_margin=phase_margin, gain_margin=gain_margin,
                 settling_time=settling_time, damping_ratio=damping_ratio, inertia=inertia, stiffness=stiffness,
                 arm_inertia=arm_inertia,
