@@ -88,3 +88,18 @@ def test_friction_parameters_are_checked():
         FrictionalContact(plane, 11.0, 0.3)
     with pytest.raises(ParameterError, match="surface must be"):
         FrictionalContact(fc.LinearSpring(1.0, [0.0, 0.0]), 0.5, 0.3)
+
+
+def test_scenario_friction_keys_are_checked_with_their_ranges():
+    """Scenario keys: an out-of-range friction coefficient is refused naming the key, its range and the value;
+    valid keys build a FrictionalContact with those coefficients."""
+    from forcecontrol.errors import ScenarioError
+
+    base = fc.scenario("arm-circle-contour")
+    built = fc.scenarios.build_case(base.with_({"environment.static": 0.4, "environment.kinetic": 0.25}).cases[1])
+    env = built["environment"]
+    assert isinstance(env, FrictionalContact) and (env.mu_s, env.mu_k) == (0.4, 0.25)
+    with pytest.raises(ScenarioError, match=r"static.*\[0, 10\].*12"):
+        base.with_({"environment.static": 12.0})
+    with pytest.raises(ScenarioError, match=r"kinetic must not exceed static"):
+        base.with_({"environment.static": 0.1, "environment.kinetic": 0.2})

@@ -228,3 +228,35 @@ def test_arm_circle_contour_scenario_traces_at_constant_normal_force():
         np.testing.assert_allclose(r.signals["friction_force"][cruise], mu_k * r.signals["normal_force"][cruise],
                                    rtol=0.01, atol=1e-9)
     assert run.all_checks_pass and run.cases[0].checks  # the frictionless case settles at 20 N (its expected table)
+
+
+@pytest.mark.parametrize("shape", ["sphere", "cylinder"])
+def test_mujoco_panda_surface_contact_is_the_surface_spring_at_rest(shape):
+    """Panda (pose task) pressing 5 mm into a sphere / a tilted cylinder: with torques balancing g and J_Pᵀ f of the
+    built-in surface's force, MuJoCo's primitive geom (calibrated) senses the same force (1e-4) and the arm rests."""
+    mujoco = pytest.importorskip("mujoco")
+    pytest.importorskip("pinocchio")
+    from forcecontrol.engines.mujoco import MujocoPlant
+    from forcecontrol.robots.pinocchio import PANDA_READY, panda
+
+    franka = panda()
+    _, p = franka.frame_pose(PANDA_READY)
+    n = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])  # the outward normal at the contact
+    R, depth = 0.1, 0.005
+    if shape == "sphere":
+        env = ElasticSphere(p - (R - depth) * n, R, 1e4, task_dim=6)
+    else:
+        axis = np.cross(n, [1.0, 0.0, 0.0])
+        env = ElasticCylinder(p - (R - depth) * n + 0.2 * axis, axis, R, 1e4, task_dim=6)
+    x = np.concatenate([p, np.zeros(3)])
+    f = env.wrench(x, np.zeros(6))[:3]
+    np.testing.assert_allclose(f, -1e4 * depth * n, rtol=1e-12)  # the closed form
+    plant = MujocoPlant(franka, env)
+    m, d = plant.model, plant.data
+    d.qpos[:], d.qvel[:] = PANDA_READY, 0.0
+    mujoco.mj_forward(m, d)
+    plant._reschedule()
+    d.qfrc_applied[:] = np.asarray(franka.gravity(PANDA_READY)) + np.asarray(franka.jacobian(PANDA_READY))[:3].T @ f
+    mujoco.mj_forward(m, d)
+    np.testing.assert_allclose(plant.contact_wrench()[:3], f, rtol=1e-4, atol=1e-6)
+    assert np.allclose(d.qacc, 0.0, atol=1e-4)
