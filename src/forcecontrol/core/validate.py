@@ -55,7 +55,7 @@ def as_vector(name: str, value: Any, size: int | None = None) -> np.ndarray:
     _numbers(name, value, "a vector of numbers")
     try:
         a = np.array(value, dtype=np.float64).reshape(-1) if np.ndim(value) <= 1 else None
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ParameterError(f"{name} must be a vector of numbers; got {value!r}") from exc
     if a is None:
         raise DimensionError(f"{name} must be a vector; got shape {np.shape(value)}")
@@ -70,7 +70,7 @@ def as_matrix(name: str, value: Any, shape: tuple[int, int] | None = None) -> np
     _numbers(name, value, "a matrix of numbers")
     try:
         a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ParameterError(f"{name} must be a matrix of numbers; got {value!r}") from exc
     if a.ndim != 2 or (shape is not None and a.shape != shape):
         want = f"{shape}" if shape is not None else "a 2-D matrix"
@@ -87,8 +87,8 @@ def as_square(what: str, value: Any, size: int) -> np.ndarray:
     """
     try:
         a = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{what}; got {value!r}") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ParameterError(f"{what}; got {value!r}"[:2000]) from exc
     if a.ndim == 0:
         a = float(a) * np.eye(size)
     elif a.shape == (size,):
@@ -122,14 +122,14 @@ def as_gain_matrix(
     kind = "positive definite" if definite else "positive semi-definite"
     if diagonal_ok and _plain_number(value):
         # a Python scalar (most gains): value * I, its eigenvalue is value (no array work)
-        v = float(value)
+        v = _float(name, value, "finite")
         if not math.isfinite(v):
             raise ParameterError(f"{name} must be finite; got {v}")
         _check_eigenvalues(name, kind, size, [v] * size, definite)
         return readonly(v * np.eye(size))
     if diagonal_ok and isinstance(value, (list, tuple)) and len(value) == size and all(map(_plain_number, value)):
         # a diagonal written as a list (a TOML file's gains): its entries are its eigenvalues
-        d = [float(x) for x in value]
+        d = [_float(name, x, "finite") for x in value]
         if not all(map(math.isfinite, d)):
             raise ParameterError(f"{name} must be finite; got {d}")
         _check_eigenvalues(name, kind, size, d, definite)
@@ -137,6 +137,8 @@ def as_gain_matrix(
     _numbers(name, value, f"a symmetric {kind} ({size}, {size}) matrix, a vector or a scalar")
     try:
         a = np.array(value, dtype=np.float64)
+    except OverflowError:
+        raise ParameterError(f"{name} must be finite; got an integer too large for a float (above 1.8e308)") from None
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be a symmetric {kind} ({size}, {size}) matrix; got {value!r}") from exc
     if a.dtype == object or not np.all(np.isfinite(a)):
@@ -162,6 +164,23 @@ def as_gain_matrix(
     return readonly(a)
 
 
+def _digits(value: int) -> str:
+    """How many digits an integer has, for a message (without printing it)."""
+    try:
+        return f"{len(str(abs(value)))} digits"
+    except ValueError:  # beyond Python's int-to-str limit
+        return f"about {int(abs(value).bit_length() * math.log10(2)) + 1} digits"
+
+
+def _float(name: str, value: Any, want: str) -> float:
+    """``float(value)``; an integer too large for a float is a ParameterError naming its digit count (not OverflowError)."""
+    try:
+        return float(value)
+    except OverflowError:
+        n = _digits(int(value)) if isinstance(value, int) else "too large"
+        raise ParameterError(f"{name} must be {want}; got an integer of {n}, beyond a float's range (1.8e308)") from None
+
+
 def _check_eigenvalues(name: str, kind: str, size: int, w: list[float], definite: bool, scale: float | None = None) -> None:
     """Refuse eigenvalues ``w`` of a symmetric gain that are not (semi-)positive, at 1e-12 of its scale.
 
@@ -181,7 +200,7 @@ def _scalar(name: str, value: Any, what: str, unit: str, ok: Any) -> float:
     _numbers(name, value, what)
     want = f"{what} [{unit}]" if unit else what
     try:
-        v = float(value)
+        v = _float(name, value, want)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be {want}; got {value!r}") from exc
     if not math.isfinite(v) or not ok(v):

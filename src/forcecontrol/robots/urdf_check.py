@@ -25,7 +25,12 @@ import numpy as np
 from ..core.files import MAX_TABLE_BYTES, excerpt, read_text_limited
 from ..errors import ParameterError
 
-__all__ = ["check_urdf"]
+__all__ = ["check_urdf", "MAX_LINK_MASS", "MAX_LINK_INERTIA"]
+
+#: the largest link mass [kg] and inertia entry [kg m²] read: far beyond any robot (a ship's hull is 1e7 kg),
+#: small enough that the dynamics stay finite (1e300 kg made every torque overflow)
+MAX_LINK_MASS = 1e9
+MAX_LINK_INERTIA = 1e12
 
 
 def _float(value: str | None, where: str, src: str) -> float:
@@ -45,14 +50,17 @@ def _check_inertial(link: ET.Element, lname: str, src: str, strict: bool) -> Non
     m = 0.0 if mass_el is None else _float(mass_el.get("value"), f"link {lname}: <mass value>", src)
     if not math.isfinite(m) or m < 0.0:
         raise ParameterError(f"URDF {src}: link {lname}: <mass value> must be a finite number >= 0 kg; got {m!r}")
+    if m > MAX_LINK_MASS:
+        raise ParameterError(f"URDF {src}: link {lname}: <mass value> must be at most {MAX_LINK_MASS:.0e} kg; got {m!r}")
     inertia_el = inertial.find("inertia")
     keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
     v = {k: 0.0 for k in keys}
     if inertia_el is not None:
         v = {k: _float(inertia_el.get(k, "0"), f"link {lname}: <inertia {k}>", src) for k in keys}
-    bad = [k for k in keys if not math.isfinite(v[k])]
+    bad = [k for k in keys if not math.isfinite(v[k]) or abs(v[k]) > MAX_LINK_INERTIA]
     if bad:
-        raise ParameterError(f"URDF {src}: link {lname}: <inertia {bad[0]}> must be finite; got {v[bad[0]]!r}")
+        raise ParameterError(f"URDF {src}: link {lname}: <inertia {bad[0]}> must be finite and at most {MAX_LINK_INERTIA:.0e} "
+                             f"kg m² in magnitude; got {v[bad[0]]!r}")
     inertia = np.array([[v["ixx"], v["ixy"], v["ixz"]], [v["ixy"], v["iyy"], v["iyz"]], [v["ixz"], v["iyz"], v["izz"]]])
     scale = max(1.0, float(np.abs(inertia).max()))
     tol = 1e-9 * scale  # relative: rounding in a file's last digit is not a defect

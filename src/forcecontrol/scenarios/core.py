@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ForceControlError, ScenarioError
+from ..errors import ForceControlError, ParameterError, ScenarioError
 from ..sim.simulation import simulate
 from .build import _actuator, _allow_contact_loss, _part, build_case  # noqa: F401
 from .checks import (  # noqa: F401
@@ -123,6 +123,10 @@ register_metric("peak_contact_force_norm", lambda r, p, w: r.peak_contact_force_
 # ----------------------------------------------------------------------------- loading
 
 
+#: the largest scenario file read [bytes] (a scenario is a few kB; a sampled reference goes in its own file)
+MAX_SCENARIO_BYTES = 16 * 2**20
+
+
 def _builtin_dir() -> Path:
     return Path(str(resources.files("forcecontrol.scenarios")))
 
@@ -190,8 +194,12 @@ def _depth(v: Any, limit: int) -> int:
 
 def _read_toml(path: Path, where: str) -> dict[str, Any]:
     """The TOML table of a scenario file: UTF-8 required, nesting bounded, every failure a ScenarioError."""
-    try:
-        raw = path.read_bytes()
+    from ..core.files import read_bytes_limited
+
+    try:  # a regular file within the size limit: a FIFO or /dev/zero is refused, not read forever
+        raw = read_bytes_limited(path, "scenario file", MAX_SCENARIO_BYTES)
+    except ParameterError as exc:  # "cannot read scenario file '<path>': <problem>"
+        raise ScenarioError(f"{where}: cannot be read: {str(exc).split(f'{str(path)!r}: ', 1)[-1]}") from None
     except OSError as exc:
         raise ScenarioError(f"{where}: cannot be read: {exc.strerror or exc}") from exc
     try:

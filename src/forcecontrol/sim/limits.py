@@ -8,6 +8,7 @@ a message that says what was asked, why it is too much, and which option changes
 from __future__ import annotations
 
 import math
+import numbers
 
 from ..errors import ParameterError
 from ..sensors.realistic import MAX_DELAY_SAMPLES as _SENSOR_DELAY
@@ -98,6 +99,8 @@ def check_run_size(duration: float, sample_time: float, n: int, m: int, max_log_
     Raises:
         ParameterError: the run needs more memory than allowed (message: samples, size, options).
     """
+    if isinstance(max_log_bytes, bool) or not isinstance(max_log_bytes, numbers.Real) or not max_log_bytes > 0:
+        raise ParameterError(f"max_log_bytes must be a positive number of bytes; got {max_log_bytes!r}")
     ratio = duration / sample_time
     if not math.isfinite(ratio) or ratio > 1e15:
         raise ParameterError(
@@ -133,6 +136,9 @@ def check_substeps(
             explicit ``substeps`` that does not resolve the contact (named, with the number needed).
     """
     mode = f" (fastest contact mode {rate:.4g} rad/s)" if rate is not None else ""
+    if rate is not None and not math.isfinite(rate):
+        raise ParameterError(f"the environment's stiffness {stiffness:.4g} N/m gives a non-finite contact mode ({rate}); "
+                             "it cannot be simulated")
     if explicit and rate is not None and rate * sample_time / nsub > RK4_STABILITY:
         need = int(math.ceil(rate * sample_time / RK4_STABILITY))
         auto = int(math.ceil(rate * sample_time / 0.05))

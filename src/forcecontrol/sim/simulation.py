@@ -152,7 +152,8 @@ def simulate(
             slope = float(np.max(np.broadcast_to(actuator.viscous + actuator.coulomb / actuator.coulomb_band, (n,))))
             nsub = max(nsub, int(math.ceil(slope / max(lam, 1e-9) * Ts / 0.05)))
     else:
-        if int(substeps) != substeps or substeps < 1:
+        if (isinstance(substeps, bool) or not isinstance(substeps, (int, float, np.integer, np.floating))
+                or not math.isfinite(substeps) or int(substeps) != substeps or substeps < 1):
             raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
         nsub = int(substeps)
     # the contact's fastest mode at q0: an explicit substeps must let RK4 follow it (checked below)

@@ -95,6 +95,10 @@ def _listing(cols: dict[str, np.ndarray]) -> str:
     return "[" + ", ".join(column_label(c, j) for j, c in enumerate(names[:20])) + (", ..." if len(names) > 20 else "") + "]"
 
 
+#: the largest magnitude of a sample (time [s], position [m], force [N]): far beyond any arm, small
+#: enough that a cubic spline's slopes and curvatures stay finite
+MAX_SAMPLE_MAGNITUDE = 1e12
+
 class SampledReference(ReferenceSignal):
     """A reference given by samples (a recorded or designed trajectory), interpolated in time.
 
@@ -159,6 +163,14 @@ class SampledReference(ReferenceSignal):
             if not np.all(np.isfinite(V)):
                 raise ParameterError(f"{name} samples must be finite; got NaN or inf")
             extra[name] = V
+        for name, v, unit in (("times", t, "s"), ("position", X, "m"), ("force", F, "N"), *((k, V, "") for k, V in extra.items())):
+            big = np.abs(v) > MAX_SAMPLE_MAGNITUDE  # beyond any arm's reach or force: a spline of it overflows
+            if np.any(big):
+                k = int(np.flatnonzero(big.reshape(big.shape[0], -1).any(axis=1))[0])
+                raise ParameterError(
+                    f"{name} samples must be at most {MAX_SAMPLE_MAGNITUDE:.0e} in magnitude{f' [{unit}]' if unit else ''}; "
+                    f"got {float(np.max(np.abs(v))):.4g} at sample {k}"
+                )
         self._given = extra
         self.times, self.position_samples, self.force_samples = t, X, F
         self.dim = int(m)

@@ -150,6 +150,8 @@ def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -
                 f"cannot tell the format of {str(path)!r}; pass format='csv', 'parquet', 'bag' or 'mcap'"
             )
     if format in ("csv", "parquet"):
+        # a folder or FIFO named like a table is refused as such (before the bag-only keywords can confuse it)
+        check_regular(path, f"recorded {format} table", kwargs.get("max_bytes", MAX_RECORDING_BYTES))
         return read_table(path, format, **kwargs)
     if format == "bag":
         return read_bag(path.parent if path.suffix.lower() == ".db3" else path, **kwargs)
