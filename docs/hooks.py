@@ -6,6 +6,8 @@
 * ``on_page_markdown``: every ``python`` code block of a chapter or getting-started page is run
   (the blocks of a page share one namespace, in order); its printed output is shown under it. An
   exception fails the build, so an example that stops working cannot stay in the docs.
+* ``on_env``: the Sphinx-style cross-references of the docstrings (``:class:`X```), made markers by
+  the griffe extension of ``sphinx_roles.py``, become links (see that module).
 
 The hooks import the package from ``src/`` next to this folder when it is not installed.
 """
@@ -36,6 +38,7 @@ if str(ROOT / "src") not in sys.path:
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import diagrams  # noqa: E402
+import sphinx_roles  # noqa: E402
 
 _GENERATED: dict[str, Path] = {}  # src_uri -> file, made once per process (mkdocs serve rebuilds)
 _TIMES: dict[str, float] = {}
@@ -99,6 +102,13 @@ def on_files(files, config):
     return files
 
 
+def on_env(env, config, files):
+    """Turn the cross-reference markers of every page into links, before autorefs resolves links."""
+    pages = [f.page for f in files if f.page is not None]
+    sphinx_roles.resolve_markers(pages, config.plugins["autorefs"])
+    return env
+
+
 def on_post_build(config):
     """Say how long the generated parts took (shown by ``mkdocs build``)."""
     import logging
@@ -157,9 +167,9 @@ ANIMATED = ("example-9.2", "panda-table-line")
 
 def _gallery(folder: Path) -> dict[str, Path]:
     """Run every built-in scenario; write its figures, an animation for a few, and one page each."""
+    from forcecontrol.scenarios import build_case, list_scenarios, load_scenario, run_scenario
     from forcecontrol.viz.animation import animate_run
     from forcecontrol.viz.plotting import plot_run_figures
-    from forcecontrol.scenarios import build_case, list_scenarios, load_scenario, run_scenario
 
     img = folder / "img"
     img.mkdir(parents=True, exist_ok=True)
