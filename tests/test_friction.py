@@ -103,3 +103,22 @@ def test_scenario_friction_keys_are_checked_with_their_ranges():
         base.with_({"environment.static": 12.0})
     with pytest.raises(ScenarioError, match=r"kinetic must not exceed static"):
         base.with_({"environment.static": 0.1, "environment.kinetic": 0.2})
+
+
+def test_friction_on_a_table_under_a_pose_task():
+    """A Table (6-D pose task) with friction: sliding at v the wrench is [μ_k f_n v/|v| − f_n ν; 0] (f_n = k δ);
+    at rest on touching it sticks and the bristle holds the displacement with σ₀ e."""
+    from forcecontrol.environments.spatial import Table
+
+    class Tip:  # a stand-in robot whose pose and twist are the joint vectors themselves
+        def pose_twist(self, q, qd):
+            return np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+
+    env = FrictionalContact(Table([0, 0, 0.5], [0, 0, 1], 1e4), 0.6, 0.4, stick_stiffness=1e5)
+    x = np.array([0.1, 0.2, 0.499, 0.0, 0.0, 0.0])  # 1 mm deep: f_n = 10 N
+    v = np.array([0.03, -0.04, 0.0, 0.0, 0.0, 0.0])
+    env.start(Tip(), x, v, 2)
+    np.testing.assert_allclose(env.wrench(x, v), [0.4 * 10 * 0.6, 0.4 * 10 * -0.8, -10.0, 0, 0, 0], rtol=1e-9)
+    env.start(Tip(), x, np.zeros(6), 2)
+    e = np.array([1e-5, 0, 0, 0, 0, 0])
+    np.testing.assert_allclose(env.wrench(x + e, np.zeros(6)), [1.0, 0, -10.0, 0, 0, 0], rtol=1e-9)

@@ -260,3 +260,13 @@ def test_mujoco_panda_surface_contact_is_the_surface_spring_at_rest(shape):
     mujoco.mj_forward(m, d)
     np.testing.assert_allclose(plant.contact_wrench()[:3], f, rtol=1e-4, atol=1e-6)
     assert np.allclose(d.qacc, 0.0, atol=1e-4)
+
+
+def test_compiled_dispatcher_circle_matches_the_class():
+    """environment_wrench (the compiled dispatcher, kind 3) gives the ElasticSphere's 2-D wrench to round-off."""
+    from forcecontrol.environments.elastic import environment_wrench
+
+    env = ElasticSphere(CENTER, RADIUS, K_ENV, damping=50.0)
+    for x, v in (([1.0, 0.16], [0.0, 0.1]), ([1.1, 0.2], [0.3, -0.2]), ([1.0, 0.1], [0.0, 0.0])):
+        x, v = np.array(x), np.array(v)
+        np.testing.assert_allclose(environment_wrench(3, env.packed(), x, v), env.wrench(x, v), atol=1e-9)

@@ -12,6 +12,7 @@ from ..core.linalg import mv
 from ..core.validate import as_gain_matrix, as_vector, nonnegative_scalar
 from ..errors import DimensionError, ParameterError
 from .base import Environment
+from .surfaces import circle_wrench2
 
 __all__ = ["ElasticPlane", "LinearSpring", "environment_wrench"]
 
@@ -52,6 +53,10 @@ def environment_wrench(kind, p, x, xd):  # pragma: no cover - compiled
         K = p[0:mm].reshape((m, m))
         D = p[mm : 2 * mm].reshape((m, m))
         return mv(K, x - p[2 * mm : 2 * mm + m]) + mv(D, xd)
+    if kind == 3 and m == 2:  # an elastic circle (surfaces.ElasticSphere in 2-D)
+        out = np.zeros(m)
+        out[0], out[1] = circle_wrench2(p, x[0], x[1], xd[0], xd[1])
+        return out
     out = np.zeros(m)
     out[:] = np.nan
     return out

@@ -35,6 +35,7 @@ from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
 from .base import Environment
 from .elastic import ElasticPlane
+from .spatial import Table
 from .surfaces import ElasticSurface
 
 __all__ = ["FrictionalContact"]
@@ -53,7 +54,8 @@ class FrictionalContact(Environment):
     """An elastic surface with Coulomb friction (static μ_s, kinetic μ_k), stiction and viscous friction.
 
     Args:
-        surface: an :class:`~forcecontrol.environments.elastic.ElasticPlane` (2-D/3-D) or an
+        surface: an :class:`~forcecontrol.environments.elastic.ElasticPlane` (2-D/3-D), a
+            :class:`~forcecontrol.environments.spatial.Table` (6-D pose task) or an
             :class:`~forcecontrol.environments.surfaces.ElasticSurface`.
         static: μ_s in [0, 10], >= μ_k.
         kinetic: μ_k in [0, 10].
@@ -70,13 +72,13 @@ class FrictionalContact(Environment):
 
     def __init__(self, surface: Environment, static: float, kinetic: float, viscous: float = 0.0, *,
                  stick_stiffness: float | None = None, stick_damping: float | None = None, stick_speed: float = 1e-4) -> None:
-        if not isinstance(surface, (ElasticPlane, ElasticSurface)):
-            raise ParameterError(f"surface must be an ElasticPlane or an ElasticSurface; got {type(surface).__name__}")
+        if not isinstance(surface, (ElasticPlane, Table, ElasticSurface)):
+            raise ParameterError(f"surface must be an ElasticPlane, a Table or an ElasticSurface; got {type(surface).__name__}")
         if getattr(surface, "stateful", False):
             raise ParameterError("surface must not itself be a FrictionalContact")
         self.surface = surface
         self.dim = surface.dim
-        self.space = surface.dim if isinstance(surface, ElasticPlane) else surface.space
+        self.space = surface.dim if isinstance(surface, ElasticPlane) else 3 if isinstance(surface, Table) else surface.space
         self.mu_s = _bounded("static", static, 0.0, 10.0)
         self.mu_k = _bounded("kinetic", kinetic, 0.0, 10.0)
         if self.mu_k > self.mu_s:
@@ -101,7 +103,7 @@ class FrictionalContact(Environment):
     # -- geometry and forces
     def _normal(self, x: np.ndarray, xd: np.ndarray) -> tuple[float, np.ndarray]:
         s = self.surface
-        if isinstance(s, ElasticPlane):
+        if isinstance(s, (ElasticPlane, Table)):
             nu = s.normal
             delta = float(nu @ (s.point - x))
             if delta <= 0.0:
