@@ -182,3 +182,14 @@ def test_compare_json_units_cover_each_engine_metric():
         for key in ("builtin", "mujoco"):
             assert set(case[key]) <= set(doc["units"]), set(case[key]) - set(doc["units"])
         assert doc["units"]["steady_force_difference_percent"] == "%"
+
+
+def test_replay_set_changes_the_replayed_controller(tmp_path):
+    """`replay --set controller.stiffness=[5000,5000]` replays other gains: the recorded torques are no longer reproduced."""
+    res = runner.invoke(app, ["run", "example-9.2", "--no-figure", "--data", "csv", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    log = str(tmp_path / "example-9.2" / "example-9.2-k-x-1e4-n-m.csv")
+    same = _json("replay", "example-9.2", log, "--out", str(tmp_path / "a"))
+    other = _json("replay", "example-9.2", log, "--out", str(tmp_path / "b"), "--set", "controller.stiffness=[5000,5000]")
+    assert same["set"] == {} and other["set"] == {"controller.stiffness": [5000, 5000]}
+    assert same["metrics"]["torque_difference_max"] < 1e-3 < other["metrics"]["torque_difference_max"]

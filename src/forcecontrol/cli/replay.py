@@ -10,6 +10,7 @@ import typer
 
 from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
 from .busy import busy
+from .overrides import SetOption, apply_sets, parse_sets
 from .safe import terminal_safe
 
 __all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
@@ -74,6 +75,7 @@ def replay_command(
     wrench_sense: WrenchSense = "by-end-effector",
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
+    set_: SetOption = None,
 ) -> None:
     """Run a scenario's controller over a recorded log: the torques and force errors it would have produced."""
     from rich.table import Table
@@ -85,7 +87,8 @@ def replay_command(
     compile_notice()
     try:
         with busy(f"loading {scenario}", quiet=json_out) as step:  # a long log takes seconds at each step
-            scn = load_scenario(scenario)
+            sets = parse_sets(set_)
+            scn, set_notes = apply_sets(load_scenario(scenario), sets)
             spec, parts = pick_case(scn, case)
             robot = parts["robot"]
             step(f"reading {data}")
@@ -98,15 +101,16 @@ def replay_command(
             table = folder / f"{stem}.csv"
             result.to_pandas().to_csv(table, index=False)
             figure = result.plot(folder / f"{stem}.png")
-        say_note(note)
+        for text in [*set_notes, note]:
+            say_note(text)
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
         return
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
-              "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS}
-    if note:
-        report["notes"] = [note]
+              "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets}
+    if note or set_notes:
+        report["notes"] = [*set_notes, *([note] if note else [])]
     if json_out:
         print_json(report)
         return
