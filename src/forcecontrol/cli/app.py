@@ -38,7 +38,8 @@ app = typer.Typer(
     # plain help (click's formatter): with Rich markup, '[s]', '[deg]', '[N/m]' and '[k_min, k_max]' in help
     # strings were read as tags and vanished from --help; every help text is printed as written
     rich_markup_mode=None,
-    context_settings={"help_option_names": ["-h", "--help"]},  # inherited by every command
+    # inherited by every command; help lines up to 120 columns (click's default, 80, wraps the option table early)
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 120},
 )
 console = Console(width=None if sys.stdout.isatty() else 132)
 err_console = Console(stderr=True)
