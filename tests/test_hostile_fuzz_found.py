@@ -124,3 +124,77 @@ def test_absurd_link_mass_in_a_urdf_is_refused(tmp_path):
 def test_every_refusal_here_is_a_force_control_error():
     """The types used above are the library's (a check of this file's premise)."""
     assert issubclass(ParameterError, ForceControlError) and issubclass(ScenarioError, ForceControlError)
+
+
+def test_simulate_refuses_a_sensor_that_is_not_a_sensor():
+    """simulate(sensor=1 / "x" / object()) ended in AttributeError: no attribute 'sequences' (api, seed 7, case 38)."""
+    arm = fc.PlanarTwoLink()
+    plane = fc.ElasticPlane(point=[1.0, 0.0], normal=[-1.0, 0.0], stiffness=1e3)
+    ctl = fc.ImpedanceController(arm, inertia=100, damping=500, stiffness=2500)
+    for bad in (1, "x", object()):
+        with pytest.raises(ParameterError, match="sensor must be a ForceSensor"):
+            fc.simulate(arm, plane, ctl, fc.Setpoint([1.1, 0.1]), q0=[math.pi / 3, -2 * math.pi / 3], duration=0.02, sensor=bad)
+
+
+def _trace(n: int = 20):
+    from forcecontrol.realarm.io.recorded import RecordedRun
+
+    t = 0.01 * np.arange(n)
+    q = np.column_stack([np.sin(t), np.cos(t)])
+    return RecordedRun(t=t, q=q, qd=-q, wrench=np.column_stack([t, 0 * t]))
+
+
+@pytest.mark.parametrize("shift", [1e308, math.inf, math.nan])
+def test_compare_traces_bounds_the_time_shift_searched(shift):
+    """--max-shift 1e308 ended in OverflowError in int(round(max_shift / period)) (cli, seed 7, case 3)."""
+    from forcecontrol.realarm.traces import compare_traces
+
+    with pytest.raises(ParameterError, match="max_shift must be at most 1,000,000 sample periods"):
+        compare_traces(_trace(), _trace(), max_shift=shift)
+
+
+def test_calibration_plan_refuses_a_negative_seed():
+    """calibrate-plan --seed -1 ended in NumPy's raw ValueError 'expected non-negative integer' (cli, seed 7, case 194)."""
+    from forcecontrol.realarm.calibration.plan import plan_calibration_poses
+
+    with pytest.raises(ParameterError, match="seed must be a non-negative integer or None; got -1"):
+        plan_calibration_poses(fc.PlanarTwoLink(), 6, seed=-1)
+
+
+@pytest.mark.parametrize("cell, match", [("1e300", r"fx\]?\[?0?\]? is 1e\+300 at row 3|wrench\[0\] is 1e\+300 at row 3"),
+                                         ("9" * 401, "beyond a float's range")])
+def test_a_recorded_table_with_an_absurd_value_is_refused(tmp_path, cell, match):
+    """A trace with a 1e300 N force was read silently; one with a 401-digit integer ended in OverflowError (data, seed 7)."""
+    from forcecontrol.errors import MeasurementError
+    from forcecontrol.realarm.io import read_recording
+
+    # the force fx holds 1e300; the integer column fy (pandas keeps a 401-digit integer as an object) holds the huge one
+    rows = [f"{0.01 * i},0.1,0.2,0,0,{cell if i == 3 and len(cell) < 10 else 1.0},{cell if i == 3 and len(cell) > 10 else 0}"
+            for i in range(6)]
+    p = tmp_path / "trace.csv"
+    p.write_text("t,q1,q2,qd1,qd2,fx,fy\n" + "\n".join(rows) + "\n")
+    with pytest.raises(MeasurementError, match=match):
+        read_recording(p)
+
+
+@pytest.mark.parametrize("xyz", ["0 0 0", "nan 0 1", "1 0"])
+def test_a_urdf_joint_axis_that_moves_nothing_is_refused(tmp_path, xyz):
+    """A revolute joint with <axis xyz="0 0 0"> loaded silently (urdf, seed 7, cases 36, 41, 199)."""
+    from forcecontrol.robots.pinocchio import model_path
+    from forcecontrol.robots.urdf_check import check_urdf
+
+    text = model_path("chapter_arm").read_text().replace('<axis xyz="0 0 1"/>', f'<axis xyz="{xyz}"/>', 1)
+    p = tmp_path / "arm.urdf"
+    p.write_text(text)
+    with pytest.raises(ParameterError, match=r"arm.urdf'?: joint 'joint1': <axis xyz> must be 3 finite numbers, not all zero"):
+        check_urdf(p)
+
+
+def test_a_singular_admittance_stiffness_in_the_servo_analysis_is_a_parameter_error():
+    """analyze ur5-admittance-servo with a singular stiffness ended in LinAlgError (scenario, seed 7, case 78)."""
+    from forcecontrol.analysis.servo_loop import ServoLoop
+
+    model = object.__new__(ServoLoop)
+    model.nu, model.P, model.K = np.array([1.0, 0.0]), np.eye(2), np.zeros((2, 2))
+    with pytest.raises(ParameterError, match="stiffness K is singular"):
+        model.equilibrium_force(1e4)

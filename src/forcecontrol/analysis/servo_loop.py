@@ -257,7 +257,11 @@ class ServoLoop:
         admittance's spring and (dynamic servo) the servo's compliance in series; the IK's
         fixed point is exact (J full row rank), the ideal servo has unit DC gain.
         """
-        c = float(self.nu @ self.P @ np.linalg.solve(self.K, self.P.T @ self.nu))
+        try:
+            c = float(self.nu @ self.P @ np.linalg.solve(self.K, self.P.T @ self.nu))
+        except np.linalg.LinAlgError:
+            raise ParameterError("the admittance's stiffness K is singular: the equilibrium force along the contact "
+                                 "normal is undefined (give a positive definite stiffness)") from None
         if self.tracking == "dynamic":
             Cs = self._Jx @ np.diag(1.0 / self.w**2) @ self._Binv @ self._Jx.T
             c += float(self.nu @ Cs @ self.nu)

@@ -20,6 +20,9 @@ from .io.recorded import wrench_axis_names
 
 __all__ = ["compare_traces", "TraceComparison", "recorded_from_simulation"]
 
+#: the largest time shift searched, in samples (each lag is one pass over the traces)
+MAX_LAG_SAMPLES = 1_000_000
+
 
 def recorded_from_simulation(result: SimulationResult, *, wrench: str = "measured") -> RecordedRun:
     """A simulation log as a :class:`~forcecontrol.realarm.io.RecordedRun` (torques: what was applied).
@@ -131,7 +134,11 @@ def compare_traces(
     A, B = stack(a), stack(b)
     scale = np.maximum(np.ptp(A, axis=0), 1e-12)
     ta0, tb0 = a.t[0], b.t[0]
-    max_lag = int(round(max_shift / period))
+    lags = max_shift / period
+    if not lags <= MAX_LAG_SAMPLES:  # NaN too: no OverflowError from int(round(inf)), no 1e300-long loop
+        raise ParameterError(f"max_shift must be at most {MAX_LAG_SAMPLES:,} sample periods ({MAX_LAG_SAMPLES * period:.6g} s "
+                             f"here); got {max_shift!r} s")
+    max_lag = int(round(lags))
     best: tuple[float, int] | None = None
     for lag in range(-max_lag, max_lag + 1):
         # recorded sample j matches simulated sample i when tb0 + j·Ts − shift = ta0 + i·Ts; lag counts samples

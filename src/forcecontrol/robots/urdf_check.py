@@ -84,6 +84,21 @@ def _check_inertial(link: ET.Element, lname: str, src: str, strict: bool) -> Non
         refuse(f"the principal moments {moments} kg m² break the triangle inequality (I1 + I2 >= I3): no rigid body has them")
 
 
+def _check_axis(joint: ET.Element, jname: str, src: str) -> None:
+    """A moving joint's <axis xyz>: three finite numbers, not all zero (a zero axis moves nothing)."""
+    axis = joint.find("axis")
+    if joint.get("type") not in ("revolute", "continuous", "prismatic") or axis is None or axis.get("xyz") is None:
+        return
+    parts = axis.get("xyz", "").split()
+    try:
+        v = [float(x) for x in parts]
+    except ValueError:
+        v = []
+    if len(v) != 3 or not all(map(math.isfinite, v)) or not any(v):
+        raise ParameterError(f"URDF {src}: joint {excerpt(jname)}: <axis xyz> must be 3 finite numbers, not all zero; "
+                             f"got {excerpt(axis.get('xyz'))}")
+
+
 def check_urdf(path: str | Path, *, max_bytes: int = MAX_TABLE_BYTES, check_inertia: bool = True) -> str:
     """The text of a URDF file, after checking its XML, names, tree and inertias (see the module).
 
@@ -141,6 +156,7 @@ def check_urdf(path: str | Path, *, max_bytes: int = MAX_TABLE_BYTES, check_iner
                 what = "has no" if lk is None else f"names an unknown link {excerpt(lk)} as its"
                 raise ParameterError(f"URDF {src}: joint {excerpt(jname)} {what} <{role}>")
             ends[role] = lk
+        _check_axis(el, jname, src)
         child, parent = ends["child"], ends["parent"]
         if child in parent_of:
             raise ParameterError(

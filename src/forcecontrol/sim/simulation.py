@@ -134,7 +134,9 @@ def simulate(
     duration = positive_scalar("duration", duration)
     Ts = controller.sample_time
     max_qd = positive_scalar("max_joint_speed", max_joint_speed)
-    sensor = sensor or ForceSensor()
+    sensor = ForceSensor() if sensor is None else sensor
+    if not isinstance(sensor, ForceSensor):
+        raise ParameterError(f"sensor must be a ForceSensor (e.g. RealisticForceSensor) or None; got {type(sensor).__name__}")
     if engine not in ("auto", "python", "compiled"):
         raise ParameterError(f"engine must be 'auto', 'python' or 'compiled'; got {engine!r}")
     N = check_run_size(duration, Ts, n, m, max_log_bytes)  # before anything is allocated

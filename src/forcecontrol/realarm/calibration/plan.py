@@ -121,6 +121,8 @@ def plan_calibration_poses(
         raise ParameterError(f"robot must be a robot model with nq joints; got {type(robot).__name__}")
     orient = orientation if orientation is not None else sensor_orientation(robot)
     lo, hi = _joint_limits(robot, nq, joint_limits, nonnegative_scalar("margin", margin))
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ParameterError(f"seed must be a non-negative integer or None; got {seed!r}")
     rng = np.random.default_rng(seed)
     Q = lo + (hi - lo) * rng.random((candidates, nq))
     Rs = np.array([np.asarray(orient(q), dtype=np.float64) for q in Q])

@@ -14,6 +14,10 @@ from ..conventions import BY_END_EFFECTOR, SENSES
 
 __all__ = ["RecordedRun", "wrench_axis_names"]
 
+#: the largest magnitude of a recorded value (time [s], joint positions, velocities, torques, wrench): far
+#: beyond any arm; a larger one is a corrupt row (1e300 N was read as a force)
+MAX_RECORDED_MAGNITUDE = 1e12
+
 
 def wrench_axis_names(m: int) -> list[str]:
     """Column names of an m-dimensional wrench: ``fx fy`` (2), ``fx fy fz`` (3), ``fx fy fz mx my mz`` (6)."""
@@ -30,6 +34,11 @@ def _array(name: str, value: Any, rows: int, source: str) -> np.ndarray:
     if bad.any():
         r, c = np.argwhere(bad)[0]
         raise MeasurementError(f"{source}: {name}[{c}] is not finite at row {r} ({a[r, c]!r}); clean or drop those rows first")
+    big = np.abs(a) > MAX_RECORDED_MAGNITUDE
+    if big.any():
+        r, c = np.argwhere(big)[0]
+        raise MeasurementError(f"{source}: {name}[{c}] is {a[r, c]:.4g} at row {r}, beyond any arm (at most "
+                               f"{MAX_RECORDED_MAGNITUDE:.0e} in magnitude); clean or drop those rows first")
     a.flags.writeable = False
     return a
 
@@ -41,6 +50,9 @@ def _time(name: str, value: Any, source: str) -> np.ndarray:
     if not np.all(np.isfinite(t)):
         i = int(np.flatnonzero(~np.isfinite(t))[0])
         raise MeasurementError(f"{source}: {name} is not finite at row {i} ({t[i]!r})")
+    if np.any(np.abs(t) > MAX_RECORDED_MAGNITUDE):
+        i = int(np.flatnonzero(np.abs(t) > MAX_RECORDED_MAGNITUDE)[0])
+        raise MeasurementError(f"{source}: {name} is {t[i]:.4g} s at row {i}, beyond {MAX_RECORDED_MAGNITUDE:.0e} s")
     dt = np.diff(t)
     if np.any(dt <= 0):
         i = int(np.flatnonzero(dt <= 0)[0])

@@ -100,7 +100,10 @@ def read_table(
         if not (re.fullmatch(r"t|q\d+|qd\d+|tau\d+|u\d+|[fm][xyz](_measured)?", c)):
             continue
         if not pd.api.types.is_numeric_dtype(df[c]) or pd.api.types.is_bool_dtype(df[c]):
-            bad = pd.to_numeric(df[c], errors="coerce").isna() & df[c].notna()
+            try:
+                bad = pd.to_numeric(df[c], errors="coerce").isna() & df[c].notna()
+            except OverflowError:  # an integer of hundreds of digits
+                raise MeasurementError(f"{path}: column {c!r} holds an integer beyond a float's range (1.8e308)") from None
             row = int(np.flatnonzero(bad.to_numpy())[0]) if bad.any() else 0
             raise MeasurementError(
                 f"{path}: column {c!r} is not numeric (dtype {df[c].dtype}); the first non-number is at data row {row}"
