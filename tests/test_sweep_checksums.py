@@ -82,3 +82,35 @@ def test_sweep_json_note_reports_the_set_aside_part(tmp_path):
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
     assert doc["ran"] == 2 and any("checksum fails" in n and victim.name in n for n in doc["notes"])
+
+
+def test_sweep_json_carries_a_checksum_of_its_content(tmp_path):
+    """The parts folder's sweep.json holds a SHA-256 of its other keys (recomputed here with hashlib)."""
+    import hashlib
+    import json
+
+    out = tmp_path / "s.parquet"
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(_prep(), out, workers=1, block_size=2, progress=_stop_at_the_end)
+    doc = json.loads((tmp_path / "s.parquet.parts" / "sweep.json").read_text())
+    body = json.dumps({k: v for k, v in doc.items() if k != "sha256"}, sort_keys=True, separators=(",", ":"))
+    assert doc["sha256"] == hashlib.sha256(f"forcecontrol sweep.json\n{body}".encode()).hexdigest()
+    assert doc["sweep_id"] == _prep().sweep_id
+
+
+def test_tampered_sweep_json_is_set_aside_rewritten_and_the_parts_verified(tmp_path):
+    """A sweep.json edited after it was written (valid JSON, another sweep id) is warned, set aside, rewritten; same table."""
+    import json
+
+    whole = run_sweep(_prep(), tmp_path / "whole.parquet", workers=1, block_size=2).table
+    out = tmp_path / "cut.parquet"
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(_prep(), out, workers=1, block_size=2, progress=_stop_at_the_end)
+    stamp = tmp_path / "cut.parquet.parts" / "sweep.json"
+    doc = json.loads(stamp.read_text())
+    doc["sweep_id"] = "0" * 16  # a flipped id: it would claim the parts belong to another sweep
+    stamp.write_text(json.dumps(doc))
+    with pytest.warns(SweepWarning, match=r"sweep.json is damaged \(its checksum fails.*rewritten"):
+        res = run_sweep(_prep(), out, workers=1, block_size=2)
+    assert (res.ran, res.resumed) == (0, res.table.shape[0])  # every part verified against this sweep: none rerun
+    assert res.table.equals(whole)

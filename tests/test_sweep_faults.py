@@ -5,7 +5,6 @@ Each resumed table is compared with an uninterrupted run of the same sweep (the 
 
 from __future__ import annotations
 
-import json
 import os
 import random
 import signal
@@ -20,7 +19,7 @@ import pytest
 
 from forcecontrol.sweep.run import prepare_sweep, run_sweep
 from forcecontrol.sweep.spec import SweepDefinition, SweepError, SweepWarning
-from forcecontrol.sweep.store import with_checksum
+from forcecontrol.sweep.store import stamp_text, with_checksum
 
 pytest.importorskip("pyarrow")
 
@@ -55,7 +54,7 @@ def _parts_of_a_killed_run(tmp_path):
     run_sweep(prep, out, block_size=4)
     parts = out.with_name(out.name + ".parts")
     parts.mkdir()
-    (parts / "sweep.json").write_text(json.dumps(prep.metadata, default=str))
+    (parts / "sweep.json").write_text(stamp_text(prep.metadata))  # as the library writes it (with its checksum)
     import pyarrow.parquet as pq
 
     table = pq.read_table(out)

@@ -15,7 +15,6 @@ same command again reads the parts, runs only the missing cases and assembles th
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
@@ -55,7 +54,9 @@ from .store import (
     check_output,
     checksum_fault,
     is_ours,
+    read_stamp,
     read_sweep,
+    stamp_text,
     with_checksum,
     write_marker,
 )
@@ -124,7 +125,9 @@ def run_sweep(
     ``.<name>.forcecontrol-sweep.json`` beside it, ``sweep.json`` in the parts folder); only those
     are ever moved or replaced. Each part and the table carry a SHA-256 of their rows and the
     sweep's id: a part that fails it on resume is set aside (``*.corrupt-<time>`` in the parts
-    folder) and its cases run again, with a :class:`SweepWarning`.
+    folder) and its cases run again, with a :class:`SweepWarning`. ``sweep.json`` carries a
+    SHA-256 of its content: one that fails it (or is unreadable) is set aside and rewritten, with
+    a :class:`SweepWarning`, and each part is then verified against this sweep on its own.
 
     Raises:
         SweepError: ``out`` holds a different sweep (and not ``overwrite``).
@@ -175,10 +178,10 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
     if parts_dir.exists():
         old = None
         if stamp.exists():
-            try:
-                old = json.loads(stamp.read_text()).get("sweep_id")
-            except (ValueError, OSError, AttributeError) as exc:  # corrupt stamp: the parts' own metadata decides
-                _set_aside(stamp, f"{type(exc).__name__}")
+            old, fault = read_stamp(stamp)
+            if fault is not None:  # a corrupt stamp: the parts' own metadata (and checksums) decide; it is rewritten
+                what = "is damaged" if "checksum" in fault else "is unreadable"
+                _set_aside(stamp, fault, what, "rewritten; each part is verified against this sweep")
         if old is None:
             old = prep.sweep_id  # no readable stamp: each part is verified against this sweep below
         if old != prep.sweep_id:
@@ -191,7 +194,7 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
     parts_dir.mkdir(parents=True, exist_ok=True)
     if not stamp.exists():
         tmp = stamp.with_name(".sweep.json.tmp")
-        tmp.write_text(json.dumps(prep.metadata, indent=2, default=str))
+        tmp.write_text(stamp_text(prep.metadata))
         os.replace(tmp, stamp)
     for t in parts_dir.glob(".*.tmp"):  # left by a killed run (the lock says no one else writes here)
         t.unlink()

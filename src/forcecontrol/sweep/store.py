@@ -119,6 +119,37 @@ def checksum_fault(table, sweep_id: str) -> str | None:
     return None
 
 
+#: key of the parts folder's ``sweep.json`` holding the SHA-256 of the rest of its content.
+STAMP_SUM = "sha256"
+
+
+def _stamp_sha256(doc: dict[str, Any]) -> str:
+    body = json.dumps({k: v for k, v in doc.items() if k != STAMP_SUM}, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(f"forcecontrol sweep.json\n{body}".encode()).hexdigest()
+
+
+def stamp_text(metadata: dict[str, Any]) -> str:
+    """The parts folder's ``sweep.json``: the sweep's metadata and :data:`STAMP_SUM`, a SHA-256 of it."""
+    doc = json.loads(json.dumps(metadata, default=str))
+    doc[STAMP_SUM] = _stamp_sha256(doc)
+    return json.dumps(doc, indent=2)
+
+
+def read_stamp(stamp: Path) -> tuple[str | None, str | None]:
+    """``(sweep_id, None)`` from a ``sweep.json`` that passes its checksum, else ``(None, why)``."""
+    try:
+        doc = json.loads(stamp.read_text())
+        if not isinstance(doc, dict):
+            return None, f"it holds a JSON {type(doc).__name__}, not an object"
+    except (ValueError, OSError) as exc:
+        return None, type(exc).__name__
+    if STAMP_SUM not in doc:
+        return None, "it carries no checksum"
+    if doc[STAMP_SUM] != _stamp_sha256(doc):
+        return None, "its checksum fails: its content changed after it was written"
+    return doc.get("sweep_id"), None
+
+
 def marker_path(out: Path) -> Path:
     """The library's mark beside a sweep table it wrote: ``.<name>.forcecontrol-sweep.json``."""
     return out.with_name(f".{out.name}.forcecontrol-sweep.json")
@@ -144,6 +175,40 @@ def is_ours(out: Path) -> bool:
         return META_KEY in (pq.read_schema(out).metadata or {})
     except Exception:
         return False
+
+
+def mark_file(path: Path, sweep_id: str) -> None:
+    """Mark a file the sweep wrote beside its table (its figure): ``.<name>.forcecontrol-sweep.json`` naming it."""
+    m = marker_path(path)
+    tmp = m.with_name(f"{m.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"sweep_id": sweep_id, "file": path.name}))
+    os.replace(tmp, m)
+
+
+def check_file_output(path: Path, force: bool, what: str = "figure") -> str | None:
+    """The rule of :func:`check_output` for a file the sweep writes beside its table (its ``what``).
+
+    A file of the library's own (its mark names it) is replaced; a user's file only with ``force``
+    (the returned note says so); a folder never.
+
+    Raises:
+        OutputError: ``path`` is a folder, or a file this library did not write (and not ``force``).
+    """
+    if path.is_dir():
+        raise OutputError(f"the sweep's {what} {str(path)!r} is an existing folder; a folder is never replaced, even "
+                          "with --force: choose another --out")
+    if not path.exists():
+        return None
+    try:
+        doc = json.loads(marker_path(path).read_text())
+        if isinstance(doc, dict) and doc.get("file") == path.name:
+            return None
+    except (OSError, ValueError):
+        pass
+    if not force:
+        raise OutputError(f"the sweep's {what} {str(path)!r} is an existing file that forcecontrol did not write; it is "
+                          "left untouched: choose another --out, or pass --force to replace it")
+    return f"--force: {str(path)} was not written by forcecontrol; it is replaced by the sweep's {what}"
 
 
 def check_output(out: Path, force: bool) -> str | None:
@@ -242,11 +307,11 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _set_aside(path: Path, why: str, what: str = "is unreadable") -> None:
+def _set_aside(path: Path, why: str, what: str = "is unreadable", then: str = "its cases run again") -> None:
     """Move a damaged file of the library's own out of the way (kept for inspection) and say so."""
     aside = path.with_name(f"{path.name}.corrupt-{int(time.time())}")
     os.replace(path, aside)
-    warnings.warn(f"{path} {what} ({why}); moved to {aside.name}, its cases run again", SweepWarning, stacklevel=5)
+    warnings.warn(f"{path} {what} ({why}); moved to {aside.name}, {then}", SweepWarning, stacklevel=5)
 
 
 def _done_ids(parts_dir: Path, prep: PreparedSweep) -> set[int]:
