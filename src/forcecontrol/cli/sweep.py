@@ -46,7 +46,7 @@ def sweep_command(
     x: Annotated[str | None, typer.Option(help="figure x axis (a swept parameter)")] = None,  # noqa: UP007
     y: Annotated[str | None, typer.Option(help="figure y axis (a swept parameter)")] = None,  # noqa: UP007
     overwrite: Annotated[bool, typer.Option("--overwrite", "--force", help="replace a different sweep stored at --out, or "
-                                            "a file there that is not a sweep table (never a folder)")] = False,
+                                            "a file there (table, figure) forcecontrol did not write (never a folder)")] = False,
     json_out: JsonOut = False,
     set_: SetOption = None,
 ) -> None:
@@ -156,7 +156,7 @@ def sweep_command(
         from ..sweep.figures import plot_sweep
 
         try:
-            fig_path, fig_notes = plot_sweep(result, path.with_suffix(".png"), x, y)
+            fig_path, fig_notes = plot_sweep(result, path.with_suffix(".png"), x, y, overwrite=overwrite)
             files["figure"] = str(fig_path)
             for text in fig_notes:
                 note(text)

@@ -186,6 +186,7 @@ def plot_sweep_map(
     fixed: dict[str, Any] | None = None,
     boundary: bool = True,
     resolution: int = 20,
+    overwrite: bool | None = False,
 ) -> Path:
     """One figure: a row per scenario case, a column per metric, over swept parameters x and y.
 
@@ -197,16 +198,20 @@ def plot_sweep_map(
         source: a :class:`~forcecontrol.sweep.SweepResult` or the table's path.
         x, y: swept parameter paths (numbers); fixed: values for the other swept parameters (default:
             the first of each; a random design shows every case).
-        out: the PNG file.
+        out: the PNG file; overwrite: replace a file there that this library did not write
+            (a :class:`SweepWarning` says so); a figure of its own (its mark
+            ``.<name>.forcecontrol-sweep.json`` names it) is replaced anyway.
 
     Raises:
         SweepError: an axis is not a swept parameter or not a number; x and y are the same.
+        OutputError: ``out`` is a folder, or a file this library did not write (and not ``overwrite``).
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    _claim(out, overwrite)
     df, meta = _source(source)
     if x == y:
         raise SweepError(f"figure axes x and y must be two different swept parameters; got '{x}' for both")
@@ -258,15 +263,33 @@ def plot_sweep_map(
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""),
                              TITLE_LIMIT), fontsize=10)
-    return _save(fig, plt, out)
+    return _save(fig, plt, out, meta.get("sweep_id"))
 
 
-def _save(fig: Any, plt: Any, out: str | Path) -> Path:
+def _claim(out: str | Path, overwrite: bool | None) -> None:
+    """Refuse a figure path holding a file this library did not write (unless ``overwrite``; then warn).
+    ``overwrite=None``: checked by the caller (:func:`plot_sweep`)."""
+    if overwrite is None:
+        return
+    import warnings
+
+    from .spec import SweepWarning
+    from .store import check_file_output
+
+    note = check_file_output(Path(out), overwrite)
+    if note:
+        warnings.warn(note, SweepWarning, stacklevel=3)
+
+
+def _save(fig: Any, plt: Any, out: str | Path, sweep_id: Any = None) -> Path:
+    from .store import mark_file
+
     fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
     plt.close(fig)
+    mark_file(out, str(sweep_id))  # the library's own: a later sweep may replace it
     return out
 
 
@@ -278,6 +301,7 @@ def plot_sweep_curves(
     fixed: dict[str, Any] | None = None,
     boundary: bool = True,
     resolution: int = 80,
+    overwrite: bool | None = False,
 ) -> Path:
     """One figure of a one-parameter view: a panel per metric, a curve per scenario case over ``x``.
 
@@ -289,16 +313,18 @@ def plot_sweep_curves(
         source: a :class:`~forcecontrol.sweep.SweepResult` or the table's path.
         x: a swept parameter path (numbers); fixed: values for the other swept parameters (default:
             the first of each; a random design shows every case).
-        out: the PNG file.
+        out: the PNG file; overwrite: as for :func:`plot_sweep_map`.
 
     Raises:
         SweepError: ``x`` is not a swept parameter or not a number.
+        OutputError: ``out`` is a folder, or a file this library did not write (and not ``overwrite``).
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    _claim(out, overwrite)
     df, meta = _source(source)
     df, fixed = _select(df, meta, (x,), fixed)
     _numeric(df, x)
@@ -342,23 +368,33 @@ def plot_sweep_curves(
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), TITLE_LIMIT),
                  fontsize=10)
-    return _save(fig, plt, out)
+    return _save(fig, plt, out, meta.get("sweep_id"))
 
 
-def plot_sweep(source: Any, out: str | Path, x: str | None = None, y: str | None = None) -> tuple[Path, list[str]]:
+def plot_sweep(
+    source: Any, out: str | Path, x: str | None = None, y: str | None = None, *, overwrite: bool = False
+) -> tuple[Path, list[str]]:
     """The default figure of a sweep (what ``forcecontrol sweep`` draws) and what it leaves out.
 
     One varied parameter (or ``x`` alone of one): curves over it (:func:`plot_sweep_curves`); two or
     more: maps over ``x`` and ``y`` (default: the first two parameters that take more than one value,
     :func:`plot_sweep_map`).
 
+    ``out`` follows the sweep table's rule: a file there that this library did not write is
+    refused, or replaced with ``overwrite`` (``--force``; a note says so); a figure of its own
+    (marked ``.<name>.forcecontrol-sweep.json``) is replaced.
+
     Returns:
         ``(path, notes)``: notes say, in words, which cases the figure does not show (the other
-        swept parameters held at their first values) or how it shows them.
+        swept parameters held at their first values) or how it shows them, and a replaced file.
 
     Raises:
         SweepError: an axis is not a swept parameter or not a number.
+        OutputError: ``out`` is a folder, or a file this library did not write (and not ``overwrite``).
     """
+    from .store import check_file_output
+
+    replaced = check_file_output(Path(out), overwrite)
     df, meta = _source(source)
     params = list(meta.get("parameters", []))
     for p in (x, y):
@@ -393,6 +429,8 @@ def plot_sweep(source: Any, out: str | Path, x: str | None = None, y: str | None
         n = int(np.sum(np.all([(df[p] == df[p].iloc[0]).to_numpy() for p in others], axis=0)))
         notes.append(f"the figure over {' and '.join(axes)} shows {n} of {len(df)} cases, those with {shown} "
                      "(pick other axes with --x/--y)")
+    if replaced:
+        notes.append(replaced)
     if len(axes) == 1:
-        return plot_sweep_curves((df, meta), axes[0], out), notes
-    return plot_sweep_map((df, meta), axes[0], axes[1], out), notes
+        return plot_sweep_curves((df, meta), axes[0], out, overwrite=None), notes
+    return plot_sweep_map((df, meta), axes[0], axes[1], out, overwrite=None), notes
