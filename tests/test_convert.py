@@ -221,3 +221,22 @@ def test_cli_errors(tmp_path):
     out = runner.invoke(app, ["convert", str(src), "--from", "franka-O", "--to", "library", "--out", str(tmp_path / "z.csv")])
     assert out.exit_code == 2 and "already exist" in out.output and "--force" in out.output
     _convert(src, "--from", "franka-O", "--to", "library", "--out", tmp_path / "z.csv", "--force")
+
+
+def test_force_over_a_users_json_beside_out_says_so_and_not_over_its_own(tmp_path):
+    """--force replacing a user's z.json (beside --out z.csv) notes it on stderr and in --json; its own outputs need no note."""
+    src = _table(tmp_path, np.zeros((10, 6)), n=10)
+    user = tmp_path / "z.json"
+    user.write_text('{"mine": true}\n')
+    out = runner.invoke(app, ["convert", str(src), "--from", "franka-O", "--to", "library", "--out", str(tmp_path / "z.csv")])
+    assert out.exit_code == 2 and "already exist" in out.output and user.read_text() == '{"mine": true}\n'
+    rep = _convert(src, "--from", "franka-O", "--to", "library", "--out", tmp_path / "z.csv", "--force")
+    assert rep["notes"] == [f"--force: {user} was not written by forcecontrol; it is replaced"]
+    assert "wrench_frame" in json.loads(user.read_text())
+    again = runner.invoke(app, ["convert", str(src), "--from", "franka-O", "--to", "library", "--out", str(tmp_path / "z.csv"),
+                                "--force"])
+    assert again.exit_code == 0 and "note:" not in again.stderr
+    (tmp_path / "d.json").mkdir()
+    out = runner.invoke(app, ["convert", str(src), "--from", "franka-O", "--to", "library", "--out", str(tmp_path / "d.csv"),
+                              "--force"])
+    assert out.exit_code == 2 and "is an existing folder" in out.output

@@ -19,7 +19,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, console, print_json
+from .app import _fail, console, print_json, say_note
 from .replay import RecordedLog, RecordFormat
 from .safe import terminal_safe
 
@@ -103,7 +103,9 @@ def convert_report(
 
     Returns:
         ``data``, ``from``, ``to`` (conventions), ``samples``, ``components``, ``orientation``
-        (where it came from) and ``files`` (table and metadata).
+        (where it came from), ``files`` (table and metadata) and ``notes`` (a file ``force``
+        replaced that forcecontrol did not write: its own outputs carry a mark
+        ``.<name>.forcecontrol-convert.json``).
 
     Raises:
         ParameterError: an unknown convention, an existing output without ``force``, an
@@ -120,9 +122,7 @@ def convert_report(
     if out.suffix.lower() not in (".csv", ".parquet", ".pq"):
         raise ParameterError(f"--out must name a .csv or .parquet file; got {str(out)!r}")
     meta_path = out.with_suffix(".json")
-    existing = [p for p in (out, meta_path) if p.exists()]
-    if existing and not force:
-        raise ParameterError(f"{', '.join(map(str, existing))} already exist(s); pass --force to overwrite")
+    notes = _claim_outputs((out, meta_path), force)
     format_ = None if fmt is RecordFormat.auto else fmt.value
     suffix = data.suffix.lower()
     is_ros = format_ in ("bag", "mcap") or (format_ is None and (suffix in (".mcap", ".db3") or data.is_dir()))
@@ -178,10 +178,53 @@ def convert_report(
 
     converted = replace(converted, metadata={**converted.metadata, "orientation": orientation, "file_wrench_frame": file_frame})
     table, meta = write_recording(converted, out, extra=extra)
+    for p in (table, meta):
+        _mark(p)
     return {
         "data": str(data), "from": src.describe(), "to": dst.describe(), "samples": int(converted.t.size),
         "components": converted.m, "orientation": orientation, "files": {"table": str(table), "metadata": str(meta)},
+        "notes": notes,
     }
+
+
+def _mark_path(path: Path) -> Path:
+    """The mark beside a file ``convert`` wrote: ``.<name>.forcecontrol-convert.json`` (as the sweep marks its outputs)."""
+    return path.with_name(f".{path.name}.forcecontrol-convert.json")
+
+
+def _mark(path: Path) -> None:
+    import json
+
+    _mark_path(path).write_text(json.dumps({"file": path.name}))
+
+
+def _ours(path: Path) -> bool:
+    import json
+
+    try:
+        doc = json.loads(_mark_path(path).read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(doc, dict) and doc.get("file") == path.name
+
+
+def _claim_outputs(paths: tuple[Path, ...], force: bool) -> list[str]:
+    """Refuse existing outputs unless ``force``; a folder always. Notes name the files ``force`` replaces that
+    forcecontrol did not write (its own earlier outputs carry a mark).
+
+    Raises:
+        ParameterError: an output exists (and not ``force``), or is a folder.
+    """
+    from ..errors import ParameterError
+
+    folders = [p for p in paths if p.is_dir()]
+    if folders:
+        raise ParameterError(f"{', '.join(map(str, folders))} is an existing folder; expected a file path for the "
+                             "converted table and its .json metadata (a folder is never replaced, even with --force)")
+    existing = [p for p in paths if p.exists()]
+    if existing and not force:
+        raise ParameterError(f"{', '.join(map(str, existing))} already exist(s); pass --force to overwrite")
+    return [f"--force: {p} was not written by forcecontrol; it is replaced" for p in existing if not _ours(p)]
 
 
 def convert_command(
@@ -216,6 +259,8 @@ def convert_command(
                                 wrench_topic=wrench_topic, force=force)
     except (ForceControlError, ImportError, OSError) as exc:
         _fail(exc)
+    for text in report["notes"]:
+        say_note(terminal_safe(text))
     if json_out:
         print_json(report)
         return
