@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+import subprocess
+import sys
 
-import forcecontrol
-from forcecontrol.core import numba_cache
+PROBE = (
+    "from pathlib import Path\n"
+    "import forcecontrol\n"
+    "from forcecontrol.core import numba_cache as n\n"
+    "root = Path(forcecontrol.__file__).parent\n"
+    "whole = n._source_hash(root)\n"
+    "print(Path(n.CACHE_DIR).name == 'forcecontrol-' + whole, whole != n._source_hash(root / 'core'))\n"
+)
 
 
-def test_cache_folder_hashes_every_module_of_the_package():
+def test_cache_folder_hashes_every_module_of_the_package(tmp_path):
     """The cache folder's name is the hash of all the package's .py files (not core/ alone): a change in
     sim/plant.py (the loops' environment dispatcher) must not reuse loops compiled against the old one."""
-    root = Path(forcecontrol.__file__).parent
-    assert numba_cache.CACHE_DIR is not None
-    assert Path(numba_cache.CACHE_DIR).name == f"forcecontrol-{numba_cache._source_hash(root)}"
-    assert numba_cache._source_hash(root) != numba_cache._source_hash(root / "core")
+    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, env=env, timeout=120, check=True)
+    assert out.stdout.split() == ["True", "True"]
