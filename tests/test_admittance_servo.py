@@ -149,7 +149,9 @@ def test_ur5_admittance_equilibrium_on_the_pose_task():
     Kenv[2, 2] = k
     x_d = x0.copy()
     x_d[2] -= 0.01
-    r = simulate(pir, LinearSpring(Kenv, x0), ctl, Setpoint(x_d), q0=q0, duration=2.0)
+    with pytest.warns(UserWarning, match="IK's joint or speed limits"):  # the 1 cm step at t = 0 is speed-limited
+        r = simulate(pir, LinearSpring(Kenv, x0), ctl, Setpoint(x_d), q0=q0, duration=2.0)
+    assert [e for e in r.events if e["event"] == "ik-limit"][0]["t"] == 0.0
     expected = -k * 1000.0 / (k + 1000.0) * 0.01
     assert r.wrench[-1, 2] == pytest.approx(expected, rel=2e-3)
     loop = admittance_servo_loop(ctl, q0, [0.0, 0.0, 1.0])
@@ -189,13 +191,19 @@ def test_modes_include_the_servo_and_admittance_free_modes():
     assert 0.0 < near.phase_margin < 10.0 and near.gain_margin > 1.0  # stable, little phase left near the limit
 
 
-@pytest.mark.parametrize("name", ["servo-admittance", "ur5-admittance-servo"])
-def test_built_in_servo_scenarios_pass_their_checks(name):
+@pytest.mark.parametrize("name, limited", [("servo-admittance", False), ("ur5-admittance-servo", True)])
+def test_built_in_servo_scenarios_pass_their_checks(name, limited):
     """The built-in position-interface scenarios (chapter arm at 500 Hz, UR5) settle at their closed-form forces and
-    their analysis says stable/unstable as the simulation shows."""
+    their analysis says stable/unstable as the simulation shows; the UR5's speed-limited first step is reported."""
+    import warnings
+
     from forcecontrol.scenarios import run_scenario
 
-    run = run_scenario(name)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run = run_scenario(name)
+    said = [str(w.message) for w in caught if "IK's joint or speed limits" in str(w.message)]
+    assert bool(said) == limited
     assert run.all_checks_pass, [c for case in run.cases for c in case.checks if not c["ok"]]
 
 

@@ -61,7 +61,8 @@ def test_dynamic_servo_is_the_same_second_order_in_free_space():
 def test_velocity_limit_bounds_the_servo_reference():
     """With a joint speed limit the servo reference never moves faster than it (a large step is slew-limited)."""
     servo = JointServo(nq=2, rate=500.0, bandwidth=40.0, damping=0.7, delay=0, velocity_limit=0.5, acceleration_limit=50.0)
-    r = _run_step(servo, np.array([0.5, 0.0]), duration=0.5)
+    with pytest.warns(UserWarning, match="limits changed the motion"):
+        r = _run_step(servo, np.array([0.5, 0.0]), duration=0.5)
     ref = r.signals["servo_reference"][:, 0]
     speed = np.abs(np.diff(ref)) / 2e-4
     assert speed.max() <= 0.5 * (1 + 1e-9)
@@ -222,3 +223,19 @@ def test_identification_refuses_missing_targets_and_flat_steps(tmp_path):
         identify_servo_from_file(p)
     with pytest.raises(MeasurementError, match="step response is needed"):
         identify_servo(t, np.zeros(20), np.zeros(20))
+
+
+def test_a_biting_limit_is_logged_as_an_event_and_warned():
+    """When the speed limit changes the servo's motion the run says so: a warning and a 'servo-limit' event with its time."""
+    servo = JointServo(nq=2, rate=500.0, bandwidth=40.0, damping=0.7, delay=0, velocity_limit=0.5)
+    with pytest.warns(UserWarning, match="speed/acceleration/jerk limits changed the motion of joint"):
+        r = _run_step(servo, np.array([0.5, 0.0]), duration=0.3)
+    ev = [e for e in r.events if e["event"] == "servo-limit"]
+    assert ev and 0.01 <= ev[0]["t"] < 0.05
+
+
+def test_no_limit_event_when_the_limits_do_not_bite():
+    """A small step inside the limits logs no event."""
+    servo = JointServo(nq=2, rate=500.0, bandwidth=40.0, damping=0.7, delay=0, velocity_limit=5.0)
+    r = _run_step(servo, np.array([0.01, 0.0]), duration=0.1)
+    assert not [e for e in r.events if e["event"] == "servo-limit"]

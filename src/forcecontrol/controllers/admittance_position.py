@@ -150,6 +150,8 @@ class PositionAdmittanceController(PositionInterfaceController):
         cmd = self.ik.solve(q_prev, x_t, xd_t if self.velocity_feedforward else None)
         if self.ik.last_limited:
             self.ik_limited_cycles += 1
+        self._episode(t, "ik-limit", self.ik.last_limited, lambda: (
+            "the IK's joint or speed limits kept the joint command from the compliant frame"))
         s[2 * m :] = cmd.q
         self._log_xt.append(x_t.copy())
         if self.servo.interface == "velocity":

@@ -20,6 +20,7 @@ compensates it); output: torques (n,) [N m].
 
 from __future__ import annotations
 
+import warnings
 from abc import abstractmethod
 from collections.abc import Callable
 from typing import Any
@@ -66,6 +67,8 @@ class PositionInterfaceController(Controller):
         self._log_ref: list[np.ndarray] = []
         self.servo_description = self.servo.describe()
         self.limited_cycles = 0
+        self._events: list[dict[str, Any]] = []
+        self._episodes: set[str] = set()
 
     # -- what a subclass writes
     def law_state_size(self) -> int:
@@ -88,7 +91,28 @@ class PositionInterfaceController(Controller):
         self._rt.start(self._servo_state, q0)
         self._log_cmd, self._log_ref = [], []
         self.limited_cycles = 0
+        self._events, self._episodes = [], set()
         self.reset_law(measurement, reference)
+
+    @property
+    def events(self) -> list[dict[str, Any]]:
+        """When a limit started to change what was commanded (``servo-limit``, ``ik-limit``), in time order."""
+        return list(self._events)
+
+    def _episode(self, t: float, kind: str, active: bool, detail: Any) -> None:
+        """Log (and warn, once per run and kind) at the start of an episode where a limit changes the command."""
+        if not active:
+            self._episodes.discard(kind)
+            return
+        if kind in self._episodes:
+            return
+        self._episodes.add(kind)
+        first = not any(e["event"] == kind for e in self._events)
+        text = detail()
+        self._events.append({"t": float(t), "event": kind, "detail": text})
+        if first:
+            warnings.warn(f"{type(self).__name__} at t = {t:.6g} s: {text} (logged in the run's events)", UserWarning,
+                          stacklevel=4)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques for one step Ts; a new joint command every ``steps_per_cycle`` steps."""
@@ -107,6 +131,9 @@ class PositionInterfaceController(Controller):
         self._log_cmd.append(v["held"].copy() if self.servo.interface == "position" else v["y"].copy())
         self._log_ref.append(v["q_r"].copy())
         u = self._rt.torque(s, q, qd, T, np.asarray(measurement.wrench, dtype=np.float64))
+        lim = self._rt.limited
+        self._episode(t, "servo-limit", bool(lim.any()), lambda: (
+            f"the servo's speed/acceleration/jerk limits changed the motion of joint(s) {np.flatnonzero(lim).tolist()}"))
         return self._check_output(t, u, measurement)
 
     def signals(self) -> dict[str, np.ndarray]:

@@ -284,6 +284,8 @@ class ServoRuntime:
             E = expm(big)
             self._Ad[i], self._Bd[i] = E[:2, :2], E[:2, 2:]
         self._a = servo.lowpass_gain()
+        #: the joints whose reference a limit (speed, acceleration, jerk) changed in the last step
+        self.limited = np.zeros(n, dtype=bool)
 
     def size(self) -> int:
         """Length of the state array this runtime needs."""
@@ -344,9 +346,15 @@ class ServoRuntime:
             acc = w * w * (y - q) + 2.0 * z * w * (v_c - qd)
             if sv.acceleration_limit is not None:
                 acc = np.clip(acc, -sv.acceleration_limit, sv.acceleration_limit)
+            lim = np.zeros(self.n, dtype=bool)
+            if sv.acceleration_limit is not None:
+                lim |= np.abs(w * w * (y - q) + 2.0 * z * w * (v_c - qd)) > sv.acceleration_limit
             if sv.velocity_limit is not None:  # no push beyond the speed limit
                 over = np.abs(qd) >= sv.velocity_limit
-                acc = np.where(over & (np.sign(acc) == np.sign(qd)), 0.0, acc)
+                push = over & (np.sign(acc) == np.sign(qd))
+                lim |= push
+                acc = np.where(push, 0.0, acc)
+            self.limited = lim
             u = T.B @ acc + T.n
             q_r[:], qd_r[:], qdd_r[:] = y, v_c, acc
         else:
@@ -388,6 +396,7 @@ class ServoRuntime:
             a = np.where(bad, (ve - qd_r) / Ts, a0)
         else:
             a = a0
+        self.limited = bad
         q_r[:], qd_r[:], qdd_r[:] = qn, vn, a
 
 
