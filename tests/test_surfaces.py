@@ -270,3 +270,16 @@ def test_compiled_dispatcher_circle_matches_the_class():
     for x, v in (([1.0, 0.16], [0.0, 0.1]), ([1.1, 0.2], [0.3, -0.2]), ([1.0, 0.1], [0.0, 0.0])):
         x, v = np.array(x), np.array(v)
         np.testing.assert_allclose(environment_wrench(3, env.packed(), x, v), env.wrench(x, v), atol=1e-9)
+
+
+def test_mujoco_refuses_friction_and_height_fields_by_name():
+    """MuJoCo's frictionless contacts refuse a FrictionalContact, and a height field, naming what is not modelled."""
+    pytest.importorskip("mujoco")
+    from forcecontrol.engines.mujoco import MujocoPlant
+    from forcecontrol.environments import FrictionalContact
+
+    circle = ElasticSphere(CENTER, RADIUS, K_ENV)
+    with pytest.raises(ParameterError, match="frictionless.*FrictionalContact"):
+        MujocoPlant(ARM, FrictionalContact(circle, 0.3, 0.2))
+    with pytest.raises(ParameterError, match="models ElasticSphere and ElasticCylinder surfaces; got HeightField"):
+        MujocoPlant(ARM, HeightField(np.linspace(0.0, 0.1, 8), [0.5], 0.1, 1e4))

@@ -149,6 +149,11 @@ class MujocoPlant:
             # a passive force MuJoCo evaluates at every integrator stage (see _spring_passive)
             self._spring = (np.asarray(env.stiffness), np.asarray(env.damping), np.asarray(env.rest_position))
             return False
+        if getattr(env, "stateful", False):
+            raise ParameterError(
+                f"the MuJoCo engine's contacts are frictionless (condim 1): it does not model {type(env).__name__}; "
+                "compare the surface without friction, or run the built-in engine"
+            )
         if isinstance(env, ElasticSurface):  # a sphere or a cylinder: MuJoCo's primitive geom
             return add_surface_geom(self, spec, env)
         if isinstance(env, (ElasticPlane, Table)):

@@ -38,6 +38,10 @@ def add_surface_geom(plant: Any, spec: Any, env: Any) -> bool:
     mujoco = plant._mujoco
     if env.dim != plant.robot.task_dim:
         raise ParameterError(f"the environment is {env.dim}-dimensional, the robot's task {plant.robot.task_dim}-dimensional")
+    if not isinstance(env, (ElasticSphere, ElasticCylinder)):
+        raise ParameterError(
+            f"the MuJoCo engine models ElasticSphere and ElasticCylinder surfaces; got {type(env).__name__}"
+        )
     if env.radius <= plant.radius:
         raise ParameterError(f"the surface's radius must exceed contact_radius = {plant.radius} m; got {env.radius} m")
     g = spec.worldbody.add_geom()
@@ -46,15 +50,11 @@ def add_surface_geom(plant: Any, spec: Any, env: Any) -> bool:
         g.type = mujoco.mjtGeom.mjGEOM_SPHERE
         g.pos = np.pad(env.center, (0, 3 - env.space))
         g.size = [env.radius - plant.radius, 0.0, 0.0]
-    elif isinstance(env, ElasticCylinder):
+    else:  # ElasticCylinder
         g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
         g.pos = env.point
         g.size = [env.radius - plant.radius, 5.0, 0.0]  # 10 m long: infinite for the tool
         g.quat = quat_z_to(env.axis)
-    else:
-        raise ParameterError(
-            f"the MuJoCo engine models ElasticSphere and ElasticCylinder surfaces; got {type(env).__name__}"
-        )
     plant._k_env, plant._c_env = float(env.stiffness), float(env.damping)
     plant._probe_depth = env.radius - plant.radius  # calibration: the probe touches the geom's side (its local x)
     g.condim = 1
