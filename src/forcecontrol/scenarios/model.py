@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..core.jsonsafe import json_safe
+from ..errors import ScenarioError
 from ..sim.limits import (
     MAX_DELAY_SAMPLES,
     MAX_FORCE,
@@ -126,7 +127,36 @@ FIGURE_FIELDS: dict[str, Field] = {
     "t_max": Field("number", doc="time axis limit [s]"),
     "zoom": Field("number", doc="inset on each force panel with the first `zoom` seconds, one dot per sample [s]"),
     "note": Field("str", default="", doc="caption printed under the figure (what the reader needs to read it)"),
+    "mathtext": Field("bool", default=False, doc="draw $...$ in the title, note and case labels as matplotlib mathtext "
+                      "(checked on load); false: every character as written"),
 }
+
+
+def check_mathtext(where: str, fig: dict[str, Any], labels: list[str]) -> None:
+    """With ``mathtext = true``: the figure's title, note and drawn case labels parse as matplotlib mathtext.
+
+    Raises:
+        ScenarioError: a text whose ``$...$`` matplotlib cannot parse (named, with the parser's reason).
+    """
+    from ..core.text import LABEL_LIMIT, TITLE_LIMIT, figure_safe
+
+    try:
+        from matplotlib.mathtext import MathTextParser
+    except ImportError:  # no figure can be drawn anyway
+        return
+    texts = [("title", fig.get("title") or "", TITLE_LIMIT), ("note", fig.get("note") or "", 4 * TITLE_LIMIT)]
+    texts += [(f"case label {lab!r}", lab, LABEL_LIMIT) for lab in (fig.get("cases") or labels)]
+    for what, text, limit in texts:
+        s = figure_safe(text, limit, mathtext=True)
+        dollars = s.count("$") - s.count("\\$")
+        if dollars == 0 or dollars % 2:  # matplotlib draws such a text as plain text
+            continue
+        try:
+            MathTextParser("path").parse(s, 72)
+        except ValueError as exc:
+            reason = " ".join(str(exc).split())[:200]
+            raise ScenarioError(f"{where}: mathtext = true, but the {what} {s!r} is not valid mathtext ({reason}); write a "
+                                "literal dollar as \\$, or set mathtext = false") from None
 
 
 #: keys of a scenario's ``[sweep]`` table (besides ``cases`` and ``[sweep.parameters]``); see
@@ -243,8 +273,14 @@ class ScenarioRun:
         Units are in ``df.attrs["units"]`` (column -> SI unit, e.g. ``"fx": "N"``; ``""`` for the case
         label and for a signal of unknown unit); ``df.attrs["scenario"]`` is the scenario's name.
         Columns a case lacks (a controller's own signal) are NaN in the other cases' rows.
+
+        Raises:
+            ImportError: pandas is not installed (the ``data`` extra).
         """
-        import pandas as pd
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - pandas is in the test environment
+            raise ImportError("ScenarioRun.to_pandas needs pandas: pip install 'forcecontrol[data]'") from exc
 
         from .units import unit
 
