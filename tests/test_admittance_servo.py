@@ -281,3 +281,18 @@ def test_design_cli_zero_delay_is_zero_not_the_default():
     zero = json.loads(CliRunner().invoke(app, [*args, "--delay", "0"]).output)
     one = json.loads(CliRunner().invoke(app, args).output)
     assert zero["requirements"]["delay_cycles"] == 0 and one["requirements"]["delay_cycles"] == 1
+
+
+def test_dynamic_servo_stability_limit_brackets_the_simulated_one_within_5_percent():
+    """With the 'dynamic' servo (contact on the joints through B⁻¹Jᵀ) the predicted k_e limit (≠ the ideal servo's)
+    also brackets the simulation's within 5 %."""
+    arm = PlanarTwoLink()
+    pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=44.7, damping=0.67, delay=1, tracking="dynamic"))
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4)
+    loop = admittance_servo_loop(ctl, q0, [-1.0, 0.0])
+    k = loop.stability_limit()
+    assert k > 1.02 * admittance_servo_loop(ctl, q0, [-1.0, 0.0], tracking="ideal").stability_limit()
+    args = (ctl, q0, np.array([1.01, 0.0]), np.array([1.0, 0.0]), np.array([-1.0, 0.0]))
+    assert stable_in_simulation(*args, 0.95 * k)
+    assert not stable_in_simulation(*args, 1.05 * k)
