@@ -148,3 +148,12 @@ def test_a_6d_frame_has_rotational_units():
     """to_pandas() of a 6-D run gives the orientation in rad, moments in N m, angular velocity in rad/s."""
     units = _spatial_run().to_pandas().attrs["units"]
     assert (units["rx"], units["mz"], units["wy"], units["fz"], units["ref_force_rz"]) == ("rad", "N m", "rad/s", "N", "N m")
+
+
+def test_to_pandas_without_pandas_names_the_extra(run, monkeypatch):
+    """Without pandas, to_pandas() raises ImportError naming the 'data' extra to install."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    with pytest.raises(ImportError, match=r"to_pandas needs pandas: pip install 'forcecontrol\[data\]'"):
+        run.to_pandas()

@@ -145,7 +145,7 @@ def check_mathtext(where: str, fig: dict[str, Any], labels: list[str]) -> None:
     except ImportError:  # no figure can be drawn anyway
         return
     texts = [("title", fig.get("title") or "", TITLE_LIMIT), ("note", fig.get("note") or "", 4 * TITLE_LIMIT)]
-    texts += [(f"case label {lab!r}", lab, LABEL_LIMIT) for lab in (fig.get("cases") or labels)]
+    texts += [("case label", lab, LABEL_LIMIT) for lab in (fig.get("cases") or labels)]
     for what, text, limit in texts:
         s = figure_safe(text, limit, mathtext=True)
         dollars = s.count("$") - s.count("\\$")
@@ -279,7 +279,7 @@ class ScenarioRun:
         """
         try:
             import pandas as pd
-        except ImportError as exc:  # pragma: no cover - pandas is in the test environment
+        except ImportError as exc:
             raise ImportError("ScenarioRun.to_pandas needs pandas: pip install 'forcecontrol[data]'") from exc
 
         from .units import unit
