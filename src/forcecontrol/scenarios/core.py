@@ -42,6 +42,7 @@ from .model import (  # noqa: F401
     CaseResult,
     CaseSpec,
     ScenarioRun,
+    check_mathtext,
 )
 from .schema import check_table
 
@@ -371,6 +372,8 @@ def _check_figures(where: str, raw: Any, labels: list[str], signals: list[str] |
         for key in ("t_max", "zoom"):
             if fig.get(key) is not None and not fig[key] > 0:
                 raise ScenarioError(f"{fw}: key {key!r} must be a positive time [s]; got {fig[key]!r}")
+        if fig.get("mathtext"):
+            check_mathtext(fw, fig, labels)
         if isinstance(raw, list) and len(items) > 1 and not fig["name"]:
             raise ScenarioError(f"{fw}: missing key 'name' (several figures need distinct file names)")
         out.append(fig)

@@ -128,6 +128,7 @@ def plot_results(
     zoom: float | None = None,
     note: str = "",
     path: str | Path | None = None,
+    mathtext: bool = False,
 ) -> Any:
     """One panel per signal against time, one line style per result, the same in every panel.
 
@@ -149,6 +150,8 @@ def plot_results(
             one marker per control sample (shows start-up transients sample by sample) [s].
         note: a caption printed under the panels (what the reader should know to read the figure).
         path: where to save a PNG; the figure is closed afterwards when given.
+        mathtext: draw ``$...$`` in the title, the note and the case labels as matplotlib mathtext
+            (a scenario's ``[figure] mathtext = true``); by default every character is drawn as written.
 
     Returns:
         The matplotlib Figure (or the saved path when ``path`` is given).
@@ -168,11 +171,11 @@ def plot_results(
     # legend entries (at most): cases, the reference, overlays, the expected mark; rows of one or two
     from ..core.text import TITLE_LIMIT, figure_safe  # text from files drawn literally (no mathtext), bounded
 
-    case_labels = [figure_safe(r.label or f"case {i + 1}") for i, r in enumerate(results)]
+    case_labels = [figure_safe(r.label or f"case {i + 1}", mathtext=mathtext) for i, r in enumerate(results)]
     legend_labels = case_labels + sorted({figure_safe(lab) for lines in (overlays or {}).values() for _, _, lab in lines})
     legend_cols = 1 if max(map(len, legend_labels)) > 45 else 2
     legend_rows = -(-(len(legend_labels) + 2) // legend_cols)
-    note_text = " ".join(figure_safe(note, 4 * TITLE_LIMIT).split())
+    note_text = " ".join(figure_safe(note, 4 * TITLE_LIMIT, mathtext=mathtext).split())
     note_lines = textwrap.wrap(note_text, int(16 * PANEL_SIZE[0] * cols)) if note else []
     footer = 0.15 + 0.19 * legend_rows + 0.14 * len(note_lines)  # [in]
     panels_h = PANEL_SIZE[1] * rows + (0.3 if title else 0.0)
@@ -217,7 +220,7 @@ def plot_results(
         bottom.text(0.01, 0.02, "\n".join(note_lines), fontsize=7.5, color="0.2", ha="left", va="bottom",
                     transform=bottom.transSubfigure)
     if title:
-        top.suptitle(figure_safe(title, TITLE_LIMIT), fontsize=10)
+        top.suptitle(figure_safe(title, TITLE_LIMIT, mathtext=mathtext), fontsize=10)
     return finish_figure(fig, path, dpi=120)
 
 
@@ -306,6 +309,7 @@ def _figure_call(run: ScenarioRun, fig: dict[str, Any], path: str | Path | None)
     return ([c.result for c in cases], signals), dict(
         title=fig.get("title") or run.scenario.title, t_max=fig.get("t_max"),
         expected=expected_marks(cases, signals), zoom=fig.get("zoom"), note=fig.get("note") or "", path=path,
+        mathtext=bool(fig.get("mathtext")),
     )
 
 
