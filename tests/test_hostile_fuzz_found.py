@@ -198,3 +198,12 @@ def test_a_singular_admittance_stiffness_in_the_servo_analysis_is_a_parameter_er
     model.nu, model.P, model.K = np.array([1.0, 0.0]), np.eye(2), np.zeros((2, 2))
     with pytest.raises(ParameterError, match="stiffness K is singular"):
         model.equilibrium_force(1e4)
+
+
+@pytest.mark.parametrize("key", ["stiffness", "damping", "inertia"])
+def test_an_absurd_gain_is_refused(key):
+    """stiffness = 1.7e308 passed every check (finite, positive) and was accepted silently (api, seed 7, case 199)."""
+    kw = {"inertia": 100.0, "damping": 500.0, "stiffness": 2500.0, "force_gain": 0.05, key: 1.7e308}
+    with pytest.raises(ParameterError, match=rf"{key} must have entries of at most 1e\+12 in magnitude.*1.7e\+308"):
+        fc.ParallelForcePositionController(fc.PlanarTwoLink(), **kw)
+    fc.ParallelForcePositionController(fc.PlanarTwoLink(), **{**kw, key: 1e12})  # the bound itself is accepted

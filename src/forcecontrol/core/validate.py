@@ -181,13 +181,21 @@ def _float(name: str, value: Any, want: str) -> float:
         raise ParameterError(f"{name} must be {want}; got an integer of {n}, beyond a float's range (1.8e308)") from None
 
 
+#: the largest gain, stiffness or inertia entry accepted by :func:`as_gain_matrix` (SI units)
+MAX_GAIN = 1e12
+
+
 def _check_eigenvalues(name: str, kind: str, size: int, w: list[float], definite: bool, scale: float | None = None) -> None:
     """Refuse eigenvalues ``w`` of a symmetric gain that are not (semi-)positive, at 1e-12 of its scale.
 
     ``scale`` is ``max(1, max |a_ij|)`` (the largest |eigenvalue| when the matrix is diagonal).
     """
+    top = max(abs(x) for x in w)
+    if top > MAX_GAIN:  # 1e300 N/m passed every check and overflowed in the loop (every torque inf or 0)
+        raise ParameterError(f"{name} must have entries of at most {MAX_GAIN:.0e} in magnitude (far beyond any arm or "
+                             f"contact); got an eigenvalue of {top:.4g}")
     if scale is None:
-        scale = max(1.0, max(abs(x) for x in w))
+        scale = max(1.0, top)
     tol = 1e-12 * scale
     if (min(w) <= tol) if definite else (min(w) < -tol):
         raise ParameterError(
