@@ -12,7 +12,8 @@ which produces the joint torques at every step ``Ts`` on the arm's full dynamics
 
 So a vendor's or the chapter's outer law is written once as ``command``; the simulator, the
 user's loop and the analysis see the same sampled structure. State: ``state = [servo state;
-law state]`` (the law's part is :attr:`law_state`, of :meth:`law_state_size` floats).
+law state]`` (the law's part is :attr:`PositionInterfaceController.law_state`, of
+:meth:`PositionInterfaceController.law_state_size` floats).
 
 Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` h_e (m,) (the ideal servo
 compensates it); output: torques (n,) [N m].
