@@ -73,6 +73,7 @@ def test_controllers_pack_what_the_laws_read() -> None:
     np.testing.assert_array_equal(imp._params[IMPEDANCE.slice("K_P", 2)], imp.stiffness.ravel())
     assert imp._params[IMPEDANCE.offset("use_force", 2)] == 1.0
     assert imp._params.shape == (IMPEDANCE.size(2),)
+    assert list(IMPEDANCE.blocks)[:3] == ["M_d_inv", "K_D", "K_P"]  # the G the 6-D controllers concatenate per sample
     frc = fc.InnerPositionForceController(ARM, 100, 500, 2500, force_gain=[0.00064, 0.0], integral_gain=[0.0016, 0.0])
     np.testing.assert_array_equal(frc._params[FORCE.slice("K_F", 2)], [0.00064, 0.0])
     np.testing.assert_array_equal(frc._params[FORCE.slice("K_I", 2)], [0.0016, 0.0])

@@ -34,7 +34,7 @@ from .. import laws
 from ..core.validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
-from ..laws.layout import IMPEDANCE, OS_PD, REFERENCE
+from ..laws.layout import OS_PD, REFERENCE
 from ..laws.spatial import desired_frame_terms, spatial_impedance_torque
 from ..robots.base import RobotModel
 from ..spatial import Wrench, euler_xyz_T, euler_xyz_T_dot, euler_xyz_T_inv, rotvec_T
@@ -146,7 +146,7 @@ def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md
     Without ``use_force`` the h_e^d term is left out (the motion loop of admittance control).
     """
     r = np.empty(6)
-    G = IMPEDANCE.pack(6, M_d_inv=Md_inv, K_D=K_D, K_P=K_P, use_force=float(use_force))
+    G = np.concatenate([np.ravel(Md_inv), np.ravel(K_D), np.ravel(K_P)])  # IMPEDANCE's M_d_inv, K_D, K_P (per sample: no checks)
     impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), use_force, np.empty(6), r)
     return r
 
@@ -307,7 +307,7 @@ class SpatialImpedanceController(_SpatialBase):
         c = np.concatenate([reference.acceleration[:3], phidd_d]) - JAdq
         h_A = np.concatenate([h[:3], euler_xyz_T(phi_e).T @ h[3:]])
         r = np.empty(6)
-        G = IMPEDANCE.pack(6, M_d_inv=self._Md_inv, K_D=self.damping, K_P=self.stiffness, use_force=1.0)
+        G = np.concatenate([self._Md_inv.ravel(), self.damping.ravel(), self.stiffness.ravel()])  # as above
         impedance_core(G, x, xd, c, h_A, True, np.empty(6), r)
         return self._redundant_torque(JA, r, q, qd, B, nv, J, h)
 

@@ -44,13 +44,16 @@ def _directions(force_directions: Any) -> tuple[np.ndarray, np.ndarray]:
     return Q, np.ascontiguousarray(np.linalg.svd(Q, full_matrices=True)[0][:, k:])
 
 
+#: Where f_d, ḟ_d, f̈_d start in the 6-D reference row (REFERENCE, m = 6).
+_FORCE_BLOCKS = tuple(REFERENCE.offset(b, 6) for b in ("f_d", "fdot_d", "fddot_d"))
+
+
 def _desired_frame(err: Any, reference: Reference, h: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """The measured wrench on the desired frame, h_e^d (6,); fills the force blocks of the packed
     reference row ``ref`` (6 × 6) with h_d, ḣ_d, ḧ_d on the desired frame (pose blocks stay zero:
     the desired frame in its own coordinates)."""
     RdT = err.R_d.T
-    for block, w in (("f_d", reference.force), ("fdot_d", reference.force_rate), ("fddot_d", reference.force_accel)):
-        o = REFERENCE.offset(block, 6)
+    for o, w in zip(_FORCE_BLOCKS, (reference.force, reference.force_rate, reference.force_accel)):
         ref[o : o + 3] = RdT @ w[:3]
         ref[o + 3 : o + 6] = RdT @ w[3:]
     return np.concatenate([RdT @ h[:3], RdT @ h[3:]])
