@@ -159,14 +159,27 @@ def test_ur5_admittance_equilibrium_on_the_pose_task():
     assert loop.equilibrium_force(k) * 0.01 == pytest.approx(-expected, rel=2e-3)
 
 
-def test_analysis_refuses_what_it_does_not_model():
-    """The analysis names the options it does not model (velocity interface, velocity feed-forward)."""
+def test_velocity_interface_limit_brackets_the_simulated_one_within_5_percent():
+    """A velocity interface (joint speeds integrated by the servo at its step): the predicted k_e limit brackets the
+    simulation's within 5 %, and differs from the position interface's."""
     arm = PlanarTwoLink()
     q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
-    pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=40.0, interface="velocity"))
+    pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=44.7, damping=0.67, interface="velocity"))
     ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4)
-    with pytest.raises(ParameterError, match="interface = 'velocity'"):
-        admittance_servo_loop(ctl, q0, [-1.0, 0.0])
+    k = admittance_servo_loop(ctl, q0, [-1.0, 0.0]).stability_limit()
+    c = chapter_arm_case(500.0)
+    assert abs(k / admittance_servo_loop(c["controller"], c["q0"], c["normal"]).stability_limit() - 1.0) > 0.1
+    args = (ctl, q0, np.array([1.01, 0.0]), np.array([1.0, 0.0]), np.array([-1.0, 0.0]))
+    assert stable_in_simulation(*args, 0.95 * k)
+    assert not stable_in_simulation(*args, 1.05 * k)
+
+
+def test_analysis_refuses_what_it_does_not_model():
+    """The analysis names the option it does not model (velocity feed-forward); a low-pass on a velocity interface is refused."""
+    arm = PlanarTwoLink()
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    with pytest.raises(ParameterError, match="lowpass_cutoff filters position commands"):
+        JointServo(nq=2, rate=500.0, bandwidth=40.0, interface="velocity", lowpass_cutoff=100.0)
     pir = PositionInterfaceRobot(arm, JointServo(nq=2, rate=500.0, bandwidth=40.0))
     ctl = PositionAdmittanceController(pir, 10.0, 200.0, 1000.0, sample_time=5e-4, velocity_feedforward=True)
     with pytest.raises(ParameterError, match="velocity_feedforward"):

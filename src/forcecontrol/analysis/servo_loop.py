@@ -9,6 +9,7 @@ structure, :class:`~forcecontrol.controllers.admittance_position.PositionAdmitta
     IK        q_c,k   = (I − J⁺_λ J) q_c,k−1 + J⁺_λ x_t,k  (damped least squares, J at q*)
     delay     u_k     = q_c,k−n_d                          (whole interface cycles)
     low-pass  y_k     = a u_k + (1 − a) y_{k−1}            (a = 1 without one)
+              (velocity interface: v_c = (u_k − u_{k−1})/T, integrated into y at every inner step)
     servo     q̈ = W² (y − q) − 2 Z W q̇  [− B⁻¹ Jᵀ h]     per joint, y held over T (c2d, ZOH);
               the bracket only for the 'dynamic' realisation (contact not compensated)
     contact   h = k_e ν νᵀ J q                             (the force the arm exerts, (9.38))
@@ -90,6 +91,7 @@ class ServoLoop:
         self, *, inertia: np.ndarray, damping: np.ndarray, stiffness: np.ndarray, period: float, bandwidth: Any,
         damping_ratio: Any, delay: int, lowpass: float, J: np.ndarray, ik_damping: float, normal: Any,
         rotation: np.ndarray | None = None, tracking: str = "ideal", B: np.ndarray | None = None,
+        interface: str = "position", substeps: int = 1,
     ) -> None:
         from ..controllers.admittance_position import discretise_admittance
 
@@ -116,6 +118,12 @@ class ServoLoop:
         if tracking == "dynamic" and B is None:
             raise ParameterError("the 'dynamic' servo realisation needs B(q*) (its stiffness is Λ ω²)")
         self.B = None if B is None else np.asarray(B, dtype=np.float64)
+        if interface not in ("position", "velocity"):
+            raise ParameterError(f"interface must be 'position' or 'velocity'; got {interface!r}")
+        if interface == "velocity" and self.a < 1.0:
+            raise ParameterError("a velocity interface has no command low-pass (lowpass must be 1)")
+        self.interface = interface
+        self.substeps = int(substeps)
         # IK map and the joints' coordinates: with the same servo on every joint, x = J q follows that servo
         # from J q_c, so the loop is written exactly in task coordinates (a redundant arm's null-space
         # motion, neither excited by the force nor seen in it, then leaves no pole at z = 1)
@@ -143,6 +151,8 @@ class ServoLoop:
         Xz, Xh = -self.P @ Cz @ self.Ad, -self.P @ Cz @ self.Gd @ self.P.T
         Qq, Qz, Qh = np.eye(n) - Jp @ J, Jp @ Xz, Jp @ Xh
         lp = self.a < 1.0
+        vel = self.interface == "velocity"
+        d = d + 1 if vel else d  # a velocity interface also needs the command before: v_c = (q_c,k−d − q_c,k−d−1)/T
         ns = 2 * m + n + d * n + (n if lp else 0)
         A = np.zeros((ns, ns))
         Bm = np.zeros((ns, m))
@@ -159,14 +169,20 @@ class ServoLoop:
             Bm[ir : ir + n] = Qh
             for j in range(1, d):
                 A[ir + j * n : ir + (j + 1) * n, ir + (j - 1) * n : ir + j * n] = np.eye(n)
-            Cu = np.zeros((n, ns))
-            Cu[:, ir + (d - 1) * n : ir + d * n] = np.eye(n)
-            Du = np.zeros((n, m))
-        else:
-            Cu = np.zeros((n, ns))
-            Cu[:, : 2 * m] = Qz
-            Cu[:, iq:ir] = Qq
-            Du = Qh
+
+        def command(j: int) -> tuple[np.ndarray, np.ndarray]:
+            """(C, D) rows of q_c,k−j: the IK's output itself (j = 0) or ring slot j − 1."""
+            C = np.zeros((n, ns))
+            if j == 0:
+                C[:, : 2 * m], C[:, iq:ir] = Qz, Qq
+                return C, Qh.copy()
+            C[:, ir + (j - 1) * n : ir + j * n] = np.eye(n)
+            return C, np.zeros((n, m))
+
+        if vel:  # outputs [a; b] = [q_c,k−d−1; q_c,k−d] (here d already counts the extra slot)
+            (Ca, Da), (Cb, Db) = command(d), command(d - 1)
+            return control.ss(A, Bm, np.vstack([Ca, Cb]), np.vstack([Da, Db]), self.T)
+        Cu, Du = command(d)
         if lp:  # y_k = a u_k + (1 − a) y_{k−1}; state y_{k−1}
             a = self.a
             Cy = a * Cu
@@ -191,10 +207,37 @@ class ServoLoop:
         A[n:, n:] = -ZW
         if self.tracking == "dynamic":
             A[n:, :n] -= self._Binv @ self._Jx.T @ (k_e * N) @ self._Jx
+        C = np.hstack([k_e * N @ self._Jx, np.zeros((m, n))])
+        if self.interface == "velocity":
+            return self._velocity_plant(A, C)
         Bc = np.zeros((2 * n, n))
         Bc[n:] = W2
-        C = np.hstack([k_e * N @ self._Jx, np.zeros((m, n))])
         return control.c2d(control.ss(A, Bc, C, np.zeros((m, n))), self.T, method="zoh")
+
+    def _velocity_plant(self, A: np.ndarray, C: np.ndarray) -> Any:
+        """A velocity interface over one period, from inputs [a; b] = [q_c,k−d−1; q_c,k−d].
+
+        The servo integrates v = (b − a)/T into its command at every inner step Ts = T/N
+        (y_j = a + j Ts v, held over the step, v its feed-forward), as the simulation does: the
+        period's map is the product of the N exact inner steps.
+        """
+        import control  # type: ignore[import-untyped]
+        from scipy.linalg import expm  # type: ignore[import-untyped]
+
+        n, m, N = self.n, self.m, max(self.substeps, 1)
+        Ts = self.T / N
+        Bc = np.zeros((2 * n, 2 * n))
+        Bc[n:, :n] = np.diag(self.w**2)
+        Bc[n:, n:] = np.diag(2.0 * self.z * self.w)
+        big = np.zeros((4 * n, 4 * n))
+        big[: 2 * n, : 2 * n], big[: 2 * n, 2 * n :] = A * Ts, Bc * Ts
+        E = expm(big)
+        Ai, By, Bv = E[: 2 * n, : 2 * n], E[: 2 * n, 2 * n : 3 * n], E[: 2 * n, 3 * n :]
+        Mx, Ma, Mb = np.eye(2 * n), np.zeros((2 * n, n)), np.zeros((2 * n, n))
+        for j in range(N):
+            f = j / N
+            Mx, Ma, Mb = Ai @ Mx, Ai @ Ma + By * (1.0 - f) - Bv / self.T, Ai @ Mb + By * f + Bv / self.T
+        return control.ss(Mx, np.hstack([Ma, Mb]), C, np.zeros((m, 2 * n)), self.T)
 
     def closed_loop(self, k_e: float) -> Any:
         """The closed loop (positive feedback h = plant(ctrl(h))) as a discrete ss."""
@@ -315,9 +358,8 @@ def admittance_servo_loop(controller: Any, q: Any, normal: Any, *, tracking: str
         tracking: override the servo's realisation (default: the servo's).
 
     Raises:
-        ParameterError: a servo or option the linear model does not describe (velocity interface,
-            velocity feed-forward, joints with different limits active are not modelled: limits are
-            assumed inactive).
+        ParameterError: an option the linear model does not describe (velocity feed-forward; the
+            limits are assumed inactive).
     """
     from ..controllers.admittance_position import PositionAdmittanceController
     from ..spatial.closed_form import euler_xyz_to_rotation
@@ -325,8 +367,6 @@ def admittance_servo_loop(controller: Any, q: Any, normal: Any, *, tracking: str
     if not isinstance(controller, PositionAdmittanceController):
         raise ParameterError(f"controller must be a PositionAdmittanceController; got {type(controller).__name__}")
     servo = controller.servo
-    if servo.interface != "position":
-        raise ParameterError("the sampled-loop analysis models a position interface; got interface = 'velocity'")
     if controller.velocity_feedforward:
         raise ParameterError("the sampled-loop analysis does not model velocity_feedforward = true")
     robot = controller.robot.robot
@@ -350,5 +390,6 @@ def admittance_servo_loop(controller: Any, q: Any, normal: Any, *, tracking: str
         inertia=controller.inertia, damping=controller.damping, stiffness=controller.stiffness,
         period=controller.interface_period, bandwidth=servo.bandwidth, damping_ratio=servo.damping, delay=servo.delay,
         lowpass=servo.lowpass_gain(), J=J, ik_damping=controller.ik_damping, normal=nu, rotation=P,
-        tracking=tracking or servo.tracking, B=np.asarray(robot.mass_matrix(q)),
+        tracking=tracking or servo.tracking, B=np.asarray(robot.mass_matrix(q)), interface=servo.interface,
+        substeps=controller.steps_per_cycle,
     )

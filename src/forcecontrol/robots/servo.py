@@ -126,6 +126,8 @@ class JointServo:
             s(self, name, _per_joint(name, getattr(self, name), self.nq))
         if self.lowpass_cutoff is not None:
             s(self, "lowpass_cutoff", positive_scalar("lowpass_cutoff", self.lowpass_cutoff, "Hz"))
+            if self.interface == "velocity":
+                raise ParameterError("lowpass_cutoff filters position commands; a velocity interface has none (give None)")
 
     # -- derived numbers
     @property

@@ -56,8 +56,8 @@ def _applies(parts: dict[str, Any]) -> bool:
     from ..controllers.admittance_position import PositionAdmittanceController
 
     ctl, env = parts["controller"], parts["environment"]
-    return (isinstance(ctl, PositionAdmittanceController) and ctl.servo.interface == "position"
-            and not ctl.velocity_feedforward and _normal_stiffness(env) is not None)
+    return (isinstance(ctl, PositionAdmittanceController) and not ctl.velocity_feedforward
+            and _normal_stiffness(env) is not None)
 
 
 def _normal_stiffness(env: Any) -> tuple[np.ndarray, float] | None:
