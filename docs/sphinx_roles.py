@@ -272,7 +272,7 @@ def resolve_markers(pages, autorefs: Any) -> Counter:
                 return text
             if kind == "stale":
                 counts["stale"] += 1
-                log.info("%s: cross-reference %s names an old path; linked to its new place (fix the docstring)",
+                log.warning("%s: cross-reference %s names an old path; linked to its new place (fix the docstring)",
                          where, note)
             else:
                 counts["linked"] += 1

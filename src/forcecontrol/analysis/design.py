@@ -29,7 +29,7 @@ outside ±2 % of its final value. Margins and settling are evaluated at k_min, �
 and k_max.
 
 The search, per scheme: the force schemes place the continuous poles at the reference
-stiffness k_max (:func:`~forcecontrol.analysis.force.design_force_gains`: ζ, and the PI's real
+stiffness k_max (:func:`~forcecontrol.analysis.force_design.design_force_gains`: ζ, and the PI's real
 pole at ω_n) and scan ω_n; impedance scans K_D (M_d, K_P are the task's). The fastest
 candidate (smallest worst-case settling time) whose margins hold at the three stiffnesses is
 returned; if none does, or the settling target is missed, a :class:`ParameterError` says what is

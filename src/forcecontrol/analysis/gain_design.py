@@ -144,7 +144,7 @@ def design_gains(
         inertia: M_d / m_d [kg]; stiffness: K_P / k_P [N/m] (kept: the task's choice; the force
             schemes' position loop, the impedance's free-space stiffness).
         arm_inertia: the arm's operational mass along the axis [kg] (see
-            :func:`~forcecontrol.analysis.force.operational_mass`), or None.
+            :func:`~forcecontrol.analysis.force_design.operational_mass`), or None.
 
     Returns:
         A :class:`GainDesign` (gains and the margins/settling at k_min, √(k_min k_max), k_max).

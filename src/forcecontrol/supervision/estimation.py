@@ -14,7 +14,7 @@ run only on samples in contact (f_n above ``contact_force``). The covariance is 
 (its trace at most ``max_covariance``) so that forgetting without excitation (a steady press)
 cannot wind it up. The residual variance is tracked with the same forgetting, so
 ``std = sqrt(σ̂² P₀₀)`` is the estimate's standard deviation and :meth:`interval` a range of
-stiffness the gain design (:func:`forcecontrol.analysis.design.design_gains`) can use.
+stiffness the gain design (:func:`forcecontrol.analysis.gain_design.design_gains`) can use.
 """
 
 from __future__ import annotations
