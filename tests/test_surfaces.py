@@ -283,3 +283,16 @@ def test_mujoco_refuses_friction_and_height_fields_by_name():
         MujocoPlant(ARM, FrictionalContact(circle, 0.3, 0.2))
     with pytest.raises(ParameterError, match="models ElasticSphere and ElasticCylinder surfaces; got HeightField"):
         MujocoPlant(ARM, HeightField(np.linspace(0.0, 0.1, 8), [0.5], 0.1, 1e4))
+
+
+def test_panda_sphere_scenario_traces_at_10_newtons():
+    """The built-in 'panda-sphere' (6-D impedance, 3-D arc reference): while tracing, the normal force stays within
+    ±1 N of the closed form k k_p (R − r_d)/(k_p + k) = 10 N and the tip slides at 5 cm/s (2 %)."""
+    pytest.importorskip("pinocchio")
+    run = fc.scenario("panda-sphere").run()
+    r = run.cases[0].result
+    cruise = (r.t > 0.8) & (r.t < 2.3)
+    expected = 1e4 * 1000.0 * (0.2 - 0.189) / (1000.0 + 1e4)
+    assert np.max(np.abs(r.signals["normal_force"][cruise] - expected)) < 1.0
+    np.testing.assert_allclose(r.signals["tangential_speed"][cruise], 0.05, rtol=0.02)
+    assert run.all_checks_pass and run.cases[0].checks

@@ -46,12 +46,18 @@ NO_EFFECT = {
     ("panda-table-line", "reference.end_offset"): "the line starts at 0.5 s, after the run",
     ("panda-table-line", "reference.duration"): "the line starts at 0.5 s, after the run",
     ("panda-table-line", "reference.start_time"): "the line starts at 0.5 s (0.65 s perturbed), after the run",
+    ("panda-sphere", "reference.end_angle"): "the arc starts at 0.3 s, after the run",
+    ("panda-sphere", "reference.speed"): "the arc starts at 0.3 s, after the run",
+    ("panda-sphere", "reference.start_time"): "the arc starts at 0.3 s (0.39 s perturbed), after the run",
+    ("panda-sphere", "reference.accel_time"): "the arc starts at 0.3 s, after the run",
+    ("panda-sphere", "reference.axis"): "a direction: x 1.3 is the same axis",
+    ("panda-sphere", "reference.first"): "a direction: x 1.3 is the same direction",
 }
 
 
-def test_the_6d_builtins_are_the_three_panda_scenarios():
+def test_the_6d_builtins_are_the_panda_and_ur5_scenarios():
     """The parametrisation below covers the 6-D built-ins `forcecontrol list` shows."""
-    assert SIX_D == ["panda-admittance-contact", "panda-peg-in-hole", "panda-table-line"]
+    assert SIX_D == ["panda-admittance-contact", "panda-peg-in-hole", "panda-sphere", "panda-table-line", "ur5-admittance-servo"]
 
 
 @pytest.mark.parametrize("name", SIX_D)

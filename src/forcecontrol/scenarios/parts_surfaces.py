@@ -136,15 +136,39 @@ register_environment(
 # ----------------------------------------------------------------------------- references
 
 
+def _arc_basis(dim: int, axis: Any, first: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(e1, e2): the arc's θ = 0 direction and its quarter turn; planar: x and y; 3-D: e1 = ``first`` made
+    normal to ``axis``, e2 = axis × e1 (θ grows counter-clockwise about the axis)."""
+    if dim == 2:
+        return np.array([1.0, 0.0]), np.array([0.0, 1.0])
+    n = np.asarray(axis if axis is not None else [0.0, 0.0, 1.0], dtype=np.float64)
+    f = np.asarray(first if first is not None else [1.0, 0.0, 0.0], dtype=np.float64)
+    if n.shape != (3,) or f.shape != (3,) or not np.linalg.norm(n) > 0:
+        raise ParameterError(f"axis and first must be non-zero 3-vectors for a 3-D arc; got {n.tolist()}, {f.tolist()}")
+    n = n / np.linalg.norm(n)
+    e1 = f - float(f @ n) * n
+    if not np.linalg.norm(e1) > 1e-9:
+        raise ParameterError(f"first must not be parallel to axis; got first = {f.tolist()}, axis = {n.tolist()}")
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(n, e1)
+
+
 def arc_reference(center: Any, radius: float, start_angle: float, end_angle: float, speed: float,
-                  start_time: float = 0.0, accel_time: float = 0.5) -> SampledReference:
-    """x_d on the arc ``c + r (cos θ, sin θ)`` from ``start_angle`` to ``end_angle`` [deg] at the tangential
-    ``speed`` [m/s], with a linear speed ramp over ``accel_time`` at both ends; held before and after."""
+                  start_time: float = 0.0, accel_time: float = 0.5, *, axis: Any = None, first: Any = None,
+                  orientation: Any = None) -> SampledReference:
+    """x_d on the arc ``c + r (cos θ e1 + sin θ e2)`` from ``start_angle`` to ``end_angle`` [deg] at the tangential
+    ``speed`` [m/s], with a linear speed ramp over ``accel_time`` at both ends; held before and after.
+
+    Planar (c of 2 components): e1, e2 = x, y. 3-D: the arc lies in the plane normal to ``axis`` (default z),
+    θ from ``first`` (default x, made normal to the axis). ``orientation`` (3 XYZ Euler angles [rad]) makes it a
+    pose reference ``[o_d; φ_d]`` with that orientation held (6-D robots).
+    """
     c = np.asarray(center, dtype=np.float64)
-    if c.shape != (2,):
-        raise ParameterError(f"center must have 2 components (the planar arm's arc); got shape {c.shape}")
+    if c.shape not in ((2,), (3,)):
+        raise ParameterError(f"center must have 2 (planar) or 3 components; got shape {c.shape}")
     if not (radius > 0 and speed > 0 and accel_time > 0):
         raise ParameterError(f"radius, speed and accel_time must be positive; got {radius!r}, {speed!r}, {accel_time!r}")
+    e1, e2 = _arc_basis(c.shape[0], axis, first)
     a0, a1 = math.radians(start_angle), math.radians(end_angle)
     length = abs(a1 - a0) * radius
     if length == 0.0:
@@ -156,28 +180,57 @@ def arc_reference(center: Any, radius: float, start_angle: float, end_angle: flo
     up = np.clip(t / accel_time, 0.0, 1.0)
     down = np.clip((total - t) / accel_time, 0.0, 1.0)
     ds = v * np.minimum(up, down)  # the trapezoidal speed, integrated below (trapezoid rule: exact for linear pieces)
+    dds = np.where(t < accel_time, v / accel_time, 0.0) - np.where(t > total - accel_time, v / accel_time, 0.0)
     s = np.concatenate([[0.0], np.cumsum(0.5 * (ds[1:] + ds[:-1]) * np.diff(t))])
-    s *= length / s[-1]
-    theta = a0 + math.copysign(1.0, a1 - a0) * s / radius
-    pos = c + radius * np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    scale = length / s[-1]
+    sign = math.copysign(1.0, a1 - a0)
+    theta = a0 + sign * s * scale / radius
+    w, wd = sign * ds * scale / radius, sign * dds * scale / radius  # θ̇, θ̈
+    radial = np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
+    tangent = -np.sin(theta)[:, None] * e1 + np.cos(theta)[:, None] * e2
+    pos = c + radius * radial
+    vel = radius * w[:, None] * tangent
+    acc = radius * (wd[:, None] * tangent - (w * w)[:, None] * radial)
+    if orientation is not None:
+        pos = np.hstack([pos, np.broadcast_to(np.asarray(orientation, dtype=np.float64), (pos.shape[0], 3))])
+        vel, acc = (np.hstack([a, np.zeros((a.shape[0], 3))]) for a in (vel, acc))
     times = t + start_time
-    if start_time > 0.0:
-        times, pos = np.concatenate([[0.0], times]), np.vstack([pos[:1], pos])
-    return SampledReference(times, pos, interpolation="cubic")
+    if start_time > 0.0:  # held at rest before: zero rate up to 1 ms before the start (where the speed ramp's step is)
+        hold = [0.0] if start_time <= 0.002 else [0.0, start_time - 0.001]
+        times = np.concatenate([hold, times])
+        pos = np.vstack([np.repeat(pos[:1], len(hold), axis=0), pos])
+        vel, acc = (np.vstack([np.zeros((len(hold), a.shape[1])), a]) for a in (vel, acc))
+    # exact rates, interpolated linearly between 5 ms samples: local (a global spline would ring ahead of the motion)
+    return SampledReference(times, pos, interpolation="linear", velocity=vel, acceleration=acc)
+
+
+def _arc(p: dict[str, Any], ctx: dict[str, Any]) -> SampledReference:
+    robot = ctx["robot"]
+    orientation = None
+    if int(robot.task_dim) == 6:  # a pose task: the start orientation held
+        from ..spatial.closed_form import rotation_to_euler_xyz
+
+        R0, _ = robot.frame_pose(ctx["q0"])
+        orientation = rotation_to_euler_xyz(R0)
+    elif len(p["center"]) != int(robot.task_dim):
+        raise ParameterError(f"center must have {int(robot.task_dim)} components for this robot; got {len(p['center'])}")
+    return arc_reference(p["center"], p["radius"], p["start_angle"], p["end_angle"], p["speed"], p["start_time"],
+                         p["accel_time"], axis=p["axis"], first=p["first"], orientation=orientation)
 
 
 register_reference(
     "arc",
     {
-        "center": Field("vector", True, low=-100.0, high=100.0, doc="the arc's centre [m] (planar)"),
+        "center": Field("vector", True, low=-100.0, high=100.0, doc="the arc's centre [m] (2 components planar, 3 in 3-D)"),
         "radius": Field("number", True, low=0.0, high=100.0, doc="its radius [m]"),
         "start_angle": Field("number", True, low=-720.0, high=720.0, doc="θ at the start [deg]"),
         "end_angle": Field("number", True, low=-720.0, high=720.0, doc="θ at the end [deg]"),
         "speed": Field("number", True, low=0.0, high=10.0, doc="tangential speed of x_d [m/s]"),
         "start_time": Field("number", default=0.0, low=0.0, high=1e5, doc="when x_d starts moving [s]"),
         "accel_time": Field("number", default=0.5, low=0.0, high=1e5, doc="speed ramp at both ends [s]"),
+        "axis": Field("vector", low=-1e6, high=1e6, doc="3-D: the normal of the arc's plane (default z)"),
+        "first": Field("vector", low=-1e6, high=1e6, doc="3-D: the direction of θ = 0 (default x)"),
     },
-    lambda p, ctx: arc_reference(p["center"], p["radius"], p["start_angle"], p["end_angle"], p["speed"],
-                                 p["start_time"], p["accel_time"]),
-    "x_d along a circular arc at a constant tangential speed (planar), speed ramped at both ends",
+    _arc,
+    "x_d along a circular arc at a constant tangential speed (planar or 3-D; a 6-D robot holds its start orientation)",
 )
