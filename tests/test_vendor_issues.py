@@ -91,3 +91,22 @@ def test_reported_problem_reproduces_and_the_proposed_setting_settles(name, k_e,
     assert np.any(reported[n // 2 :] > -1e-9)  # contact lost again and again: the bounce
     assert not np.any(fixed[n // 2 :] > -1e-9)
     assert fixed[-1] == pytest.approx(-10.0 * k_e / (stiffness + k_e), rel=0.01)
+
+
+@pytest.mark.parametrize("name, k_e, stiffness", [
+    ("fzi_issue_21.toml", 2e5, 140.0), ("fzi_issue_171.toml", 1e5, 900.0), ("fzi_issue_151.toml", 3e4, 900.0),
+])
+def test_reproductions_hold_in_mujoco(name, k_e, stiffness):
+    """The same scenarios with MuJoCo as the plant: the reported parameters bounce, the proposed ones settle at the
+    closed-form force within 1 %."""
+    pytest.importorskip("mujoco")
+    from forcecontrol.scenarios import run_scenario
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = run_scenario(CONFIGS / name, engine="mujoco")
+    reported, fixed = (np.asarray(c.result.wrench)[:, 2] for c in run.cases)
+    n = len(reported)
+    assert np.any(reported[n // 2 :] > -1e-9)
+    assert not np.any(fixed[n // 2 :] > -1e-9)
+    assert fixed[-1] == pytest.approx(-10.0 * k_e / (stiffness + k_e), rel=0.01)
