@@ -193,3 +193,13 @@ def test_replay_set_changes_the_replayed_controller(tmp_path):
     other = _json("replay", "example-9.2", log, "--out", str(tmp_path / "b"), "--set", "controller.stiffness=[5000,5000]")
     assert same["set"] == {} and other["set"] == {"controller.stiffness": [5000, 5000]}
     assert same["metrics"]["torque_difference_max"] < 1e-3 < other["metrics"]["torque_difference_max"]
+
+
+def test_design_json_units_cover_every_requirement_of_every_scheme():
+    """`design SCHEME --json`: every numeric requirement and check field has its unit, for each scheme (servo ones too)."""
+    for scheme in ("impedance", "inner-velocity", "hybrid", "admittance-position"):
+        doc = _json("design", scheme, "--k-min", "1000", "--k-max", "5000")
+        numbers = [k for k, v in doc["requirements"].items() if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        numbers += [k for c in doc["checks"] for k in c]
+        assert not [k for k in numbers if k not in doc["units"]], (scheme, doc["units"])
+        assert all(f"gains.{g}" in doc["units"] for g in doc["gains"]), scheme

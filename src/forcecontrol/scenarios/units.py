@@ -30,6 +30,7 @@ _NAMED = {
     "k": "N/m", "k_min": "N/m", "k_max": "N/m", "stiffness_range": "N/m", "phase_margin_deg": "deg",
     "gain_margin_db": "dB", "spectral_radius": "-", "sample_time": "s", "delay_samples": "samples",
     "filter_cutoff": "Hz", "arm_inertia": "kg", "damping_ratio": "-", "seconds": "s", "arm_steps_per_second": "1/s",
+    "rate": "Hz", "servo_bandwidth": "rad/s", "servo_damping": "-", "delay_cycles": "cycles", "lowpass_cutoff": "Hz",
 }
 _JOINT = re.compile(r"^(q|qd|u|uc)\d+$")
 _JOINT_UNITS = {"q": "rad", "qd": "rad/s", "u": "N m", "uc": "N m"}
