@@ -39,7 +39,7 @@ def test_analyze_table_shows_each_quantity_with_its_unit():
 
 
 @pytest.mark.parametrize("name", ["example-9.1", "example-9.2", "example-9.3", "example-9.4", "hybrid-rigid-plane",
-                                  "problem-9.3", "problem-9.10", "variable-stiffness"])
+                                  "problem-9.3", "problem-9.10", "variable-stiffness", "servo-admittance"])
 def test_analyze_json_units_cover_every_number(name):
     """`analyze NAME --json` has a units map naming the unit of every numeric analysis quantity of every case."""
     doc = _json("analyze", name)

@@ -30,6 +30,9 @@ _NAMED = {
     "k": "N/m", "k_min": "N/m", "k_max": "N/m", "stiffness_range": "N/m", "phase_margin_deg": "deg",
     "gain_margin_db": "dB", "spectral_radius": "-", "sample_time": "s", "delay_samples": "samples",
     "filter_cutoff": "Hz", "arm_inertia": "kg", "damping_ratio": "-", "seconds": "s", "arm_steps_per_second": "1/s",
+    "servo_loop_spectral_radius": "-", "servo_loop_stability_limit": "N/m", "servo_loop_gain_margin_db": "dB",
+    "servo_loop_phase_margin": "deg", "servo_loop_least_damped_omega_n": "rad/s", "servo_loop_least_damped_zeta": "-",
+    "servo_loop_force_per_penetration": "N/m",
     "rate": "Hz", "servo_bandwidth": "rad/s", "servo_damping": "-", "delay_cycles": "cycles", "lowpass_cutoff": "Hz",
 }
 _JOINT = re.compile(r"^(q|qd|u|uc)\d+$")
