@@ -137,3 +137,19 @@ def test_franka_on_panda_settles_at_the_springs_in_series():
     res = simulate(arm, env, ctl, Setpoint(xd), q0=PANDA_READY, duration=2.0)
     expected = (200.0 * -0.02 + 2000.0 * -0.005) / 2200.0
     assert res.x[-1][2] - x0[2] == pytest.approx(expected, rel=0.01)
+
+
+def test_ur_force_mode_says_when_a_non_compliant_axis_exceeds_its_deviation_limit(arm, robot):
+    """Program pose 5 cm above the arm, z non-compliant with a 1 cm limit: a 'force-mode-deviation' event (the
+    protective stop a UR would make) is logged and warned, naming the axis, the deviation and the limit."""
+    ctl = UrForceModeController(robot, selection_vector=[1, 0, 0, 0, 0, 0], wrench=[0.0] * 6,
+                                limits=[0.1, 0.1, 0.01, 0.785, 0.785, 0.785])
+    xt = arm.forward_kinematics(Q0).copy()
+    xt[2] += 0.05
+    ref = Reference.setpoint(xt)
+    m = Measurement(Q0, np.zeros(6), np.zeros(6))
+    ctl.reset(m, ref)
+    with pytest.warns(UserWarning, match="non-compliant axis z is -0.05, beyond its limit 0.01"):
+        ctl.command(0.0, m, ref)
+    assert [e["event"] for e in ctl.events][0] == "force-mode-deviation"
+    assert ctl.deviation_exceeded[1] == "z"

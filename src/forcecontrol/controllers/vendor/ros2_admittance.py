@@ -111,6 +111,7 @@ class Ros2AdmittanceController(PositionInterfaceController):
         ref = self._ik.solve(s[:n], np.asarray(reference.position, dtype=np.float64),
                              np.asarray(reference.velocity, dtype=np.float64))
         s[:n] = ref.q
+        self._episode(t, "ik-limit", self._ik.last_limited, lambda: "the joint reference's IK limits held it back")
         R, p, J = pose(self.robot, q)
         R_r, p_r = self.robot.frame_pose(ref.q)
         x = pose_error(R, p, np.asarray(R_r), np.asarray(p_r))

@@ -30,7 +30,8 @@ class UrForceModeController(PositionInterfaceController):
     (:class:`~forcecontrol.robots.ik.DifferentialIK`). ``F`` is the measured wrench the robot
     applies to the environment (h_e) in the task frame; the loop settles where it equals
     ``wrench`` on the compliant axes. The non-compliant axes' ``limits`` are deviations before a
-    protective stop: the first excess is recorded in :attr:`deviation_exceeded` (time, axis, value).
+    protective stop: an excess is logged as a ``force-mode-deviation`` event (warned once; the first
+    also in :attr:`deviation_exceeded`: time, axis, value); the IK's limits as ``ik-limit``.
 
     Args:
         robot: a :class:`~forcecontrol.robots.servo.PositionInterfaceRobot` on a 6-D arm.
@@ -96,14 +97,16 @@ class UrForceModeController(PositionInterfaceController):
         off = s[6:12]
         p_c = p_p + Rt @ off[:3]
         R_c = rotvec_to_rotation(Rt @ off[3:]) @ R_p
-        if self.deviation_exceeded is None:
-            R_m, p_m = self.robot.frame_pose(np.asarray(measurement.q, dtype=np.float64))
-            dev = pose_error(np.asarray(R_m), np.asarray(p_m), R_p, p_p)
-            dev = np.concatenate([Rt.T @ dev[:3], Rt.T @ dev[3:]])
-            for i in range(6):
-                if self.selection_vector[i] == 0.0 and abs(dev[i]) > self.limits[i]:
-                    self.deviation_exceeded = (float(t), ("x", "y", "z", "rx", "ry", "rz")[i], float(dev[i]))
-                    break
+        R_m, p_m = self.robot.frame_pose(np.asarray(measurement.q, dtype=np.float64))
+        dev = pose_error(np.asarray(R_m), np.asarray(p_m), R_p, p_p)
+        dev = np.concatenate([Rt.T @ dev[:3], Rt.T @ dev[3:]])
+        over = [i for i in range(6) if self.selection_vector[i] == 0.0 and abs(dev[i]) > self.limits[i]]
+        if over and self.deviation_exceeded is None:
+            self.deviation_exceeded = (float(t), ("x", "y", "z", "rx", "ry", "rz")[over[0]], float(dev[over[0]]))
+        self._episode(t, "force-mode-deviation", bool(over), lambda: (
+            f"the deviation from the program's pose on non-compliant axis {('x', 'y', 'z', 'rx', 'ry', 'rz')[over[0]]} is "
+            f"{dev[over[0]]:.4g}, beyond its limit {self.limits[over[0]]:g}: a UR controller would stop (protective stop)"))
         cmd = self._ik.solve(s[12:], np.concatenate([p_c, rotation_to_euler_xyz(R_c)]))
+        self._episode(t, "ik-limit", self._ik.last_limited, lambda: "the IK's joint or speed limits held the command back")
         s[12:] = cmd.q
         return cmd
