@@ -51,7 +51,6 @@ NO_EFFECT = {
     ("panda-sphere", "reference.start_time"): "the arc starts at 0.3 s (0.39 s perturbed), after the run",
     ("panda-sphere", "reference.accel_time"): "the arc starts at 0.3 s, after the run",
     ("panda-sphere", "reference.axis"): "a direction: x 1.3 is the same axis",
-    ("panda-sphere", "reference.first"): "a direction: x 1.3 is the same direction",
 }
 
 
