@@ -9,6 +9,7 @@ import numpy as np
 from ...core.validate import nonnegative_scalar, positive_scalar
 from ...errors import ParameterError
 from ...laws.vendor import franka_impedance_torque
+from ...laws.vendor.layout import FRANKA, FRANKA_STATE
 from ..base import Controller, Measurement, Reference
 from .common import pose, require_pose_robot, target_pose
 
@@ -101,21 +102,23 @@ class FrankaCartesianImpedanceController(Controller):
         self.soft_start = soft_start
         n = int(robot.nq)
         K = np.array([self.translational_stiffness] * 3 + [self.rotational_stiffness] * 3)
-        self._p = np.concatenate([K, 2.0 * np.sqrt(K), [self.nullspace_stiffness, self.delta_tau_max, a, self.pinv_damping],
-                                  np.zeros(n)])
-        # state: [K (6), D (6), k_ns, τ_J_d (n), p_d (3), quat_d (4)]
-        self.state = np.zeros(13 + n + 7)
+        self._p = FRANKA.pack(6, n, K=K, D=2.0 * np.sqrt(K), k_ns=self.nullspace_stiffness, delta_tau_max=self.delta_tau_max,
+                              filter=a, pinv_damping=self.pinv_damping, q_ns=np.zeros(n))
+        # state: the law's (K, D, k_ns, τ_J_d), then the filtered equilibrium p_d (3), quat_d (4)
+        self._ns = FRANKA_STATE.size(6, n)
+        self.state = np.zeros(self._ns + 7)
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         n = int(self.robot.nq)
         self.state[:] = 0.0
         if not self.soft_start:
-            self.state[:13] = self._p[:13]
+            for block in ("K", "D", "k_ns"):
+                self.state[FRANKA_STATE.slice(block, 6, n)] = self._p[FRANKA.slice(block, 6, n)]
         q = np.zeros(n) if measurement is None else np.asarray(measurement.q, dtype=np.float64)
-        self._p[16:] = q
+        self._p[FRANKA.slice("q_ns", 6, n)] = q
         R, p = self.robot.frame_pose(q)
-        self.state[13 + n : 16 + n] = p
-        self.state[16 + n :] = quat_from_matrix(np.asarray(R))
+        self.state[self._ns : self._ns + 3] = p
+        self.state[self._ns + 3 :] = quat_from_matrix(np.asarray(R))
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         n = int(self.robot.nq)
@@ -123,7 +126,7 @@ class FrankaCartesianImpedanceController(Controller):
         q = np.asarray(measurement.q, dtype=np.float64)
         qd = np.asarray(measurement.qd, dtype=np.float64)
         R, p, J = pose(self.robot, q)
-        p_d, quat_d = s[13 + n : 16 + n], s[16 + n :]
+        p_d, quat_d = s[self._ns : self._ns + 3], s[self._ns + 3 :]
         quat = quat_from_matrix(R)
         if quat_d @ quat < 0:
             quat = -quat
@@ -135,7 +138,7 @@ class FrankaCartesianImpedanceController(Controller):
         if F is not None:
             coriolis = coriolis - np.asarray(F) @ qd
         u = np.empty(n)
-        franka_impedance_torque(J, e, qd, q, coriolis, self._p, s[: 13 + n], u)
+        franka_impedance_torque(J, e, qd, q, coriolis, self._p, s[: self._ns], u)
         a = self.filter_coefficient
         R_t, p_t = target_pose(np.asarray(reference.position, dtype=np.float64))
         p_d[:] = a * p_t + (1.0 - a) * p_d

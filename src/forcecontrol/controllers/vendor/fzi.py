@@ -9,6 +9,7 @@ import numpy as np
 from ...core.validate import positive_scalar
 from ...errors import ParameterError
 from ...laws.vendor import fdcc_error, fdcc_step
+from ...laws.vendor.layout import FDCC, FDCC_STATE
 from ...robots.ik import JointCommand, model_limits
 from ..base import Measurement, Reference
 from ..position_interface import PositionInterfaceController
@@ -88,17 +89,17 @@ class FziComplianceController(PositionInterfaceController):
         self._lo = np.full(n, -np.inf) if lo is None else lo
         self._hi = np.full(n, np.inf) if hi is None else hi
         self._Lv = np.diag([self.virtual_mass] * 3 + [self.virtual_inertia] * 3)
-        self._pp = np.concatenate([self.p, self.d, [self.error_scale, self.internal_period, 0.9,
-                                                    1.0 if solver == "instantaneous" else 0.0]])
+        self._pp = FDCC.pack(6, P=self.p, D_g=self.d, error_scale=self.error_scale, h=self.internal_period, decay=0.9,
+                             instantaneous=1.0 if solver == "instantaneous" else 0.0)
 
     def law_state_size(self) -> int:
         """``[q̇ (n), e_prev (6), q_cmd (n)]``: the solver's velocity, the PD's last error, the last command."""
-        return 2 * int(self.robot.nq) + 6
+        return FDCC_STATE.size(6, int(self.robot.nq)) + int(self.robot.nq)
 
     def reset_law(self, measurement: Measurement | None, reference: Reference | None) -> None:
         n = int(self.robot.nq)
         if measurement is not None:
-            self.law_state[n + 6 :] = np.asarray(measurement.q, dtype=np.float64)
+            self.law_state[FDCC_STATE.size(6, n) :] = np.asarray(measurement.q, dtype=np.float64)
 
     def virtual_inertia_matrix(self, J: np.ndarray) -> np.ndarray:
         """``H_v = Jᵀ Λ_v J + 10⁻⁶ I`` (n, n) at the Jacobian J (6, n)."""
@@ -107,7 +108,8 @@ class FziComplianceController(PositionInterfaceController):
     def command(self, t: float, measurement: Measurement, reference: Reference) -> JointCommand:
         n = int(self.robot.nq)
         s = self.law_state
-        law, q_last = s[: n + 6], s[n + 6 :]
+        k = FDCC_STATE.size(6, n)
+        law, q_last = s[:k], s[k:]
         h = check_measurement(type(self).__name__, measurement.wrench)
         R_prev, p_prev = self.robot.frame_pose(q_last)  # the previous command's pose (no kinematics update after sync)
         q = q_last.copy() if self.solver == "instantaneous" else np.array(measurement.q, dtype=np.float64)

@@ -9,6 +9,7 @@ import numpy as np
 from ...core.validate import nonnegative_scalar
 from ...errors import ParameterError
 from ...laws.vendor import gravity_compensate, ros2_admittance_rule
+from ...laws.vendor.layout import ROS2_ADMITTANCE, ROS2_ADMITTANCE_STATE
 from ...robots.ik import DifferentialIK, JointCommand
 from ..base import Measurement, Reference
 from ..position_interface import PositionInterfaceController
@@ -90,13 +91,14 @@ class Ros2AdmittanceController(PositionInterfaceController):
         self.control_frame, self.payload_frame = control_frame, payload_frame
         self.kinematics_failures = 0
         super().__init__(robot, sample_time)
-        self._p = np.concatenate([self.mass, self.damping, self.stiffness, self.selected_axes.astype(float),
-                                  [self.joint_damping, self.filter_coefficient, self.kinematics_alpha]])
+        self._p = ROS2_ADMITTANCE.pack(6, mass=self.mass, damping=self.damping, stiffness=self.stiffness,
+                                       selected=self.selected_axes.astype(float), joint_damping=self.joint_damping,
+                                       filter_coefficient=self.filter_coefficient, dls_alpha=self.kinematics_alpha)
         self._ik = DifferentialIK(robot, self.interface_period, damping=1e-3)
 
     def law_state_size(self) -> int:
         """``[q_ref (n), q_a (n), q̇_a (n), ẋ (6), w_f (6)]``."""
-        return 3 * int(self.robot.nq) + 12
+        return int(self.robot.nq) + ROS2_ADMITTANCE_STATE.size(6, int(self.robot.nq))
 
     def reset_law(self, measurement: Measurement | None, reference: Reference | None) -> None:
         n = int(self.robot.nq)
@@ -124,4 +126,4 @@ class Ros2AdmittanceController(PositionInterfaceController):
             self.kinematics_failures += 1
             return JointCommand(ref.q.copy(), None)  # type: ignore[arg-type]  # the project writes the reference unchanged
         # the position command interface (the example's command_interfaces): positions only, no velocity feed-forward
-        return JointCommand(ref.q + law[:n], None)  # type: ignore[arg-type]
+        return JointCommand(ref.q + law[ROS2_ADMITTANCE_STATE.slice("q_a", 6, n)], None)  # type: ignore[arg-type]

@@ -9,6 +9,7 @@ import numpy as np
 from ...core.validate import positive_scalar
 from ...errors import ParameterError
 from ...laws.vendor import ur_force_mode_step
+from ...laws.vendor.layout import UR_FORCE_MODE, UR_FORCE_MODE_STATE
 from ...robots.ik import DifferentialIK, JointCommand
 from ...spatial.closed_form import rotation_to_euler_xyz, rotvec_to_rotation
 from ..base import Measurement, Reference
@@ -75,16 +76,18 @@ class UrForceModeController(PositionInterfaceController):
         self.deviation_exceeded: tuple[float, str, float] | None = None
         super().__init__(robot, sample_time)
         self._R_task = rotvec_to_rotation(self.task_frame[3:])
-        self._p = np.concatenate([sel, self.wrench, self.limits, [self.gain, self.gain_scaling, self.damping]])
+        self._p = UR_FORCE_MODE.pack(6, selection=sel, wrench=self.wrench, limits=self.limits, gain=self.gain,
+                                     gain_scaling=self.gain_scaling, damping=self.damping)
+        self._k = UR_FORCE_MODE_STATE.size(6)
         self._ik = DifferentialIK(robot, self.interface_period, damping=1e-3)
 
     def law_state_size(self) -> int:
         """``[v (6), offset (6), q_cmd (n)]``."""
-        return 12 + int(self.robot.nq)
+        return UR_FORCE_MODE_STATE.size(6) + int(self.robot.nq)
 
     def reset_law(self, measurement: Measurement | None, reference: Reference | None) -> None:
         if measurement is not None:
-            self.law_state[12:] = np.asarray(measurement.q, dtype=np.float64)
+            self.law_state[UR_FORCE_MODE_STATE.size(6) :] = np.asarray(measurement.q, dtype=np.float64)
         self.deviation_exceeded = None
 
     def command(self, t: float, measurement: Measurement, reference: Reference) -> JointCommand:
@@ -92,9 +95,10 @@ class UrForceModeController(PositionInterfaceController):
         Rt = self._R_task
         h = check_measurement("UrForceModeController", measurement.wrench)
         F = np.concatenate([Rt.T @ h[:3], Rt.T @ h[3:]])
-        ur_force_mode_step(self.interface_period, F, self._p, s[:12])
+        k = self._k
+        ur_force_mode_step(self.interface_period, F, self._p, s[:k])
         R_p, p_p = target_pose(np.asarray(reference.position, dtype=np.float64))
-        off = s[6:12]
+        off = s[UR_FORCE_MODE_STATE.slice("offset", 6)]
         p_c = p_p + Rt @ off[:3]
         R_c = rotvec_to_rotation(Rt @ off[3:]) @ R_p
         R_m, p_m = self.robot.frame_pose(np.asarray(measurement.q, dtype=np.float64))
@@ -106,7 +110,7 @@ class UrForceModeController(PositionInterfaceController):
         self._episode(t, "force-mode-deviation", bool(over), lambda: (
             f"the deviation from the program's pose on non-compliant axis {('x', 'y', 'z', 'rx', 'ry', 'rz')[over[0]]} is "
             f"{dev[over[0]]:.4g}, beyond its limit {self.limits[over[0]]:g}: a UR controller would stop (protective stop)"))
-        cmd = self._ik.solve(s[12:], np.concatenate([p_c, rotation_to_euler_xyz(R_c)]))
+        cmd = self._ik.solve(s[k:], np.concatenate([p_c, rotation_to_euler_xyz(R_c)]))
         self._episode(t, "ik-limit", self._ik.last_limited, lambda: "the IK's joint or speed limits held the command back")
-        s[12:] = cmd.q
+        s[k:] = cmd.q
         return cmd

@@ -13,6 +13,20 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .layout import (
+    FRANKA_K,
+    FRANKA_STATE_K,
+    franka_D,
+    franka_delta_tau_max,
+    franka_filter,
+    franka_k_ns,
+    franka_pinv_damping,
+    franka_q_ns,
+    franka_state_D,
+    franka_state_k_ns,
+    franka_state_tau_J_d,
+)
+
 
 @njit(cache=True)
 def franka_impedance_torque(J, e, qd, q, coriolis, p, s, u):  # pragma: no cover - compiled
@@ -34,23 +48,25 @@ def franka_impedance_torque(J, e, qd, q, coriolis, p, s, u):  # pragma: no cover
     Args:
         J: (m, n) zero Jacobian of the end effector; e: (m,) the pose error (position minus
             desired; orientation ``−R vec(quat⁻¹ ⊗ quat_d)``); qd, q: (n,); coriolis: (n,) C q̇.
-        p: ``[K_target (m), D_target (m), k_ns_target, Δτ_max, a, λ, q_ns (n)]``.
-        s: state, advanced in place: ``[K (m), D (m), k_ns, τ_J_d (n)]``.
+        p: ``layout.FRANKA``: ``[K_target (m), D_target (m), k_ns_target, Δτ_max, a, λ, q_ns (n)]``.
+        s: state (``layout.FRANKA_STATE``), advanced in place: ``[K (m), D (m), k_ns, τ_J_d (n)]``.
         u: (n,) the commanded torques (gravity excluded), written in place.
     """
     m = J.shape[0]
     n = J.shape[1]
-    Kt = p[0:m]
-    Dt = p[m : 2 * m]
-    kns_t = p[2 * m]
-    dtau = p[2 * m + 1]
-    a = p[2 * m + 2]
-    lam = p[2 * m + 3]
-    q_ns = p[2 * m + 4 : 2 * m + 4 + n]
-    K = s[0:m]
-    D = s[m : 2 * m]
-    kns = s[2 * m]
-    tau_prev = s[2 * m + 1 : 2 * m + 1 + n]
+    o_D, o_q, o_sD, o_tau = franka_D(m, n), franka_q_ns(m, n), franka_state_D(m, n), franka_state_tau_J_d(m, n)
+    Kt = p[FRANKA_K : FRANKA_K + m]
+    Dt = p[o_D : o_D + m]
+    kns_t = p[franka_k_ns(m, n)]
+    dtau = p[franka_delta_tau_max(m, n)]
+    a = p[franka_filter(m, n)]
+    lam = p[franka_pinv_damping(m, n)]
+    q_ns = p[o_q : o_q + n]
+    K = s[FRANKA_STATE_K : FRANKA_STATE_K + m]
+    D = s[o_sD : o_sD + m]
+    o_kns = franka_state_k_ns(m, n)
+    kns = s[o_kns]
+    tau_prev = s[o_tau : o_tau + n]
     v = J @ qd
     w = np.empty(m)
     for i in range(m):
@@ -77,4 +93,4 @@ def franka_impedance_torque(J, e, qd, q, coriolis, p, s, u):  # pragma: no cover
     for i in range(m):
         K[i] = a * Kt[i] + (1.0 - a) * K[i]
         D[i] = a * Dt[i] + (1.0 - a) * D[i]
-    s[2 * m] = a * kns_t + (1.0 - a) * kns
+    s[o_kns] = a * kns_t + (1.0 - a) * kns

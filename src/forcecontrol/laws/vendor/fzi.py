@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .layout import FDCC_P, FDCC_STATE_QD, fdcc_D_g, fdcc_decay, fdcc_error_scale, fdcc_h, fdcc_instantaneous, fdcc_state_e_prev
+
 
 @njit(cache=True)
 def fdcc_error(e_motion, w_err, K, R, e):  # pragma: no cover - compiled
@@ -56,8 +58,8 @@ def fdcc_step(e, p, s, H, J, q, q_lo, q_hi):  # pragma: no cover - compiled
 
     Args:
         e: (m,) the error (:func:`fdcc_error`).
-        p: ``[P (m), D_g (m), error_scale, h, decay, instantaneous (0/1)]``.
-        s: state, advanced in place: ``[q̇ (n), e_prev (m)]``.
+        p: ``layout.FDCC``: ``[P (m), D_g (m), error_scale, h, decay, instantaneous (0/1)]``.
+        s: state (``layout.FDCC_STATE``), advanced in place: ``[q̇ (n), e_prev (m)]``.
         H: (n, n) joint-space inertia of the virtual model; J: (m, n) base-frame Jacobian of the
             end-effector link, both at ``q``.
         q: (n,) the solver's joint positions, advanced in place.
@@ -68,14 +70,15 @@ def fdcc_step(e, p, s, H, J, q, q_lo, q_hi):  # pragma: no cover - compiled
     """
     m = e.shape[0]
     n = q.shape[0]
-    P = p[0:m]
-    Dg = p[m : 2 * m]
-    scale = p[2 * m]
-    h = p[2 * m + 1]
-    decay = p[2 * m + 2]
-    inst = p[2 * m + 3] != 0.0
-    qd = s[0:n]
-    e_prev = s[n : n + m]
+    o_dg, o_ep = fdcc_D_g(m), fdcc_state_e_prev(m, n)
+    P = p[FDCC_P : FDCC_P + m]
+    Dg = p[o_dg : o_dg + m]
+    scale = p[fdcc_error_scale(m)]
+    h = p[fdcc_h(m)]
+    decay = p[fdcc_decay(m)]
+    inst = p[fdcc_instantaneous(m)] != 0.0
+    qd = s[FDCC_STATE_QD : FDCC_STATE_QD + n]
+    e_prev = s[o_ep : o_ep + m]
     f = np.empty(m)
     for i in range(m):
         f[i] = scale * (P[i] * e[i] + Dg[i] * (e[i] - e_prev[i]) / h)

@@ -18,6 +18,20 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .layout import (
+    ROS2_ADMITTANCE_MASS,
+    ROS2_ADMITTANCE_STATE_Q_A,
+    ros2_admittance_damping,
+    ros2_admittance_dls_alpha,
+    ros2_admittance_filter_coefficient,
+    ros2_admittance_joint_damping,
+    ros2_admittance_selected,
+    ros2_admittance_state_qd_a,
+    ros2_admittance_state_w_f,
+    ros2_admittance_state_xd,
+    ros2_admittance_stiffness,
+)
+
 
 @njit(cache=True)
 def exponential_smoothing(w_in, alpha, w_f):  # pragma: no cover - compiled
@@ -74,9 +88,9 @@ def ros2_admittance_rule(dt, J, R, x, w, p, s):  # pragma: no cover - compiled
         x: (m,) displacement measured − reference (rotation part: angle·axis) [m, rad].
         w: (m,) wrench on the robot in the base frame, gravity-compensated, plus the wrench
             reference [N, N m].
-        p: ``[mass (m), damping (m), stiffness (m), selected (m; 1 or 0), joint_damping,
-            filter_coefficient, dls_alpha]``.
-        s: state, advanced in place: ``[q_a (n), q̇_a (n), ẋ (m), w_f (m)]``.
+        p: ``layout.ROS2_ADMITTANCE``: ``[mass (m), damping (m), stiffness (m), selected (m; 1 or 0),
+            joint_damping, filter_coefficient, dls_alpha]``.
+        s: state (``layout.ROS2_ADMITTANCE_STATE``), advanced in place: ``[q_a (n), q̇_a (n), ẋ (m), w_f (m)]``.
 
     Returns:
         False when ``JᵀJ + α_k I`` cannot be solved (the state is then unchanged: the project
@@ -84,17 +98,19 @@ def ros2_admittance_rule(dt, J, R, x, w, p, s):  # pragma: no cover - compiled
     """
     m = J.shape[0]
     n = J.shape[1]
-    mass = p[0:m]
-    damp = p[m : 2 * m]
-    stiff = p[2 * m : 3 * m]
-    sel = p[3 * m : 4 * m]
-    c_j = p[4 * m]
-    alpha = p[4 * m + 1]
-    dls = p[4 * m + 2]
-    qa = s[0:n]
-    qda = s[n : 2 * n]
-    xd = s[2 * n : 2 * n + m]
-    wf = s[2 * n + m : 2 * n + 2 * m]
+    o_d, o_k, o_s = ros2_admittance_damping(m), ros2_admittance_stiffness(m), ros2_admittance_selected(m)
+    mass = p[ROS2_ADMITTANCE_MASS : ROS2_ADMITTANCE_MASS + m]
+    damp = p[o_d : o_d + m]
+    stiff = p[o_k : o_k + m]
+    sel = p[o_s : o_s + m]
+    c_j = p[ros2_admittance_joint_damping(m)]
+    alpha = p[ros2_admittance_filter_coefficient(m)]
+    dls = p[ros2_admittance_dls_alpha(m)]
+    o_qd, o_xd, o_wf = ros2_admittance_state_qd_a(m, n), ros2_admittance_state_xd(m, n), ros2_admittance_state_w_f(m, n)
+    qa = s[ROS2_ADMITTANCE_STATE_Q_A : ROS2_ADMITTANCE_STATE_Q_A + n]
+    qda = s[o_qd : o_qd + n]
+    xd = s[o_xd : o_xd + m]
+    wf = s[o_wf : o_wf + m]
     wf_new = np.empty(m)
     for i in range(m):
         wf_new[i] = alpha * w[i] + (1.0 - alpha) * wf[i]

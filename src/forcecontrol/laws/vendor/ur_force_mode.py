@@ -26,6 +26,17 @@ from __future__ import annotations
 
 from numba import njit
 
+from .layout import (
+    UR_FORCE_MODE_SELECTION,
+    UR_FORCE_MODE_STATE_V,
+    ur_force_mode_damping,
+    ur_force_mode_gain,
+    ur_force_mode_gain_scaling,
+    ur_force_mode_limits,
+    ur_force_mode_state_offset,
+    ur_force_mode_wrench,
+)
+
 
 @njit(cache=True)
 def ur_force_mode_step(dt, F, p, s):  # pragma: no cover - compiled
@@ -34,26 +45,27 @@ def ur_force_mode_step(dt, F, p, s):  # pragma: no cover - compiled
     Args:
         dt: the controller period T [s] (2 ms on e-Series).
         F: (m,) the wrench the robot applies to the environment, in the task frame (h_e) [N, N m].
-        p: ``[selection (m; 1 compliant, 0 not), wrench F_d (m), limits (m), gain G, gain_scaling s_g,
-            damping d]``.
-        s: state, advanced in place: ``[v (m), offset (m)]``: the compliant axes' speed and the
-            Cartesian offset of the command from the program's pose (task frame) [m/s, m; rad].
+        p: ``layout.UR_FORCE_MODE``: ``[selection (m; 1 compliant, 0 not), wrench F_d (m), limits (m),
+            gain G, gain_scaling s_g, damping d]``.
+        s: state (``layout.UR_FORCE_MODE_STATE``), advanced in place: ``[v (m), offset (m)]``: the compliant
+            axes' speed and the Cartesian offset of the command from the program's pose (task frame) [m/s, m; rad].
             Non-compliant axes keep zero speed and offset.
     """
     m = F.shape[0]
-    G = p[3 * m]
-    sg = p[3 * m + 1]
-    beta = p[3 * m + 2]
+    G = p[ur_force_mode_gain(m)]
+    sg = p[ur_force_mode_gain_scaling(m)]
+    beta = p[ur_force_mode_damping(m)]
+    o_w, o_l, o_off = ur_force_mode_wrench(m), ur_force_mode_limits(m), ur_force_mode_state_offset(m)
     for i in range(m):
-        if p[i] == 0.0:
-            s[i] = 0.0
-            s[m + i] = 0.0
+        if p[UR_FORCE_MODE_SELECTION + i] == 0.0:
+            s[UR_FORCE_MODE_STATE_V + i] = 0.0
+            s[o_off + i] = 0.0
             continue
-        v = (1.0 - beta) * s[i] + dt * G * sg * (p[m + i] - F[i])
-        lim = p[2 * m + i]
+        v = (1.0 - beta) * s[UR_FORCE_MODE_STATE_V + i] + dt * G * sg * (p[o_w + i] - F[i])
+        lim = p[o_l + i]
         if v > lim:
             v = lim
         elif v < -lim:
             v = -lim
-        s[i] = v
-        s[m + i] = s[m + i] + dt * v
+        s[UR_FORCE_MODE_STATE_V + i] = v
+        s[o_off + i] = s[o_off + i] + dt * v
