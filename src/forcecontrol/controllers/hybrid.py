@@ -176,6 +176,10 @@ def _motion_gain(motion: str, name: str, value: Any, what: str, other: str, othe
     return as_gain_matrix(name, value, size)
 
 
+#: The blocks of HYBRID_RIGID a moving constraint changes every sample.
+_MOVING_BLOCKS = ("S_v", "S_v_pinv", "S_f", "S_f_pinv", "S_v_dot")
+
+
 class HybridRigidController(Controller):
     """Hybrid force/velocity (or force/position) control on a rigid environment, (9.91)–(9.95).
 
@@ -263,6 +267,7 @@ class HybridRigidController(Controller):
         self._S_v_dot = np.zeros((d, l))
         self.state = np.zeros(HYBRID_STATE.size(l, k))
         self._params = self._pack(self._S_v, self._S_v_pinv, self._S_f, self._S_f_pinv, self._S_v_dot)
+        self._slices = {b: HYBRID_RIGID.slice(b, d, l, k) for b in _MOVING_BLOCKS}
 
     def _pack(self, S_v, S_v_pinv, S_f, S_f_pinv, S_v_dot) -> np.ndarray:
         """The parameters of :func:`forcecontrol.laws.hybrid_rigid` for this selection."""
@@ -284,7 +289,10 @@ class HybridRigidController(Controller):
             return self._law_step(t, measurement, reference)
         T = self.robot.terms(measurement.q, measurement.qd)
         S_f, S_v, S_v_dot = self._constraint.selection(T.x, T.xd)
-        self._params = self._pack(S_v, S_v.T, S_f, S_f.T, S_v_dot)  # unit columns, W = I
+        params = self._params.copy()  # the blocks of this sample's selection (unit columns, W = I), in place by name
+        for block, value in zip(_MOVING_BLOCKS, (S_v, S_v.T, S_f, S_f.T, S_v_dot)):
+            params[self._slices[block]] = np.ravel(value)
+        self._params = params
         return self._law_step(t, measurement, reference, T)
 
     def gains(self) -> dict[str, Any]:
