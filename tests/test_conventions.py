@@ -134,24 +134,26 @@ def test_rosbags_message_objects_round_trip_through_cdr():
         ros_message({"header": {}, "wrench": {}, "extra": 1}, "geometry_msgs/msg/WrenchStamped", ts)
 
 
-def test_franka_external_wrench_is_the_force_on_the_robot():
+def test_franka_external_wrench_is_the_wrench_the_robot_applies():
     """libfranka: O_F_ext_hat_K is the "estimated external wrench (force, torque) acting on stiffness frame,
-    expressed relative to the base frame" (https://frankarobotics.github.io/libfranka/ , robot_state.h).
+    expressed relative to the base frame. Forces applied by the robot to the environment are positive, while
+    forces applied by the environment on the robot are negative" (libfranka robot_state.h, 0.8.0 to 0.15.0).
 
-    Worked example: the end-effector presses down on a table with 10 N; the table pushes up on it, so
-    O_F_ext_hat_K = (0, 0, +10, 0, 0, 0) and the chapter's h_e = (0, 0, −10, 0, 0, 0). With the K frame
-    pointing down (R = diag(1, −1, −1)), K_F_ext_hat_K = Rᵀ O_F = (0, 0, −10, ...), and rotating it back
-    to the base gives the same h_e (the relation of libfranka issue #112).
+    Worked example: the end-effector presses down on a table with 10 N: the robot applies (0, 0, −10), so
+    O_F_ext_hat_K = (0, 0, −10, 0, 0, 0) = the chapter's h_e. With the K frame pointing down
+    (R = diag(1, −1, −1)), K_F_ext_hat_K = Rᵀ O_F = (0, 0, +10, ...), and rotating it back to the base gives
+    the same h_e (the relation of libfranka issue #112). sense= overrides it for an arm found to differ.
     """
-    O_F = [0.0, 0.0, 10.0, 0.0, 0.0, 0.0]
+    O_F = [0.0, 0.0, -10.0, 0.0, 0.0, 0.0]
     w = from_franka(O_F)
-    assert (w.frame, w.point, w.sense) == ("panda_link0", "panda_K", ON_END_EFFECTOR)
+    assert (w.frame, w.point, w.sense) == ("panda_link0", "panda_K", BY_END_EFFECTOR)
     np.testing.assert_array_equal(w.h_e("panda_link0", "panda_K"), [0, 0, -10, 0, 0, 0])
     K_F = np.concatenate([FLIP_X.T @ O_F[:3], FLIP_X.T @ O_F[3:]])
     wk = from_franka(K_F, expressed_in="stiffness")
     X = Transform(FLIP_X, [0.3, 0.0, 0.4], parent="panda_link0", child="panda_K")
     np.testing.assert_allclose(wk.rotated(X).h_e("panda_link0", "panda_K"), [0, 0, -10, 0, 0, 0], atol=1e-12)
-    np.testing.assert_array_equal(to_franka(w.in_sense(BY_END_EFFECTOR)), O_F)
+    np.testing.assert_array_equal(to_franka(w.in_sense(ON_END_EFFECTOR)), O_F)
+    np.testing.assert_array_equal(from_franka(O_F, sense=ON_END_EFFECTOR).h_e("panda_link0", "panda_K"), [0, 0, 10, 0, 0, 0])
     with pytest.raises(ParameterError, match="expressed_in must be"):
         from_franka(O_F, expressed_in="flange")
 

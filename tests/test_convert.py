@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 
 from forcecontrol.cli import app
 from forcecontrol.errors import DimensionError, MeasurementError, ParameterError
-from forcecontrol.realarm.conventions import CONVENTIONS, ON_END_EFFECTOR, SensedWrench, convert_wrenches
+from forcecontrol.realarm.conventions import BY_END_EFFECTOR, CONVENTIONS, SensedWrench, convert_wrenches
 from forcecontrol.realarm.io import read_recording
 from forcecontrol.spatial import Transform
 from rosfiles_helpers import write_bag, write_mcap
@@ -27,10 +27,11 @@ FLIP_X = np.diag([1.0, -1.0, -1.0])  # 180° about x: a tool frame pointing down
 
 
 def test_franka_worked_example():
-    """Pressing 10 N down on a table: O_F_ext_hat_K = (0, 0, +10, 0, 0, 0); K pointing down: K_F_ext_hat_K = (0, 0, −10, ...);
-    the chapter's h_e = (0, 0, −10, 0, 0, 0) from both (libfranka robot_state.h)."""
-    O_F = np.array([[0.0, 0.0, 10.0, 0.0, 0.0, 0.0]])
-    K_F = np.array([[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]])
+    """Pressing 10 N down on a table: O_F_ext_hat_K = (0, 0, −10, 0, 0, 0) ("forces applied by the robot to the environment
+    are positive"); K pointing down: K_F_ext_hat_K = (0, 0, +10, ...); the chapter's h_e = (0, 0, −10, 0, 0, 0) from both
+    (libfranka robot_state.h)."""
+    O_F = np.array([[0.0, 0.0, -10.0, 0.0, 0.0, 0.0]])
+    K_F = np.array([[0.0, 0.0, 10.0, 0.0, 0.0, 0.0]])
     h_e = [[0, 0, -10, 0, 0, 0]]
     np.testing.assert_array_equal(convert_wrenches(O_F, "franka-O", "library"), h_e)
     np.testing.assert_allclose(convert_wrenches(K_F, "franka-K", "library", rotations=FLIP_X), h_e, atol=1e-12)
@@ -102,7 +103,7 @@ def test_planar_and_force_only_wrenches():
     expect = -Rotation.from_euler("z", phi[:, None]).apply(np.column_stack([f_ee, np.zeros(2)]))[:, :2]
     np.testing.assert_allclose(convert_wrenches(f_ee, "ros-on", "library", rotations=R), expect, atol=1e-12)
     f3 = np.array([[1.0, 2.0, 3.0]])
-    np.testing.assert_allclose(convert_wrenches(f3, "franka-K", "library", rotations=FLIP_X), [[-1, 2, 3]], atol=1e-12)
+    np.testing.assert_allclose(convert_wrenches(f3, "franka-K", "library", rotations=FLIP_X), [[1, -2, -3]], atol=1e-12)
 
 
 def test_conversion_errors_name_the_problem():
@@ -145,10 +146,10 @@ def _convert(*args):
 
 
 def test_cli_converts_a_franka_k_table_with_orientation_columns(tmp_path):
-    """K_F_ext_hat_K with the tool pointing down (qx qy qz qw = 1 0 0 0) → the library's h_e in a Parquet file,
+    """K_F_ext_hat_K = (0, 0, +10), tool pointing down (qx qy qz qw = 1 0 0 0) → h_e = (0, 0, −10) in a Parquet file,
     its convention in the Parquet schema metadata and the JSON beside it; the orientation columns are kept."""
     n = 30
-    src = _table(tmp_path, np.tile([0.0, 0.0, -10.0, 0.0, 0.0, 0.0], (n, 1)), quat=[1.0, 0.0, 0.0, 0.0], n=n)
+    src = _table(tmp_path, np.tile([0.0, 0.0, 10.0, 0.0, 0.0, 0.0], (n, 1)), quat=[1.0, 0.0, 0.0, 0.0], n=n)
     out = tmp_path / "h_e.parquet"
     rep = _convert(src, "--from", "franka-K", "--to", "library", "--out", out)
     assert rep["samples"] == n and rep["to"]["name"] == "library" and "qx qy qz qw" in rep["orientation"]
@@ -165,7 +166,7 @@ def test_cli_converts_a_franka_k_table_with_orientation_columns(tmp_path):
     # and back to franka-O (base axes: the orientation is not needed)
     rep2 = _convert(out, "--from", "library", "--to", "franka-O", "--out", tmp_path / "O.csv")
     assert rep2["orientation"] == "not needed"
-    np.testing.assert_allclose(read_recording(tmp_path / "O.csv").wrench, np.tile([0, 0, 10, 0, 0, 0], (n, 1)), atol=1e-12)
+    np.testing.assert_allclose(read_recording(tmp_path / "O.csv").wrench, np.tile([0, 0, -10, 0, 0, 0], (n, 1)), atol=1e-12)
 
 
 def test_cli_converts_ur_tcp_force_about_the_flange(tmp_path):
@@ -188,7 +189,7 @@ def _planar_log(n=40):
 
 def test_cli_converts_a_ros_bag_and_an_mcap_file_with_forward_kinematics(tmp_path):
     """WrenchStamped in the tool frame (the wrench on the end-effector), chapter arm: --robot chapter-arm rotates each
-    sample by q1 + q2; a bag (rosbags' writer) → library, an MCAP file (mcap's writer) → franka-O (= −h_e)."""
+    sample by q1 + q2; a bag (rosbags' writer) → library, an MCAP file (mcap's writer) → franka-O (= h_e: the robot's sense)."""
     t, q, qd, h_e, w = _planar_log()
     bag = write_bag(tmp_path / "bag", t, q, qd, None, t, w, frame="tool0")
     rep = _convert(bag, "--from", "ros-on", "--to", "library", "--robot", "chapter-arm", "--end-effector-frame", "tool0",
@@ -199,8 +200,8 @@ def test_cli_converts_a_ros_bag_and_an_mcap_file_with_forward_kinematics(tmp_pat
     np.testing.assert_allclose(got[:, 2:], 0.0, atol=1e-9)
     mcap = write_mcap(tmp_path / "run.mcap", t, q, qd, None, t, w, frame="tool0")
     _convert(mcap, "--from", "ros-on", "--to", "franka-O", "--robot", "chapter-arm", "--out", tmp_path / "mcap.parquet")
-    rec = read_recording(tmp_path / "mcap.parquet", wrench_sense=ON_END_EFFECTOR)
-    np.testing.assert_allclose(rec.wrench[:, :2], -h_e, atol=1e-9)
+    rec = read_recording(tmp_path / "mcap.parquet", wrench_sense=BY_END_EFFECTOR)
+    np.testing.assert_allclose(rec.wrench[:, :2], h_e, atol=1e-9)
     meta = json.loads((tmp_path / "mcap.json").read_text())
     assert meta["metadata"]["file_wrench_frame"] == "tool0" and meta["wrench_frame"] == "base"
 

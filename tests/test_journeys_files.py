@@ -106,11 +106,11 @@ def test_replay_and_compare_trace_of_a_recorded_log_run_twice(tmp_path, recorded
 
 def test_convert_a_franka_recording_with_its_defaults(tmp_path):
     """`convert in.csv --from franka-K --to library` (default output in.csv -> here): the tool pointing down
-    (qx qy qz qw = 1 0 0 0) turns K_F_ext_hat_K = (0, 0, -10) into h_e = (0, 0, -10) in the base frame, libfranka's sign."""
+    (qx qy qz qw = 1 0 0 0) turns K_F_ext_hat_K = (0, 0, +10) into h_e = (0, 0, -10) in the base frame, libfranka's sign."""
     from test_convert import _table
 
     n = 30
-    src = _table(tmp_path, np.tile([0.0, 0.0, -10.0, 0.0, 0.0, 0.0], (n, 1)), quat=[1.0, 0.0, 0.0, 0.0], n=n)
+    src = _table(tmp_path, np.tile([0.0, 0.0, 10.0, 0.0, 0.0, 0.0], (n, 1)), quat=[1.0, 0.0, 0.0, 0.0], n=n)
     out = forcecontrol(tmp_path, "convert", src.name, "--from", "franka-K", "--to", "library")
     written = sorted(p.name for p in tmp_path.iterdir() if p.name != src.name)
     assert any(p.endswith(".csv") for p in written), (written, out.stdout)

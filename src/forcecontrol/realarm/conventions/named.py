@@ -57,10 +57,12 @@ CONVENTIONS: dict[str, WrenchConvention] = {
     for c in (
         WrenchConvention("library", "base", "end-effector", BY_END_EFFECTOR,
                          "the chapter's h_e: by the end-effector on the environment, base axes, about the end-effector"),
-        WrenchConvention("franka-O", "base", "end-effector", ON_END_EFFECTOR,
-                         "libfranka O_F_ext_hat_K: external wrench on the K frame, base axes, about K"),
-        WrenchConvention("franka-K", "end-effector", "end-effector", ON_END_EFFECTOR,
-                         "libfranka K_F_ext_hat_K: external wrench on the K frame, K axes, about K"),
+        WrenchConvention("franka-O", "base", "end-effector", BY_END_EFFECTOR,
+                         "libfranka O_F_ext_hat_K: external wrench at the K frame, positive as the robot applies it, "
+                         "base axes, about K"),
+        WrenchConvention("franka-K", "end-effector", "end-effector", BY_END_EFFECTOR,
+                         "libfranka K_F_ext_hat_K: external wrench at the K frame, positive as the robot applies it, "
+                         "K axes, about K"),
         WrenchConvention("ur-tcp", "base", "flange", ON_END_EFFECTOR,
                          "UR RTDE actual_TCP_force: external force on the tool, base axes, about the flange (e-Series)"),
         WrenchConvention("mujoco", "end-effector", "end-effector", BY_END_EFFECTOR,
