@@ -63,6 +63,19 @@ def _selection(selection: Any, m: int) -> SelectionMatrices:
     return selection
 
 
+def _frame_provider(frame: Any) -> Any:
+    """``frame`` itself when it has what a moving-frame hybrid needs, else a ParameterError naming what is missing."""
+    if frame is None:
+        return None
+    missing = [m for m in ("update", "selection", "reset", "signals", "describe") if not callable(getattr(frame, m, None))]
+    if missing:
+        raise ParameterError(
+            "frame must provide update(force, velocity, x), selection(), reset(), signals() and describe(); "
+            f"got a {type(frame).__name__} without {', '.join(missing)}"
+        )
+    return frame
+
+
 class HybridCompliantController(Controller):
     """Hybrid force/velocity control on a compliant environment, (9.77) with (9.80)–(9.82).
 
@@ -90,6 +103,14 @@ class HybridCompliantController(Controller):
         force_gain: K_Pλ, SPD (m, m) [1/s²].
         force_rate_gain: K_Dλ, SPD (m, m) [1/s].
         sample_time: Ts [s].
+        frame: optional frame provider for a constraint frame that moves (e.g. estimated online:
+            :class:`~forcecontrol.task.estimation.ConstraintFrameEstimator`): an object with
+            ``update(force, velocity, x)``, ``selection() -> (S_f, S_v)`` (orthonormal columns),
+            ``reset()``, ``signals()`` and ``describe()``. Each sample it is updated with the measured
+            h_e and ẋ_e, and (9.77)–(9.82) run with that sample's S_f, S_v (Ĉ′ and L̂ recomputed from
+            ``compliance``); the reference is then in the frame's coordinates (its base-frame
+            directions are not known in advance): ``velocity[:d−m]``, ``acceleration[:d−m]`` are ν_d,
+            ν̇_d and ``force[:m]``, ``force_rate[:m]``, ``force_accel[:m]`` are λ_d, λ̇_d, λ̈_d. Python loop only.
     """
 
     law = staticmethod(laws.hybrid_compliant)
@@ -98,10 +119,14 @@ class HybridCompliantController(Controller):
 
     def __init__(
         self, robot: RobotModel, selection: SelectionMatrices | Task, compliance: Any, velocity_gain: Any,
-        velocity_integral_gain: Any, force_gain: Any, force_rate_gain: Any, sample_time: float = 1e-3,
+        velocity_integral_gain: Any, force_gain: Any, force_rate_gain: Any, sample_time: float = 1e-3, *,
+        frame: Any = None,
     ) -> None:
         super().__init__(robot, sample_time)
         sel = _selection(selection, self.m)
+        self.frame = _frame_provider(frame)
+        if frame is not None:
+            self._compiled = False  # the selection changes every sample: the Python loop
         self.selection = sel
         d, k = sel.dim, sel.m
         l = d - k
@@ -130,9 +155,41 @@ class HybridCompliantController(Controller):
     @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.77), (9.80), (9.81) for this sample; advances the velocity integral."""
-        return self._law_step(t, measurement, reference)
+        if self.frame is None:
+            return self._law_step(t, measurement, reference)
+        T = self.robot.terms(measurement.q, measurement.qd)
+        self.frame.update(measurement.wrench, T.xd, T.x)
+        S_f, S_v = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
+        d, k = self.selection.dim, self.selection.m
+        l = d - k
+        C = self.compliance
+        blocks = {"S_v": S_v, "S_v_pinv": S_v.T, "S_f_pinv": S_f.T, "CpS_f": (np.eye(d) - S_v @ S_v.T) @ C @ S_f,
+                  "L_hat": np.linalg.solve(S_f.T @ C @ S_f, S_f.T)}
+        params = self._params.copy()
+        for block, value in blocks.items():
+            params[HYBRID_COMPLIANT.slice(block, d, l, k)] = np.ravel(value)
+        self._params = params
+        r = reference
+        base = Reference(np.asarray(r.position, dtype=np.float64), S_v @ np.asarray(r.velocity)[:l],
+                         S_v @ np.asarray(r.acceleration)[:l], S_f @ np.asarray(r.force)[:k],
+                         S_f @ np.asarray(r.force_rate)[:k], S_f @ np.asarray(r.force_accel)[:k])
+        return self._law_step(t, measurement, base, T)
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """Integrators zeroed; a frame provider back to its first guess."""
+        self.state[:] = 0.0
+        if self.frame is not None:
+            self.frame.reset()
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """The frame provider's logged signals (e.g. estimated vs true normal angle), else none."""
+        return {} if self.frame is None else dict(self.frame.signals())
 
     def gains(self) -> dict[str, Any]:
+        if self.frame is not None:
+            return {"frame": self.frame.describe(), "compliance": self.compliance.tolist(),
+                    "velocity_gain": self.velocity_gain.tolist(), "velocity_integral_gain": self.velocity_integral_gain.tolist(),
+                    "force_gain": self.force_gain.tolist(), "force_rate_gain": self.force_rate_gain.tolist()}
         return {
             "S_f": self.selection.force_selection.tolist(),
             "S_v": self.selection.velocity_selection.tolist(),
