@@ -8,6 +8,11 @@ sense), from
   ``geometry_msgs/WrenchStamped`` topics) and MCAP files (:func:`read_mcap`, CDR-encoded ROS 2
   messages decoded with rosbags' serde);
 
+* the arms' own recordings by their field names (:mod:`.vendor`): UR RTDE CSV (``timestamp``,
+  ``actual_q_*``, ``actual_TCP_pose_*``, ``actual_TCP_force_*``) and libfranka RobotState JSON or
+  tables (``O_T_EE_*`` column-major, ``O_F_ext_hat_K_*``, ``K_F_ext_hat_K_*``), with their
+  documented wrench conventions (:func:`read_vendor`; ``sense=`` overrides);
+
 and :meth:`RecordedRun.resample` puts it on the controller's period (linear interpolation;
 non-monotonic time, gaps and NaNs are refused with the column and the time named).
 :func:`read_recording` picks the reader from the file's suffix. :func:`convert_recording` converts
@@ -20,8 +25,10 @@ from .convert import convert_recording, write_recording
 from .recorded import RecordedRun
 from .rosfiles import read_bag, read_mcap
 from .tables import TABLE_COLUMNS, read_recording, read_table
+from .vendor import SENSE_OVERRIDES, VENDOR_FORMATS, detect_convention, franka_pose, read_vendor, ur_pose, vendor_run
 
 __all__ = [
     "RecordedRun", "read_table", "read_bag", "read_mcap", "read_recording", "TABLE_COLUMNS", "convert_recording",
-    "write_recording",
+    "write_recording", "read_vendor", "vendor_run", "detect_convention", "ur_pose", "franka_pose", "VENDOR_FORMATS",
+    "SENSE_OVERRIDES",
 ]

@@ -10,6 +10,7 @@ import numpy as np
 from ...core.axes import axis_names
 from ...core.validate import positive_scalar
 from ...errors import DimensionError, MeasurementError, ParameterError
+from ...spatial import Transform
 from ..conventions import BY_END_EFFECTOR, SENSES
 
 __all__ = ["RecordedRun", "wrench_axis_names"]
@@ -41,6 +42,37 @@ def _array(name: str, value: Any, rows: int, source: str) -> np.ndarray:
                                f"{MAX_RECORDED_MAGNITUDE:.0e} in magnitude); clean or drop those rows first")
     a.flags.writeable = False
     return a
+
+
+def _poses(value: Any, rows: int, source: str) -> np.ndarray:
+    T = np.array(value, dtype=np.float64)
+    if T.shape != (rows, 4, 4):
+        raise DimensionError(f"{source}: pose must have shape ({rows}, 4, 4) (one homogeneous matrix per sample); got {T.shape}")
+    bad = ~np.isfinite(T).all(axis=(1, 2))
+    if bad.any():
+        raise MeasurementError(f"{source}: pose is not finite at row {int(np.flatnonzero(bad)[0])}")
+    R = T[:, :3, :3]
+    err = np.abs(np.einsum("kji,kjl->kil", R, R) - np.eye(3)).max(axis=(1, 2))
+    det = np.linalg.det(R)
+    wrong = (err > 1e-6) | (det <= 0) | (np.abs(T[:, 3, :] - [0, 0, 0, 1]).max(axis=1) > 1e-9)
+    if wrong.any():
+        i = int(np.flatnonzero(wrong)[0])
+        raise MeasurementError(f"{source}: pose at row {i} is not a rigid transform (|RᵀR − I| = {err[i]:.3g}, det R = "
+                               f"{det[i]:.6g}, last row {T[i, 3].tolist()}; expected [0, 0, 0, 1])")
+    T.flags.writeable = False
+    return T
+
+
+def _interp_poses(t: np.ndarray, T: np.ndarray, grid: np.ndarray) -> np.ndarray:
+    """Poses at ``grid``: positions linearly, orientations by spherical linear interpolation."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    out = np.zeros((grid.size, 4, 4))
+    out[:, 3, 3] = 1.0
+    out[:, :3, :3] = Slerp(t, Rotation.from_matrix(T[:, :3, :3]))(np.clip(grid, t[0], t[-1])).as_matrix()
+    for j in range(3):
+        out[:, j, 3] = np.interp(grid, t, T[:, j, 3])
+    return out
 
 
 def _time(name: str, value: Any, source: str) -> np.ndarray:
@@ -80,6 +112,10 @@ class RecordedRun:
         joint_names: the joints' names, in column order.
         time_origin: absolute time [s] of t = 0 (e.g. the first ROS stamp).
         source: where it was read from (for messages).
+        metadata: what the reader knew (format, columns used, notes for the user).
+        pose: the measured pose of ``pose_frame`` in the base frame at each joint sample, (N, 4, 4)
+            homogeneous matrices, or None (UR ``actual_TCP_pose``, libfranka ``O_T_EE``, ``r11 … r33``).
+        pose_frame: the frame whose pose ``pose`` holds (e.g. ``"tcp"``, ``"EE"``).
     """
 
     t: np.ndarray
@@ -95,6 +131,8 @@ class RecordedRun:
     time_origin: float = 0.0
     source: str = "<arrays>"
     metadata: dict[str, Any] = field(default_factory=dict)
+    pose: np.ndarray | None = None
+    pose_frame: str = "end-effector"
 
     def __post_init__(self) -> None:
         src = self.source
@@ -122,6 +160,19 @@ class RecordedRun:
         if self.joint_names and len(self.joint_names) != q.shape[1]:
             raise DimensionError(f"{src}: {len(self.joint_names)} joint names for {q.shape[1]} joints")
         object.__setattr__(self, "joint_names", tuple(self.joint_names) or tuple(f"joint{i + 1}" for i in range(q.shape[1])))
+        if self.pose is not None:
+            object.__setattr__(self, "pose", _poses(self.pose, t.size, src))
+
+    def pose_at(self, k: int) -> Transform:
+        """The recorded pose at joint sample ``k`` as a :class:`~forcecontrol.spatial.Transform` (base ← ``pose_frame``).
+
+        Raises:
+            ParameterError: the run has no pose.
+        """
+        if self.pose is None:
+            raise ParameterError(f"{self.source}: the recording has no pose columns")
+        T = self.pose[int(k)]
+        return Transform(T[:3, :3], T[:3, 3], parent="base", child=self.pose_frame)
 
     @property
     def n(self) -> int:
@@ -186,6 +237,7 @@ class RecordedRun:
             tau=None if self.tau is None else interp(self.t, self.tau),
             wrench=None if self.wrench is None else interp(tw, self.wrench),
             t_wrench=None,
+            pose=None if self.pose is None else _interp_poses(self.t, self.pose, grid),
             metadata={**self.metadata, "resampled": {"period": period, "max_gap": max_gap}},
         )
 

@@ -12,6 +12,7 @@ from ...core.files import MAX_RECORDING_BYTES, check_regular
 from ...errors import MeasurementError, ParameterError
 from ..conventions import BY_END_EFFECTOR
 from .recorded import RecordedRun
+from .vendor import VENDOR_FORMATS, detect_convention, read_vendor, vendor_run
 
 __all__ = ["read_table", "read_recording", "TABLE_COLUMNS"]
 
@@ -51,8 +52,12 @@ def read_table(
     wrench_point: str = "end-effector",
     wrench_sense: str = BY_END_EFFECTOR,
     max_bytes: int = MAX_RECORDING_BYTES,
+    sense: str | None = None,
 ) -> RecordedRun:
     """Read a CSV or Parquet table of a recorded run (columns: :data:`TABLE_COLUMNS`).
+
+    A table with a vendor's column names (UR RTDE ``actual_q_0 …``, libfranka ``O_T_EE_0 …``;
+    :mod:`.vendor`) is read with that vendor's conventions; a table mixing conventions is refused.
 
     Args:
         path: the file.
@@ -60,6 +65,7 @@ def read_table(
         wrench: ``"measured"`` (the ``f*_measured`` columns when present, else ``f*``) or ``"true"``.
         wrench_frame, wrench_point, wrench_sense: the wrench's convention (default: the library's).
         max_bytes: the size limit [bytes] (default 2 GiB); a folder, FIFO or device is refused unopened.
+        sense: for a vendor's table: ``"on-robot"``/``"by-robot"`` instead of the vendor's documented sense.
 
     Raises:
         ParameterError: an unknown format or option; a special or oversized file; a column
@@ -83,8 +89,16 @@ def read_table(
         raise ParameterError(f"{path}: cannot be read as {fmt}: {str(exc).strip()[:200]}") from None
     except Exception as exc:  # pandas/pyarrow raise many kinds; their text may quote the file
         raise ParameterError(f"{path}: cannot be read as {fmt} ({type(exc).__name__})") from None
+    if fmt == "csv" and len(df.columns) == 1 and len(str(df.columns[0]).split()) > 1:  # space-delimited (UR's csv_writer)
+        df = pd.read_csv(path, sep=r"\s+")
     df.columns = [str(c).strip() for c in df.columns]
     cols = list(df.columns)
+    kind = detect_convention(cols)
+    if kind in VENDOR_FORMATS:
+        return vendor_run({c: df[c].to_numpy() for c in cols}, kind, sense=sense, source=str(path))
+    if sense is not None:
+        raise ParameterError(f"{path}: sense={sense!r} applies to a vendor's recording (UR RTDE, libfranka); this table has the "
+                             "library's columns: give wrench_sense= (--wrench-sense) instead")
     n = _numbered(cols, "q")
     missing = [] if "t" in cols else ["t"]
     if n == 0:
@@ -130,7 +144,8 @@ def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -
     Args:
         path: a ``.csv``/``.parquet`` table, a ROS 2 bag (a folder with ``metadata.yaml``, or a
             ``.db3`` file's folder) or an ``.mcap`` file.
-        format: ``"csv"``, ``"parquet"``, ``"bag"`` or ``"mcap"`` (default: from the path).
+        format: ``"csv"``, ``"parquet"``, ``"bag"``, ``"mcap"``, ``"ur-rtde"`` or ``"franka"`` (default: from
+            the path; a ``.json``/``.jsonl`` file is a libfranka recording, a table's vendor is told from its columns).
         kwargs: passed to :func:`read_table`, :func:`~forcecontrol.realarm.io.read_bag` or
             :func:`~forcecontrol.realarm.io.read_mcap` (topics, joint names, wrench convention).
 
@@ -140,6 +155,12 @@ def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -
     from .rosfiles import read_bag, read_mcap
 
     path = Path(path)
+    if format in VENDOR_FORMATS or (format is None and path.suffix.lower() in (".json", ".jsonl")):
+        unknown = set(kwargs) - {"sense", "max_bytes", "wrench_sense"}
+        if unknown:
+            raise ParameterError(f"a {format or 'franka'} recording takes sense= and max_bytes=; got {sorted(unknown)}")
+        kwargs.pop("wrench_sense", None)  # the vendor's documented sense, or sense= (an explicit override)
+        return read_vendor(path, format or "franka", **kwargs)
     if format is None:
         suffix = path.suffix.lower()
         if suffix in (".csv", ".parquet", ".pq"):
@@ -160,4 +181,4 @@ def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -
         return read_bag(path.parent if path.suffix.lower() == ".db3" else path, **kwargs)
     if format == "mcap":
         return read_mcap(path, **kwargs)
-    raise ParameterError(f"format must be 'csv', 'parquet', 'bag' or 'mcap'; got {format!r}")
+    raise ParameterError(f"format must be 'csv', 'parquet', 'bag' or 'mcap' (or a vendor's: 'ur-rtde', 'franka'); got {format!r}")

@@ -1,0 +1,167 @@
+"""Recordings in the arms' own layouts: UR RTDE CSV (UR's rtde/csv_writer.py: space-delimited ``<name>_<i>`` columns;
+ur_rtde's startFileRecording: the same names, comma-delimited) and libfranka RobotState (operator<<'s JSON, one object
+per line; a table with the same names flattened). Poses and wrenches are checked against closed forms."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from forcecontrol.errors import MeasurementError, ParameterError
+from forcecontrol.realarm.conventions import BY_END_EFFECTOR, ON_END_EFFECTOR
+from forcecontrol.realarm.io import detect_convention, read_recording, read_table, read_vendor
+
+RZ90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+FLIP_X = np.diag([1.0, -1.0, -1.0])
+
+
+def _ur_rows(n: int = 4) -> tuple[list[str], np.ndarray]:
+    names = (["timestamp"] + [f"actual_q_{i}" for i in range(6)] + [f"actual_qd_{i}" for i in range(6)]
+             + [f"actual_TCP_pose_{i}" for i in range(6)] + [f"actual_TCP_force_{i}" for i in range(6)])
+    rows = []
+    for k in range(n):
+        q = 0.1 * k + np.arange(6) * 0.01
+        rv = [0.0, 0.0, math.pi / 2] if k % 2 == 0 else [math.pi, 0.0, 0.0]  # Rz(90°), then Rx(180°)
+        tcp = [0.4, -0.1, 0.3 + 0.01 * k, *rv]
+        rows.append([1000.0 + 0.002 * k, *q, *(0.5 * np.ones(6)), *tcp, 1.0, -2.0, 3.0 + k, 0.1, 0.2, 0.3])
+    return names, np.array(rows)
+
+
+def _write(path, names, rows, sep):
+    path.write_text(sep.join(names) + "\n" + "\n".join(sep.join(repr(float(v)) for v in r) for r in rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("sep", [" ", ","])
+def test_ur_rtde_csv_by_field_names(tmp_path, sep):
+    """UR's csv_writer (space) and ur_rtde (comma) layouts: t, q, q̇ copied; actual_TCP_pose's rotation vector (0, 0, π/2) is
+    Rz(90°) and (π, 0, 0) is diag(1, −1, −1); the wrench keeps RTDE's numbers tagged base axes, flange, on the robot."""
+    names, rows = _ur_rows()
+    path = _write(tmp_path / "robot_data.csv", names, rows, sep)
+    run = read_recording(path)
+    assert run.metadata["format"] == "ur-rtde" and run.n == 6
+    np.testing.assert_allclose(run.t, rows[:, 0])
+    np.testing.assert_allclose(run.q, rows[:, 1:7])
+    np.testing.assert_allclose(run.qd, 0.5)
+    np.testing.assert_allclose(run.pose[0, :3, :3], RZ90, atol=1e-12)
+    np.testing.assert_allclose(run.pose[1, :3, :3], FLIP_X, atol=1e-12)
+    np.testing.assert_allclose(run.pose[2, :3, 3], [0.4, -0.1, 0.32])
+    np.testing.assert_allclose(run.wrench, rows[:, 19:25])
+    assert (run.wrench_frame, run.wrench_point, run.wrench_sense) == ("base", "flange", ON_END_EFFECTOR)
+    assert any("flange" in note for note in run.metadata["notes"])
+    X = run.pose_at(0)
+    assert (X.parent, X.child) == ("base", "tcp")
+
+
+def test_franka_json_states_as_operator_prints_them(tmp_path):
+    """libfranka's operator<< (one JSON object per line): O_T_EE column-major → the pose (R = Rz(90°), p = (0.3, 0.1, 0.5));
+    time [ms] → s; O_F_ext_hat_K kept as the robot's wrench (h_e), tau_J read."""
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = RZ90, [0.3, 0.1, 0.5]
+    lines = []
+    for k in range(5):
+        st = {"O_T_EE": T.T.reshape(-1).tolist(), "EE_T_K": np.eye(4).reshape(-1).tolist(), "m_ee": 0.73,
+              "q": [0.1 * k] * 7, "dq": [0.2] * 7, "tau_J": [1.0] * 7, "O_F_ext_hat_K": [0.0, 0.0, -10.0, 0.0, 0.0, 0.0],
+              "K_F_ext_hat_K": [0.0, 0.0, -10.0, 0.0, 0.0, 0.0], "robot_mode": "Move", "time": 5000 + k}
+        lines.append(json.dumps(st))
+    path = tmp_path / "states.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    run = read_recording(path)
+    assert run.metadata["format"] == "franka" and run.n == 7
+    np.testing.assert_allclose(run.t, 5.0 + 1e-3 * np.arange(5))
+    np.testing.assert_allclose(run.pose[3], T, atol=1e-12)
+    np.testing.assert_allclose(run.tau, 1.0)
+    np.testing.assert_allclose(run.wrench, np.tile([0, 0, -10, 0, 0, 0], (5, 1)))
+    assert (run.wrench_frame, run.wrench_point, run.wrench_sense) == ("base", "K", BY_END_EFFECTOR)
+    assert run.metadata["wrench_columns"][0] == "O_F_ext_hat_K_0"
+
+
+def _franka_columns(n: int, K_F, R=FLIP_X, p=(0.4, 0.0, 0.2)):
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    cols = {"time": 1000.0 + np.arange(n)}
+    for i in range(7):
+        cols[f"q_{i}"] = np.full(n, 0.1 * i)
+        cols[f"dq_{i}"] = np.zeros(n)
+    for i, v in enumerate(T.T.reshape(-1)):
+        cols[f"O_T_EE_{i}"] = np.full(n, v)
+    for i, v in enumerate(K_F):
+        cols[f"K_F_ext_hat_K_{i}"] = np.full(n, v)
+    return cols
+
+
+def test_franka_table_k_frame_wrench_rotated_into_the_base(tmp_path):
+    """Only K_F_ext_hat_K recorded, K pointing down (R = diag(1, −1, −1)): K_F = (0, 0, +10, 1, 0, 0) is (0, 0, −10, 1, 0, 0)
+    in base axes = h_e (pressing 10 N down); sense='on-robot' tags it as the wrench on the robot (the override)."""
+    import pandas as pd
+
+    cols = _franka_columns(6, [0.0, 0.0, 10.0, 1.0, 0.0, 0.0])
+    path = tmp_path / "franka.csv"
+    pd.DataFrame(cols).to_csv(path, index=False)
+    run = read_table(path)
+    np.testing.assert_allclose(run.wrench, np.tile([0, 0, -10, 1, 0, 0], (6, 1)), atol=1e-12)
+    assert run.wrench_sense == BY_END_EFFECTOR and "K_F_ext_hat_K rotated" in run.metadata["notes"][0]
+    over = read_recording(path, format="franka", sense="on-robot")
+    assert over.wrench_sense == ON_END_EFFECTOR and over.metadata["wrench_sense_source"] == "override"
+    assert any("sense" in note for note in over.metadata["notes"])
+
+
+def test_mixed_and_malformed_recordings_are_refused(tmp_path):
+    """A recording that mixes UR, libfranka or library columns is refused naming the columns of each; a row-major O_T_EE,
+    a missing timestamp, text in a field and an explicit format that does not match are errors naming what was wrong."""
+    with pytest.raises(ParameterError, match=r"mixes conventions \(ur-rtde: timestamp, actual_q_0.*library table: q1"):
+        detect_convention(["timestamp", "actual_q_0", "q1", "fx"])
+    with pytest.raises(ParameterError, match="ur-rtde: actual_TCP_force_0.*franka: O_F_ext_hat_K_0"):
+        detect_convention(["actual_TCP_force_0", "O_F_ext_hat_K_0"])
+    names, rows = _ur_rows()
+    mixed = _write(tmp_path / "mixed.csv", names + ["fx"], np.column_stack([rows, rows[:, 0]]), ",")
+    with pytest.raises(ParameterError, match="mixes conventions.*library table: fx"):
+        read_recording(mixed)
+    import pandas as pd
+
+    cols = _franka_columns(3, [0.0] * 6, R=np.eye(3), p=(0.4, 0.0, 0.2))
+    T = np.eye(4)
+    T[:3, 3] = [0.4, 0.0, 0.2]
+    for i, v in enumerate(T.reshape(-1)):  # row-major by mistake: the translation lands in the bottom row
+        cols[f"O_T_EE_{i}"] = np.full(3, v)
+    pd.DataFrame(cols).to_csv(tmp_path / "rowmajor.csv", index=False)
+    with pytest.raises(MeasurementError, match="O_T_EE at row 0 is not a column-major rigid transform.*row-major"):
+        read_table(tmp_path / "rowmajor.csv")
+    no_t = _write(tmp_path / "no_t.csv", names[1:], rows[:, 1:], ",")
+    with pytest.raises(ParameterError, match="needs the 'timestamp' column"):
+        read_recording(no_t)
+    (tmp_path / "text.csv").write_text(",".join(names) + "\n" + ",".join(["0"] + ["x"] * (len(names) - 1)) + "\n")
+    with pytest.raises(MeasurementError, match="column 'actual_q_0' is not numeric"):
+        read_recording(tmp_path / "text.csv")
+    ur = _write(tmp_path / "ur.csv", names, rows, ",")
+    with pytest.raises(ParameterError, match="format 'franka' was asked, but the columns are a ur-rtde recording"):
+        read_recording(ur, format="franka")
+    with pytest.raises(ParameterError, match="sense must be 'on-robot'.*got 'up'"):
+        read_vendor(ur, sense="up")
+    lib = tmp_path / "lib.csv"
+    lib.write_text("t,q1,qd1\n0,0,0\n1,0,0\n")
+    with pytest.raises(ParameterError, match="sense='on-robot' applies to a vendor's recording"):
+        read_table(lib, sense="on-robot")
+
+
+def test_resampled_pose_interpolates_the_rotation_on_the_sphere(tmp_path):
+    """Between Rz(0) and Rz(90°) the resampled pose half-way is Rz(45°) (slerp), the position the mean."""
+    import pandas as pd
+
+    n = 2
+    cols = {"timestamp": [0.0, 1.0]}
+    for i in range(6):
+        cols[f"actual_q_{i}"] = [0.0, 1.0]
+        cols[f"actual_qd_{i}"] = [0.0, 0.0]
+    for i, (a, b) in enumerate([(0.0, 1.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, math.pi / 2)]):
+        cols[f"actual_TCP_pose_{i}"] = [a, b]
+    path = tmp_path / "two.csv"
+    pd.DataFrame(cols).to_csv(path, index=False)
+    run = read_recording(path).resample(0.5)
+    c = math.cos(math.pi / 4)
+    np.testing.assert_allclose(run.pose[1, :3, :3], [[c, -c, 0], [c, c, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(run.pose[1, :3, 3], [0.5, 0, 0], atol=1e-12)
+    assert run.pose.shape == (3, 4, 4) and n == 2
