@@ -127,6 +127,7 @@ class HybridCompliantController(Controller):
         self.frame = _frame_provider(frame)
         if frame is not None:
             self._compiled = False  # the selection changes every sample: the Python loop
+            self.SIGNALS = tuple(getattr(frame, "SIGNALS", ()))  # plottable signals of the run
         self.selection = sel
         d, k = sel.dim, sel.m
         l = d - k

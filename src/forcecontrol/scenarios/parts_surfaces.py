@@ -17,7 +17,7 @@ import numpy as np
 from ..environments import ElasticCylinder, ElasticPlane, ElasticSphere, FrictionalContact, HeightField
 from ..errors import ParameterError
 from ..trajectories import SampledReference
-from .schema import Field, register_environment, register_reference
+from .schema import Field, register_controller, register_environment, register_reference
 
 __all__: list[str] = []
 
@@ -233,4 +233,86 @@ register_reference(
     },
     _arc,
     "x_d along a circular arc at a constant tangential speed (planar or 3-D; a 6-D robot holds its start orientation)",
+)
+
+# ----------------------------------------------------------------------------- surface following, frame estimated
+
+
+def _true_normal(env: Any) -> Any:
+    """``x -> −ν(x)`` (into the surface) of a curved surface, for the estimator's logs only; None otherwise."""
+    surface = getattr(env, "surface", env)
+    if not hasattr(surface, "geometry"):
+        return None
+    space = int(getattr(surface, "space", 2))
+    return lambda x: -surface.geometry(np.asarray(x, dtype=np.float64)[:space])[2]
+
+
+def _hybrid_estimated(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
+    from ..controllers.hybrid import HybridCompliantController
+    from ..task import SelectionMatrices
+    from ..task.estimation import ConstraintFrameEstimator
+
+    robot = ctx["robot"]
+    if int(robot.task_dim) != 2:
+        raise ParameterError(f"hybrid-estimated is planar (the chapter's arm); got a {int(robot.task_dim)}-dimensional task")
+    Ts = ctx["sample_time"]
+    est = ConstraintFrameEstimator(p["first_normal"], p["time_constant"], Ts, min_force=p["min_force"],
+                                   min_speed=p["min_speed"], truth=_true_normal(ctx.get("environment")))
+    S_f, S_v = est.selection()
+    return HybridCompliantController(
+        robot, SelectionMatrices(S_f, S_v), 1.0 / p["stiffness_estimate"], p["velocity_gain"], p["velocity_integral_gain"],
+        p["force_gain"], p["force_rate_gain"], Ts, frame=est,
+    )
+
+
+register_controller(
+    "hybrid-estimated",
+    {
+        "first_normal": Field("vector", True, low=-1e6, high=1e6,
+                              doc="the first guess of the contact normal, along the force on the surface (into it)"),
+        "time_constant": Field("number", default=0.05, low=0.0, high=100.0, doc="τ of the normal's first-order filter [s]"),
+        "min_force": Field("number", default=1.0, low=0.0, high=1e6, doc="below this force the estimate is held [N]"),
+        "min_speed": Field("number", default=1e-3, low=0.0, high=10.0, doc="below this speed friction is not removed [m/s]"),
+        "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
+        "velocity_gain": Field("gain", True, doc="K_Pν of (9.80) [1/s]"),
+        "velocity_integral_gain": Field("gain", True, doc="K_Iν of (9.80) [1/s²]"),
+        "force_gain": Field("gain", True, doc="K_Pλ of (9.81) [1/s²]"),
+        "force_rate_gain": Field("gain", True, doc="K_Dλ of (9.81) [1/s]"),
+    },
+    _hybrid_estimated,
+    "hybrid force/velocity control (9.77)-(9.82) in the constraint frame estimated online from force and velocity",
+)
+
+
+def surface_following_reference(dim: int, speed: float, normal_force: float, start_time: float = 0.5,
+                                accel_time: float = 0.5, force_time: float = 0.5) -> SampledReference:
+    """The reference of a frame provider's hybrid, in the frame's coordinates: ν_d = ``speed`` along the
+    estimated tangent (ramped linearly over ``accel_time`` from ``start_time``), λ_d = ``normal_force``
+    along the estimated normal (ramped over ``force_time`` from 0); ν̇_d = 0 (the velocity loop follows the
+    ramp); position unused."""
+    if not (accel_time > 0 and force_time > 0 and start_time >= 0):
+        raise ParameterError(f"accel_time and force_time must be positive, start_time >= 0; got {accel_time!r}, "
+                             f"{force_time!r}, {start_time!r}")
+    end = max(force_time, start_time + accel_time) + 1e5  # held after: constant speed and force
+    t = np.unique(np.array([0.0, force_time, start_time, start_time + accel_time, end]))
+    v = speed * np.clip((t - start_time) / accel_time, 0.0, 1.0)
+    f = normal_force * np.clip(t / force_time, 0.0, 1.0)
+    z = np.zeros((t.shape[0], dim))
+    vel, force = z.copy(), z.copy()
+    vel[:, 0], force[:, 0] = v, f
+    return SampledReference(t, z, force, interpolation="linear", velocity=vel, acceleration=z)
+
+
+register_reference(
+    "surface-following",
+    {
+        "speed": Field("number", True, low=-10.0, high=10.0, doc="ν_d along the estimated tangent [m/s] (sign: direction)"),
+        "normal_force": Field("number", True, low=0.0, high=1e5, doc="λ_d along the estimated normal [N]"),
+        "start_time": Field("number", default=0.5, low=0.0, high=1e5, doc="when the motion starts [s]"),
+        "accel_time": Field("number", default=0.5, low=0.0, high=1e5, doc="the speed ramp [s]"),
+        "force_time": Field("number", default=0.5, low=0.0, high=1e5, doc="the force ramp from 0 [s]"),
+    },
+    lambda p, ctx: surface_following_reference(int(ctx["robot"].task_dim), p["speed"], p["normal_force"], p["start_time"],
+                                               p["accel_time"], p["force_time"]),
+    "tangential speed and normal force in the estimated constraint frame's coordinates (for hybrid-estimated)",
 )

@@ -24,11 +24,12 @@ surface), so ``λ = n̂ᵀ h_e > 0`` is pressing. Selection: ``S_f = n̂`` (d, 1
 Lag on a circle (the closed form the tests check): tracing a circle of radius R at speed v the true
 normal turns at ω = v/R, ``n(t) = [cos ωt, sin ωt]``, i.e. the complex exponential e^{jωt}; the
 filter ``τ ṅ_f + n_f = n`` answers with ``e^{jωt}/(1 + jωτ)``, so n̂ lags n by ``atan(ωτ) = atan(vτ/R)``
-(and the discrete filter by ``arg(1 − (1 − a) e^{−jωT_s}) − arg(a)``, equal to it up to O(ωT_s)).
+(and the discrete filter by ``arg(1 − (1 − a) e^{−jωT_s})``, equal to it up to O(ωT_s)).
 
-Logged signals (one row per update): ``estimated_normal_angle`` [rad] (atan2 of n̂), and, when a
-``truth`` function is given (for the logs only: the controller never reads it),
-``true_normal_angle`` [rad] and ``normal_angle_error`` [rad] (estimated − true, wrapped to ±π).
+Logged signals (one row per update): ``estimated_normal_angle`` [rad] (atan2 of n̂, 3-D: of its x–z
+part; unwrapped), and, when a ``truth`` function is given (for the logs only: the controller never
+reads it), ``true_normal_angle`` [rad] (unwrapped) and ``normal_angle_error`` [rad] (estimated − true,
+wrapped to ±π): the estimate's lag and noise.
 """
 
 from __future__ import annotations
@@ -59,6 +60,11 @@ def circle_lag(speed: float, radius: float, time_constant: float, sample_time: f
 
 def _angle(v: np.ndarray) -> float:
     return math.atan2(float(v[1]), float(v[0])) if v.shape[0] == 2 else math.atan2(float(v[2]), float(v[0]))
+
+
+def _unwrapped(angle: float, previous: list[float]) -> float:
+    """``angle`` shifted by a multiple of 2π to within π of the last logged value (continuous curves)."""
+    return angle if not previous else previous[-1] + math.remainder(angle - previous[-1], 2.0 * math.pi)
 
 
 class ConstraintFrameEstimator:
@@ -112,6 +118,12 @@ class ConstraintFrameEstimator:
             raise ParameterError(f"first_tangent must not be parallel to first_normal; got {g.tolist()}")
         return t / np.linalg.norm(t)
 
+    @property
+    def SIGNALS(self) -> tuple[str, ...]:  # noqa: N802 - the name the scenarios read from controllers
+        """The names of the logged signals."""
+        names = ("estimated_normal_angle",)
+        return names + (("true_normal_angle", "normal_angle_error") if self.truth is not None else ())
+
     def reset(self) -> None:
         """Back to the first guess; logs cleared."""
         self.filtered = self.first_normal.copy()
@@ -146,11 +158,13 @@ class ConstraintFrameEstimator:
         return n
 
     def _record(self, x: Any) -> None:
-        est = _angle(self.normal)
-        self._log["estimated_normal_angle"].append(est)
+        log = self._log
+        est = _unwrapped(_angle(self.normal), log["estimated_normal_angle"])
+        log["estimated_normal_angle"].append(est)
         if self.truth is not None and x is not None:
             true = _angle(np.asarray(self.truth(np.asarray(x, dtype=np.float64)[: self.dim]), dtype=np.float64))
-            self._log["true_normal_angle"].append(true)
+            true = _unwrapped(true, log["true_normal_angle"])
+            log["true_normal_angle"].append(true)
             self._log["normal_angle_error"].append(math.remainder(est - true, 2.0 * math.pi))
 
     def selection(self) -> tuple[np.ndarray, np.ndarray]:
