@@ -75,6 +75,7 @@ def test_an_integer_beyond_a_float_in_a_gain_is_a_parameter_error(key, value):
 
 @pytest.mark.parametrize("kw, match", [({"substeps": math.nan}, "substeps must be a positive integer; got nan"),
                                        ({"substeps": math.inf}, "substeps must be a positive integer; got inf"),
+                                       ({"substeps": HUGE}, "substeps must be a positive integer; got 1000"),
                                        ({"max_log_bytes": math.nan}, "max_log_bytes must be a positive number"),
                                        ({"max_log_bytes": -1}, "max_log_bytes must be a positive number")])
 def test_simulate_refuses_non_finite_substeps_and_log_limit(kw, match):

@@ -155,7 +155,8 @@ def simulate(
             nsub = max(nsub, int(math.ceil(slope / max(lam, 1e-9) * Ts / 0.05)))
     else:
         if (isinstance(substeps, bool) or not isinstance(substeps, (int, float, np.integer, np.floating))
-                or not math.isfinite(substeps) or int(substeps) != substeps or substeps < 1):
+                or (isinstance(substeps, (float, np.floating)) and not math.isfinite(substeps))
+                or int(substeps) != substeps or substeps < 1 or substeps > 2**31):
             raise ParameterError(f"substeps must be a positive integer; got {substeps!r}")
         nsub = int(substeps)
     # the contact's fastest mode at q0: an explicit substeps must let RK4 follow it (checked below)
