@@ -2,8 +2,10 @@
 
 ``calibrate`` reads static free-space readings (CSV or Parquet: an orientation per row as a
 quaternion ``qx, qy, qz, qw``, a rotation matrix ``r11 … r33`` or a planar ``angle``, and
-``fx, fy, fz`` [, ``tx, ty, tz``]) and prints the identified tool mass, centre of mass and
-sensor biases with their standard uncertainties and the condition number of the poses
+``fx, fy, fz`` [, ``tx, ty, tz``]; or, with ``--robot NAME``, joint positions ``q1 … qn`` as
+``calibrate-plan --out`` writes them, turned into orientations by the robot's forward kinematics)
+and prints the identified tool mass, centre of mass and sensor biases with their standard
+uncertainties and the condition number of the poses
 (:func:`forcecontrol.realarm.calibration.calibrate`). ``calibrate-plan`` prints (or writes as CSV) joint
 configurations that make a well-conditioned calibration for a robot
 (:func:`forcecontrol.realarm.calibration.plan_calibration_poses`).
@@ -24,15 +26,47 @@ __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
 
 def calibration_report(
-    path: Path, gravity: float = 9.81, max_condition: float | None = None, degrees: bool = False
+    path: Path, gravity: float = 9.81, max_condition: float | None = None, degrees: bool = False, robot: str | None = None
 ) -> dict[str, Any]:
-    """The calibration of a data file as plain data (the ``--json`` output)."""
-    from ..realarm.calibration import MAX_CONDITION, calibrate, read_calibration_data
+    """The calibration of a data file as plain data (the ``--json`` output).
 
-    R, F, T = read_calibration_data(path, degrees=degrees)
+    With ``robot``, the sensor orientations come from the joint columns through the robot's
+    forward kinematics (:func:`forcecontrol.realarm.calibration.read_joint_calibration_data`).
+    """
+    from ..realarm.calibration import (
+        MAX_CONDITION,
+        calibrate,
+        calibration_robot,
+        read_calibration_data,
+        read_joint_calibration_data,
+    )
+
+    orientation = "from the file's orientation columns"
+    if robot is None:
+        R, F, T = read_calibration_data(path, degrees=degrees)
+    else:
+        if degrees:
+            from ..errors import ParameterError
+
+            raise ParameterError("--degrees applies to a planar 'angle' column; with --robot the orientations come from the "
+                                 "joint positions [rad]")
+        model = calibration_robot(robot)
+        R, F, T, _, layout = read_joint_calibration_data(path, model)
+        orientation = f"from the joint positions ({layout}) through {robot}'s forward kinematics (frame {_frame(model)})"
     limit = MAX_CONDITION if max_condition is None else max_condition
     res = calibrate(R, F, T, gravity=gravity, max_condition=limit)
-    return {"file": str(path), "max_condition": limit, **res.as_dict()}
+    return {"file": str(path), "robot": robot, "orientation": orientation, "max_condition": limit, **res.as_dict()}
+
+
+def _frame(model: Any) -> str:
+    frame = getattr(model, "frame", None)
+    return frame if isinstance(frame, str) else "the tip, φ = Σ q"
+
+
+class RobotChoice(str, Enum):
+    chapter_arm = "chapter-arm"
+    panda = "panda"
+    ur5 = "ur5"
 
 
 def _fmt(v: float, s: float) -> tuple[str, str]:
@@ -51,6 +85,10 @@ def calibrate_command(
     ] = None,
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
     degrees: Annotated[bool, typer.Option("--degrees", help="the planar 'angle' column is in degrees (default radians)")] = False,
+    robot: Annotated[
+        RobotChoice | None,
+        typer.Option("--robot", help="orientations from joint columns q1..qn (calibrate-plan --out) through this robot's FK"),
+    ] = None,
 ) -> None:
     """Identify a tool's mass, centre of mass and the F/T sensor's biases, with their uncertainty."""
     from rich.console import Console
@@ -59,7 +97,7 @@ def calibrate_command(
     from ..errors import ForceControlError
 
     try:
-        report = calibration_report(data, gravity, max_condition, degrees)
+        report = calibration_report(data, gravity, max_condition, degrees, None if robot is None else robot.value)
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:
@@ -75,6 +113,7 @@ def calibrate_command(
         v, s = _fmt(row["value"], row["std"])
         t.add_row(row["name"], v, s, row["unit"])
     console.print(t)
+    console.print(f"orientations: {report['orientation']}", markup=False, highlight=False)
     console.print(f"condition number of the poses: {report['condition_number']:.3g} (1 is ideal; refused above "
                   f"{report['max_condition']:g})")
     line = f"residual RMS: forces {report['force_residual_rms']:.3g} N"
@@ -85,22 +124,11 @@ def calibrate_command(
         console.print(f"note: {note}")
 
 
-class RobotChoice(str, Enum):
-    chapter_arm = "chapter-arm"
-    panda = "panda"
-    ur5 = "ur5"
-
-
 def plan_report(robot: str, n_poses: int, seed: int = 0, torques: bool = True) -> dict[str, Any]:
     """A calibration plan for a named robot as plain data."""
-    from ..realarm.calibration import plan_calibration_poses
+    from ..realarm.calibration import calibration_robot, plan_calibration_poses
 
-    if robot == "chapter-arm":
-        from ..robots import CHAPTER_ARM as model
-    else:
-        from ..robots import pinocchio as pm
-
-        model = pm.panda() if robot == "panda" else pm.ur5()
+    model = calibration_robot(robot)  # the same model calibrate --robot turns the joints into orientations with
     plan = plan_calibration_poses(model, n_poses, seed=seed, torques=torques)
     return {"robot": robot, "n_poses": n_poses, "seed": seed, "condition_number": plan.condition_number,
             "joint_positions": plan.joint_positions.tolist(), "rotations": plan.rotations.tolist()}

@@ -20,6 +20,9 @@ with the unit gravity direction ``û = R_Sᵀ g/|g|``, one block per problem. It
 bound as the orientations approach each other; it does not depend on units nor on the number of
 poses. :func:`plan_calibration_poses` picks joint configurations that keep it small.
 
+Readings at joint positions (``calibrate-plan --out`` fed back): :func:`read_joint_calibration_data`
+computes the sensor orientations through the robot's forward kinematics (:mod:`.robot`).
+
 On the arm: :meth:`CalibrationResult.compensate` turns a raw reading into the contact wrench in
 any orientation, :func:`tare` re-estimates the biases from readings at one known pose (the
 payload kept), and :class:`DriftDetector` compares free-space readings with the model online
@@ -29,9 +32,16 @@ and flags a bias change larger than the noise allows.
 from __future__ import annotations
 
 from .core import MAX_CONDITION, CalibrationResult, calibrate, regressor_condition, tare
-from .data import calibration_data_from_columns, read_calibration_data
+from .data import calibration_data_from_columns, read_calibration_data, read_columns
 from .drift import DriftCheck, DriftDetector
 from .plan import CalibrationPlan, plan_calibration_poses, sensor_orientation
+from .robot import (
+    CALIBRATION_ROBOTS,
+    calibration_data_from_joints,
+    calibration_robot,
+    read_joint_calibration_data,
+    rotations_from_joints,
+)
 
 __all__ = [
     "MAX_CONDITION",
@@ -46,4 +56,10 @@ __all__ = [
     "tare",
     "calibration_data_from_columns",
     "read_calibration_data",
+    "read_columns",
+    "CALIBRATION_ROBOTS",
+    "calibration_robot",
+    "rotations_from_joints",
+    "calibration_data_from_joints",
+    "read_joint_calibration_data",
 ]

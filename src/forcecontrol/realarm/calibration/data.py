@@ -11,7 +11,7 @@ import numpy as np
 from ...core.files import MAX_TABLE_BYTES, check_regular, read_text_limited
 from ...errors import MeasurementError, ParameterError
 
-__all__ = ["calibration_data_from_columns", "read_calibration_data"]
+__all__ = ["calibration_data_from_columns", "read_calibration_data", "read_columns"]
 
 
 _FORCE = ("fx", "fy", "fz")
@@ -130,24 +130,18 @@ def calibration_data_from_columns(
     return R, F, T
 
 
-def read_calibration_data(
-    path: str | Path, *, degrees: bool = False, max_bytes: int = MAX_TABLE_BYTES
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Read a calibration table from CSV (header row, comma-separated) or Parquet (needs pyarrow).
-
-    See :func:`calibration_data_from_columns` for the columns and ``degrees``. The file must be a
-    regular file of at most ``max_bytes`` (default 64 MiB; :mod:`forcecontrol.core.files`).
+def read_columns(path: str | Path, what: str = "calibration data file", max_bytes: int = MAX_TABLE_BYTES) -> dict[str, Any]:
+    """The named columns of a CSV (header row, comma-separated) or Parquet table (numbers as float arrays, text as objects).
 
     Raises:
-        ParameterError: the file does not exist, is special or too large, is not CSV/Parquet, is
-            empty or lacks columns.
+        ParameterError: the file does not exist, is special or too large, is not CSV/Parquet, is empty or ragged.
     """
     p = Path(path)
     if not p.is_file():
         if p.exists():
-            check_regular(p, "calibration data file", max_bytes)  # names the kind: folder, FIFO, device
-        raise ParameterError(f"calibration data file {str(p)!r} does not exist")
-    check_regular(p, "calibration data file", max_bytes)
+            check_regular(p, what, max_bytes)  # names the kind: folder, FIFO, device
+        raise ParameterError(f"{what} {str(p)!r} does not exist")
+    check_regular(p, what, max_bytes)
     suffix = p.suffix.lower()
     if suffix in (".parquet", ".pq"):
         try:
@@ -163,7 +157,7 @@ def read_calibration_data(
         import csv
         import io
 
-        rows = list(csv.reader(io.StringIO(read_text_limited(p, "calibration data file", max_bytes), newline="")))
+        rows = list(csv.reader(io.StringIO(read_text_limited(p, what, max_bytes), newline="")))
         if len(rows) < 2:
             raise ParameterError(f"{str(p)!r} holds no data rows (a header row and one row per reading are needed)")
         header, body = rows[0], [r for r in rows[1:] if r]
@@ -178,7 +172,24 @@ def read_calibration_data(
             except ValueError:
                 columns[name] = np.array(vals, dtype=object)
     else:
-        raise ParameterError(f"calibration data must be a .csv or .parquet file; got {str(p)!r}")
+        raise ParameterError(f"{what} must be a .csv or .parquet file; got {str(p)!r}")
+    return columns
+
+
+def read_calibration_data(
+    path: str | Path, *, degrees: bool = False, max_bytes: int = MAX_TABLE_BYTES
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Read a calibration table from CSV (header row, comma-separated) or Parquet (needs pyarrow).
+
+    See :func:`calibration_data_from_columns` for the columns and ``degrees``. The file must be a
+    regular file of at most ``max_bytes`` (default 64 MiB; :mod:`forcecontrol.core.files`).
+
+    Raises:
+        ParameterError: the file does not exist, is special or too large, is not CSV/Parquet, is
+            empty or lacks columns.
+    """
+    p = Path(path)
+    columns = read_columns(p, "calibration data file", max_bytes)
     try:
         return calibration_data_from_columns(columns, degrees=degrees)
     except (ParameterError, MeasurementError) as exc:  # name the file
