@@ -1,0 +1,205 @@
+"""Surface following with the constraint frame estimated online (issue 31, items 3 and 5).
+
+References from outside the code under test: the first-order filter's closed-form lag on a circle,
+atan(vτ/R) (derived in forcecontrol.task.estimation's docstring); the fixed-selection hybrid law (a
+second path through the same controller) for the frame hook; the steady-state error derived by hand in
+forcecontrol.analysis.surface_following; MuJoCo as an independent plant.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import forcecontrol as fc
+from forcecontrol.analysis.surface_following import surface_following_error
+from forcecontrol.controllers.hybrid import HybridCompliantController
+from forcecontrol.environments import ElasticSphere
+from forcecontrol.errors import DimensionError, ParameterError
+from forcecontrol.scenarios.parts_surfaces import surface_following_reference
+from forcecontrol.task import SelectionMatrices
+from forcecontrol.task.estimation import ConstraintFrameEstimator, circle_lag
+
+TS = 1e-3
+
+
+def _trace(estimator: ConstraintFrameEstimator, speed: float, radius: float, seconds: float, mu: float = 0.0) -> np.ndarray:
+    """Feed the estimator the force and velocity of a point tracing a circle counter-clockwise at ``speed``
+    (10 N into the surface along the true normal, plus μ·10 N of friction along the velocity); the last
+    sample's error (estimated − true angle)."""
+    w = speed / radius
+    for k in range(int(seconds / TS) + 1):
+        th = w * k * TS
+        n = -np.array([math.cos(th), math.sin(th)])  # into the disc, the tip at angle θ
+        v = speed * np.array([-math.sin(th), math.cos(th)])
+        estimator.update(10.0 * n + mu * 10.0 * v / speed, v, radius * -n)
+    return estimator.signals()["normal_angle_error"]
+
+
+@pytest.mark.parametrize(("speed", "radius", "tau"), [(0.05, 0.2, 0.05), (0.05, 0.1, 0.05), (0.2, 0.1, 0.2)])
+def test_estimated_normal_lags_the_circle_by_the_closed_form(speed, radius, tau):
+    """Tracing a circle at constant v, the first-order estimate lags the true normal by atan(vτ/R): exactly the
+    discrete filter's lag (1e-9) and the continuous closed form within O(ωT_s)."""
+    est = ConstraintFrameEstimator([0.0, 1.0], tau, TS, truth=lambda x: -x / np.linalg.norm(x))
+    err = _trace(est, speed, radius, 30 * tau)
+    assert err[-1] == pytest.approx(-circle_lag(speed, radius, tau, TS), abs=1e-9)
+    closed = math.atan(speed * tau / radius)
+    assert err[-1] == pytest.approx(-closed, rel=2 * speed / radius * TS / closed + 1e-3)
+
+
+def test_friction_along_the_velocity_does_not_bias_the_normal():
+    """With Coulomb friction along the velocity (μ = 0.5), the estimate's lag is still the frictionless closed form."""
+    est = ConstraintFrameEstimator([0.0, 1.0], 0.05, TS, truth=lambda x: -x / np.linalg.norm(x))
+    err = _trace(est, 0.05, 0.2, 2.0, mu=0.5)
+    assert err[-1] == pytest.approx(-circle_lag(0.05, 0.2, 0.05, TS), abs=1e-9)
+
+
+def test_estimate_is_held_without_contact_and_frame_is_orthonormal():
+    """Below min_force the guess is held; S_f, S_v are orthonormal and reciprocal (S_fᵀ S_v = 0), 2-D and 3-D."""
+    est = ConstraintFrameEstimator([3.0, 4.0], 0.05, TS)
+    est.update([0.5, 0.0], [0.0, 0.0])
+    np.testing.assert_allclose(est.normal, [0.6, 0.8], atol=1e-15)
+    for e in (est, ConstraintFrameEstimator([0.0, 0.0, 2.0], 0.05, TS, first_tangent=[1.0, 1.0, 1.0])):
+        e.update(np.r_[3.0, -1.0, 7.0][: e.dim], np.r_[0.1, 0.2, 0.0][: e.dim])
+        S_f, S_v = e.selection()
+        S = np.hstack([S_f, S_v])
+        np.testing.assert_allclose(S.T @ S, np.eye(e.dim), atol=1e-12)
+
+
+def test_estimator_refuses_bad_inputs_by_name():
+    """A wrong-size or zero first normal, a 2-D tangent guess and a non-positive time constant are refused by name."""
+    with pytest.raises(DimensionError, match="first_normal must have 2"):
+        ConstraintFrameEstimator([1.0, 0.0, 0.0, 0.0], 0.05, TS)
+    with pytest.raises(ParameterError, match="first_normal must be a non-zero"):
+        ConstraintFrameEstimator([0.0, 0.0], 0.05, TS)
+    with pytest.raises(ParameterError, match="first_tangent applies to 3-D only"):
+        ConstraintFrameEstimator([0.0, 1.0], 0.05, TS, first_tangent=[1.0, 0.0])
+    with pytest.raises(ParameterError, match="first_tangent must not be parallel"):
+        ConstraintFrameEstimator([0.0, 0.0, 1.0], 0.05, TS, first_tangent=[0.0, 0.0, 2.0])
+    with pytest.raises(ParameterError, match="time_constant"):
+        ConstraintFrameEstimator([0.0, 1.0], 0.0, TS)
+
+
+class _FixedFrame:
+    """A frame provider that never moves (S_f = n, S_v = n turned by +90°)."""
+
+    SIGNALS = ()
+
+    def __init__(self, n):
+        self.n = np.asarray(n, dtype=float) / np.linalg.norm(n)
+
+    def update(self, force, velocity, x):
+        return self.n
+
+    def selection(self):
+        return self.n[:, None], np.array([[-self.n[1]], [self.n[0]]])
+
+    def reset(self):
+        pass
+
+    def signals(self):
+        return {}
+
+    def describe(self):
+        return {"type": "fixed"}
+
+
+def test_frame_hook_with_a_constant_frame_equals_the_fixed_selection_law():
+    """A frame provider that does not move gives the torques of the fixed-selection hybrid (9.77) fed the same
+    reference in base coordinates (ẋ_d = S_v ν_d, f_d = S_f λ_d), to 1e-12, over several samples (integrator included)."""
+    arm = fc.PlanarTwoLink()
+    n = np.array([0.6, 0.8])
+    frame = _FixedFrame(n)
+    S_f, S_v = frame.selection()
+    gains = (1e-4, 50.0, 400.0, 2500.0, 100.0, TS)
+    a = HybridCompliantController(arm, SelectionMatrices(S_f, S_v), *gains, frame=frame)
+    b = HybridCompliantController(arm, SelectionMatrices(S_f, S_v), *gains)
+    q, qd, h = arm.inverse_kinematics([1.0, 0.2]), np.array([0.1, -0.2]), np.array([3.0, 5.0])
+    nu_d, lam_d = 0.05, 10.0
+    ra = fc.Reference(np.zeros(2), np.array([nu_d, 0.0]), np.zeros(2), np.array([lam_d, 0.0]), np.zeros(2), np.zeros(2))
+    rb = fc.Reference(np.zeros(2), S_v[:, 0] * nu_d, np.zeros(2), S_f[:, 0] * lam_d, np.zeros(2), np.zeros(2))
+    for k in range(5):
+        m = fc.Measurement(q + 0.01 * k, qd, h)
+        np.testing.assert_allclose(a.step(k * TS, m, ra), b.step(k * TS, m, rb), rtol=0, atol=1e-12)
+
+
+def test_frame_hook_refuses_an_object_without_the_methods():
+    """A frame provider lacking update/selection/... is refused, naming what it lacks."""
+    arm = fc.PlanarTwoLink()
+    sel = SelectionMatrices([[0.0], [1.0]], [[1.0], [0.0]])
+    with pytest.raises(ParameterError, match="frame must provide update.*without update, selection"):
+        HybridCompliantController(arm, sel, 1e-4, 50.0, 400.0, 2500.0, 100.0, TS, frame=object())
+
+
+@pytest.fixture(scope="module")
+def unknown_circle():
+    return fc.scenario("arm-unknown-circle").run()
+
+
+def _cruise(r):
+    return r.t > 2.5  # the speed ramp ends at 1.5 s; one second for the transient of the force loop
+
+
+def test_unknown_circle_holds_10_newtons_within_1_newton(unknown_circle):
+    """Acceptance (planar): the surface unknown to the controller (17° off first guess), on circles of R = 0.2 m and
+    0.1 m (with and without friction), the normal force stays within ±1 N of 10 N at 5 cm/s after the first contact."""
+    for case in unknown_circle.cases:
+        r = case.result
+        c = _cruise(r)
+        assert np.max(np.abs(r.signals["normal_force"][c] - 10.0)) < 1.0, case.label
+        np.testing.assert_allclose(r.signals["tangential_speed"][c], 0.05, rtol=0.01)
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_unknown_circle_lag_and_force_error_match_the_analysis(unknown_circle, index):
+    """In the simulation the estimate lags by the closed form atan(vτ/ρ) (1 %), and the normal force's steady error
+    equals analysis.surface_following's prediction within 2 % (the bound holds with that margin)."""
+    case = unknown_circle.cases[index]
+    r = case.result
+    c = _cruise(r)
+    R = [0.2, 0.1][index]
+    pred = surface_following_error(10.0, 0.05, R, 1e4, 2500.0, 100.0, 0.05, sample_time=TS)
+    lag = -np.mean(r.signals["normal_angle_error"][c])
+    assert lag == pytest.approx(pred.lag, rel=0.01)
+    fn = np.mean(r.signals["normal_force"][c])
+    assert fn == pytest.approx(pred.normal_force, abs=0.02 * pred.bound)
+    assert 10.0 - fn <= 1.02 * pred.bound
+
+
+def test_analysis_terms_match_their_closed_forms():
+    """Without lag (τ → 0) the error is the curvature term k̂ v²/(ρ ω_f²) alone; without speed it is zero."""
+    e = surface_following_error(10.0, 0.05, 0.2, 1e4, 2500.0, 100.0, 1e-9)
+    rho = 0.2 - e.normal_force / 1e4
+    assert e.curvature_error == pytest.approx(1e4 * 0.05**2 / (rho * 2500.0), rel=1e-9)
+    assert e.lag_error == pytest.approx(0.0, abs=1e-7) and e.cosine_error == pytest.approx(0.0, abs=1e-12)
+    assert surface_following_error(10.0, 0.0, 0.2, 1e4, 2500.0, 100.0, 0.05).bound == 0.0
+    with pytest.raises(ParameterError, match="desired_force / stiffness must be below radius"):
+        surface_following_error(10.0, 0.05, 1e-4, 1e4, 2500.0, 100.0, 0.05)
+
+
+@pytest.mark.parametrize("radius", [0.2, 0.1])
+def test_mujoco_unknown_circle_force_matches_the_builtin_engine(radius):
+    """MuJoCo as the plant under the same estimated-frame hybrid: the contact force's mean and RMS while tracing within
+    5 % of the built-in engine's (acceptance, both radii)."""
+    pytest.importorskip("mujoco")
+    from forcecontrol.engines.mujoco import MujocoPlant
+
+    arm = fc.PlanarTwoLink()
+    c = np.array([1.0, 0.15 + radius])
+    env = ElasticSphere(c, radius, 1e4, damping=50.0)
+    q0 = arm.inverse_kinematics([1.0, 0.15])
+    ref = surface_following_reference(2, -0.05, 10.0, 1.0, 0.5, 0.5)
+
+    def ctl():
+        est = ConstraintFrameEstimator([0.3, 1.0], 0.05, TS)
+        return HybridCompliantController(arm, SelectionMatrices(*est.selection()), 1e-4, 50.0, 400.0, 2500.0, 100.0,
+                                         TS, frame=est)
+
+    a = fc.simulate(arm, env, ctl(), ref, q0=q0, duration=4.0)
+    b = MujocoPlant(arm, env).run(ctl(), ref, q0=q0, duration=4.0)
+    fa, fb = (np.linalg.norm(res.wrench, axis=1)[res.t > 2.5] for res in (a, b))
+    assert np.max(np.abs(fb - 10.0)) < 1.0
+    assert abs(fb.mean() - fa.mean()) <= 0.05 * fa.mean()
+    assert abs(np.sqrt(np.mean(fb**2)) - np.sqrt(np.mean(fa**2))) <= 0.05 * np.sqrt(np.mean(fa**2))
