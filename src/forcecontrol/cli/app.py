@@ -231,9 +231,16 @@ def schema_command(
     top = {"properties": {k: v for k, v in schema["properties"].items() if "$ref" not in v and "discriminator" not in v},
            "required": schema.get("required", [])}
     dump("top level", top)
+    def nested(p: dict[str, Any]) -> str | None:  # the definition of a nested table (e.g. [robot.servo]), if any
+        refs = [q["$ref"] for q in (p, *p.get("anyOf", ())) if "$ref" in q]
+        return refs[0].rsplit("/", 1)[-1] if refs else None
+
     for table in ("robot", "sensor", "actuator", "figure"):
         if table in defs:
             dump(f"[{table}]", defs[table])
+            for key, p in defs[table].get("properties", {}).items():
+                if nested(p) in defs:
+                    dump(f"[{table}.{key}]", defs[nested(p)])
     for name, model in sorted(defs.items()):
         label, _, _ = name.partition("_")
         const = model.get("properties", {}).get("type", {}).get("const")

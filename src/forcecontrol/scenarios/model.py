@@ -22,6 +22,7 @@ from ..sim.limits import (
 )
 from ..sim.simulation import SimulationResult
 from .schema import Field
+from .servo_robot import SERVO_FIELDS
 
 if TYPE_CHECKING:
     from .core import Scenario
@@ -80,7 +81,7 @@ ROBOT_FIELDS: dict[str, Field] = {
     "elbow": Field("str", default="up", choices=("up", "down")),
     "qd0": Field("vector", low=-MAX_JOINT_SPEED, high=MAX_JOINT_SPEED, doc="initial joint velocities [rad/s]"),
     "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
-    "servo": Field("table", doc="the joint servo of a position/velocity-interface arm (see scenarios.servo_robot)"),
+    "servo": Field("table", fields=SERVO_FIELDS, doc="the joint servo of a position/velocity-interface arm: see [robot.servo]"),
 }
 
 

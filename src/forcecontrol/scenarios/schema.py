@@ -18,6 +18,7 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from dataclasses import field as dc_field
 from typing import Any
 
 from ..errors import ScenarioError
@@ -51,6 +52,9 @@ class Field:
             ``forcecontrol schema`` and named, with the value, when a value is outside it.
         bound: a limit relative to the run, in words (e.g. "at most the run's samples"), shown
             with the range; the builder checks it.
+        fields: a ``"table"`` field's own keys (a nested table such as ``[robot.servo]``): the table is
+            checked against them where its parent is (:func:`check_table`), and they appear in the
+            schema (``forcecontrol schema``, ``--json``) under ``[parent.key]``.
     """
 
     kind: str
@@ -61,6 +65,7 @@ class Field:
     low: float | None = None
     high: float | None = None
     bound: str = ""
+    fields: dict[str, Field] | None = dc_field(default=None, compare=False, hash=False)
 
     def range_text(self) -> str:
         """The allowed range in words (``"in [0, 100000], at most the run's samples"``), or ``""``."""
@@ -230,7 +235,8 @@ def table_model(name: str, fields: dict[str, Field], type_name: str | None = Non
         defs["part_type"] = (Literal[type_name], PField(alias="type", description="the part's type"))  # type: ignore[valid-type]
     for i, (k, f) in enumerate(fields.items()):
         default = ... if f.required else f.default
-        defs[f"f{i}"] = (_annotation(f) if f.required or f.default is not None else _annotation(f) | None,
+        ann = table_model(f"{name}_{k}", f.fields) if f.kind == "table" and f.fields else _annotation(f)  # [name.k]
+        defs[f"f{i}"] = (ann if f.required or f.default is not None else ann | None,
                          PField(default, alias=k, description=f.described() or None))
     model = create_model(  # type: ignore[call-overload]
         name, __config__=ConfigDict(extra="forbid", populate_by_name=False, title=name), **defs,
@@ -250,6 +256,9 @@ def _raise_first(where: str, err: Any, table: dict[str, Any], fields: dict[str, 
     e = min(err.errors(), key=rank)
     loc = e.get("loc") or ("",)
     key = str(loc[0])
+    nested = fields.get(key)
+    if nested is not None and nested.fields and len(loc) > 1 and isinstance(table.get(key), dict):
+        check_table(nested_where(where, key), table[key], nested.fields)  # raises the nested table's own message
     if e["type"] == "extra_forbidden":
         raise ScenarioError(
             f"{where}: unknown key '{key}'; expected one of: {', '.join(sorted(set(fields) | set(extra_ok)))}"
@@ -345,6 +354,11 @@ def check_table_memo(memo: dict[Any, Any] | None, where: str, table: Any, fields
     return copy_tree(hit)
 
 
+def nested_where(where: str, key: str) -> str:
+    """The message prefix of a nested table: ``"f.toml: [robot]"`` and ``"servo"`` give ``"f.toml: [robot.servo]"``."""
+    return f"{where[:-1]}.{key}]" if where.endswith("]") else f"{where}: [{key}]"
+
+
 def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tuple[str, ...] = ()) -> dict[str, Any]:
     """Check a table against its fields with its pydantic model: unknown keys, missing keys, types.
 
@@ -373,6 +387,9 @@ def check_table(where: str, table: Any, fields: dict[str, Field], extra_ok: tupl
     for key, field in fields.items():
         if field.low is not None or field.high is not None:
             check_range(where, key, field, out.get(key))
+        if field.fields and isinstance(table.get(key), dict):  # a nested table: its ranges, then kept as given
+            check_table(nested_where(where, key), table[key], field.fields)
+            out[key] = copy_tree(table[key])
     for key in extra_ok:
         if key in table:
             out[key] = table[key]
