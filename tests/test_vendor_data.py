@@ -165,3 +165,106 @@ def test_resampled_pose_interpolates_the_rotation_on_the_sphere(tmp_path):
     np.testing.assert_allclose(run.pose[1, :3, :3], [[c, -c, 0], [c, c, 0], [0, 0, 1]], atol=1e-12)
     np.testing.assert_allclose(run.pose[1, :3, 3], [0.5, 0, 0], atol=1e-12)
     assert run.pose.shape == (3, 4, 4) and n == 2
+
+
+# ----------------------------------------------------------------------------- the replay command
+
+
+@pytest.fixture(scope="module")
+def panda_run():
+    pytest.importorskip("pinocchio")
+    import forcecontrol as fc
+    from forcecontrol.scenarios import build_case
+
+    scn = fc.scenario("panda-admittance-contact").with_(duration=0.2)
+    p = build_case(scn.cases[0])
+    res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=p["duration"],
+                      sensor=p["sensor"])
+    return res, p["robot"]
+
+
+def test_replay_a_franka_state_log_with_its_documented_sense_and_the_override(tmp_path, panda_run):
+    """The Panda's simulated run written as libfranka states (operator<< JSON lines: q, dq, tau_J, O_T_EE column-major from
+    the forward kinematics, O_F_ext_hat_K = h_e as documented): `replay --format franka` gives back the simulated torques;
+    `--sense on-robot` flips the wrench (torques differ, the override is said in the JSON notes)."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    res, robot = panda_run
+    lines = []
+    for k in range(res.t.size):
+        R, o = robot.frame_pose(res.q[k])
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, o
+        lines.append(json.dumps({"O_T_EE": T.T.reshape(-1).tolist(), "q": res.q[k].tolist(), "dq": res.qd[k].tolist(),
+                                 "tau_J": res.torque[k].tolist(), "O_F_ext_hat_K": res.wrench_measured[k].tolist(),
+                                 "time": 1e3 * res.t[k]}))
+    log = tmp_path / "panda.jsonl"
+    log.write_text("\n".join(lines) + "\n")
+    runner = CliRunner()
+    out = runner.invoke(app, ["replay", "panda-admittance-contact", str(log), "--format", "franka", "--out", str(tmp_path),
+                              "--json", "--set", "duration=0.2"])
+    assert out.exit_code == 0, out.output
+    rep = json.loads(out.stdout)
+    scale = np.abs(res.torque).max()
+    assert rep["metrics"]["torque_difference_max"] < 1e-6 * scale
+    assert rep["recording"]["format"] == "franka" and rep["recording"]["wrench_sense"] == BY_END_EFFECTOR
+    flipped = runner.invoke(app, ["replay", "panda-admittance-contact", str(log), "--format", "franka", "--sense", "on-robot",
+                                  "--out", str(tmp_path), "--force", "--json", "--set", "duration=0.2"])
+    assert flipped.exit_code == 0, flipped.output
+    rep2 = json.loads(flipped.stdout)
+    assert rep2["recording"]["wrench_sense"] == ON_END_EFFECTOR
+    assert any("sense='on-robot'" in n for n in rep2["notes"])
+    assert rep2["metrics"]["torque_difference_max"] > 1e-3 * scale
+
+
+def test_replay_sensor_pose_places_a_sensor_frame_wrench(tmp_path, panda_run):
+    """A sensor-frame log (a table whose wrench is tagged 'ft_sensor', 5 cm before the TCP, rpy (0.1, −0.2, 0.3); μ_s moved
+    by SciPy as in test_replay_frames) replays with --sensor-pose x,y,z,r,p,y — and as 16 numbers — to the simulated torques;
+    --sensor-pose on a base-frame log is refused (it would be ignored)."""
+    from scipy.spatial.transform import Rotation
+    from typer.testing import CliRunner
+
+    import forcecontrol.cli.replay as cli_replay
+    from forcecontrol.cli import app
+    from forcecontrol.realarm.io import RecordedRun
+
+    res, robot = panda_run
+    R_es = Rotation.from_euler("xyz", [0.1, -0.2, 0.3])
+    p_es = np.array([0.01, -0.02, -0.05])
+    h = np.array(res.wrench_measured)
+    h_s = np.empty_like(h)
+    for k, q in enumerate(res.q):
+        R_e_mat, o_e = robot.frame_pose(q)
+        R_s = Rotation.from_matrix(R_e_mat) * R_es
+        o_s = o_e + R_e_mat @ p_es
+        h_s[k] = np.concatenate([R_s.inv().apply(h[k, :3]), R_s.inv().apply(h[k, 3:] + np.cross(o_e - o_s, h[k, :3]))])
+    sensor_rec = RecordedRun(t=res.t, q=res.q, qd=res.qd, tau=res.torque, wrench=h_s, wrench_frame="ft_sensor",
+                             wrench_point="ft_sensor")
+    logs = [sensor_rec]
+    real_read_log = cli_replay.read_log
+    cli_replay.read_log = lambda *a, **k: logs[-1]  # the CLI's reader has no --wrench-frame: hand it the sensor-frame log
+    try:
+        runner = CliRunner()
+        scale = np.abs(res.torque).max()
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R_es.as_matrix(), p_es
+        for pose in (",".join(repr(float(v)) for v in [*p_es, 0.1, -0.2, 0.3]), ",".join(repr(float(v)) for v in T.reshape(-1))):
+            out = runner.invoke(app, ["replay", "panda-admittance-contact", str(tmp_path / "x.csv"), "--sensor-pose", pose,
+                                      "--out", str(tmp_path), "--force", "--json", "--set", "duration=0.2"])
+            assert out.exit_code == 0, out.output
+            rep = json.loads(out.stdout)
+            assert rep["metrics"]["torque_difference_max"] < 1e-6 * scale
+            assert rep["recording"]["sensor_pose"]["child"] == "ft_sensor"
+            np.testing.assert_allclose(rep["recording"]["sensor_pose"]["translation"], p_es)
+        logs.append(RecordedRun(t=res.t, q=res.q, qd=res.qd, tau=res.torque, wrench=h))  # base frame
+        out = runner.invoke(app, ["replay", "panda-admittance-contact", str(tmp_path / "x.csv"), "--sensor-pose", "0,0,0,0,0,0",
+                                  "--out", str(tmp_path), "--force", "--json"])
+        assert out.exit_code != 0 and "this log's wrench is in the base frame" in out.output
+        logs.append(sensor_rec)
+        out = runner.invoke(app, ["replay", "panda-admittance-contact", str(tmp_path / "x.csv"), "--sensor-pose", "1,2,3",
+                                  "--out", str(tmp_path), "--force", "--json"])
+        assert out.exit_code != 0 and "must be 6 numbers x,y,z,roll,pitch,yaw" in out.output
+    finally:
+        cli_replay.read_log = real_read_log

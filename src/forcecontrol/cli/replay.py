@@ -13,7 +13,7 @@ from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 from .safe import terminal_safe
 
-__all__ = ["replay_command", "RecordFormat", "read_log", "pick_case"]
+__all__ = ["replay_command", "RecordFormat", "SenseChoice", "read_log", "pick_case", "sensor_pose_option"]
 
 #: options shared by the commands that read a recorded log (replay, compare-trace).
 JointTopic = Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")]
@@ -34,6 +34,13 @@ class RecordFormat(str, Enum):
     parquet = "parquet"
     bag = "bag"
     mcap = "mcap"
+    ur_rtde = "ur-rtde"
+    franka = "franka"
+
+
+class SenseChoice(str, Enum):
+    on_robot = "on-robot"
+    by_robot = "by-robot"
 
 
 def pick_case(scn: Any, label: str | None) -> tuple[Any, dict[str, Any]]:
@@ -51,8 +58,15 @@ def pick_case(scn: Any, label: str | None) -> tuple[Any, dict[str, Any]]:
     return case, build_case(case, where=f"{scn.source}: case {case.label!r}")
 
 
-def read_log(path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str) -> Any:
-    """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components."""
+def read_log(
+    path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str, sense: str | None = None
+) -> Any:
+    """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components.
+
+    A UR RTDE or libfranka recording (``--format ur-rtde|franka``, or told from its columns) is read
+    with the vendor's documented wrench sense; ``sense`` (``on-robot``/``by-robot``) overrides it.
+    """
+    from ..errors import ParameterError
     from ..realarm.io import read_recording
 
     format_ = None if fmt is RecordFormat.auto else fmt.value
@@ -60,8 +74,59 @@ def read_log(path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_top
     suffix = path.suffix.lower()
     is_ros = format_ in ("bag", "mcap") or (format_ is None and (suffix in (".mcap", ".db3") or path.is_dir()))
     if is_ros:
+        if sense is not None:
+            raise ParameterError("--sense overrides a UR RTDE or libfranka recording's sense; a ROS bag/MCAP wrench's sense is "
+                                 "--wrench-sense")
         kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m)
-    return read_recording(path, format_, **kwargs)
+    elif sense is not None:
+        kwargs["sense"] = sense
+    rec = read_recording(path, format_, **kwargs)
+    if rec.wrench is not None and rec.m > m and rec.metadata.get("format") in ("ur-rtde", "franka"):
+        from dataclasses import replace
+
+        rec = replace(rec, wrench=rec.wrench[:, :m], metadata={**rec.metadata, "notes": [
+            *rec.metadata.get("notes", []), f"the 6-D wrench cut to the task space's first {m} components"]})
+    return rec
+
+
+def sensor_pose_option(text: str | None, parent: str, child: str) -> Any:
+    """``--sensor-pose``: 6 numbers ``x,y,z,roll,pitch,yaw`` [m, rad] (R = Rz(yaw) Ry(pitch) Rx(roll), URDF's rpy) or 16
+    numbers (a 4x4 homogeneous matrix, row by row) → ``Transform`` of the sensor frame in the end-effector frame."""
+    import numpy as np
+
+    from ..errors import ParameterError
+    from ..spatial import Transform
+
+    if text is None:
+        return None
+    try:
+        v = np.array([float(x) for x in text.replace(";", ",").split(",") if x.strip()], dtype=np.float64)
+    except ValueError:
+        raise ParameterError(f"--sensor-pose must be numbers separated by commas; got {text!r}") from None
+    if v.size == 6 and np.all(np.isfinite(v)):
+        from scipy.spatial.transform import Rotation
+
+        return Transform(Rotation.from_euler("xyz", v[3:]).as_matrix(), v[:3], parent=parent, child=child)
+    if v.size == 16 and np.all(np.isfinite(v)):
+        T = v.reshape(4, 4)
+        if np.abs(T[3] - [0, 0, 0, 1]).max() > 1e-9:
+            raise ParameterError(f"--sensor-pose as 16 numbers is a 4x4 matrix row by row, last row 0,0,0,1; got {T[3].tolist()}")
+        return Transform(T[:3, :3], T[:3, 3], parent=parent, child=child)
+    raise ParameterError(f"--sensor-pose must be 6 numbers x,y,z,roll,pitch,yaw [m, rad] or 16 (a 4x4 matrix row by row), "
+                         f"finite; got {v.size}: {text!r}")
+
+
+def _sensor_pose(text: str | None, rec: Any, robot: Any) -> Any:
+    """The ``--sensor-pose`` Transform for this log (parent: the robot's end-effector frame, child: the log's wrench frame)."""
+    if text is None:
+        return None
+    from ..errors import ParameterError
+
+    if rec.wrench is None or rec.wrench_frame == "base":
+        raise ParameterError(f"--sensor-pose places a wrench recorded in a sensor frame; this log's wrench is "
+                             f"{'absent' if rec.wrench is None else 'in the base frame'}, so it would be ignored")
+    frame = getattr(robot, "frame", None)
+    return sensor_pose_option(text, frame if isinstance(frame, str) else "end-effector", rec.wrench_frame)
 
 
 def replay_command(
@@ -73,6 +138,15 @@ def replay_command(
     joint_topic: JointTopic = "/joint_states",
     wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
     wrench_sense: WrenchSense = "by-end-effector",
+    sense: Annotated[
+        SenseChoice | None,
+        typer.Option("--sense", help="UR RTDE/libfranka logs: override the vendor's documented wrench sense"),
+    ] = None,
+    sensor_pose: Annotated[
+        str | None,
+        typer.Option("--sensor-pose", help="the wrench frame's pose on the end-effector: x,y,z,roll,pitch,yaw [m, rad] or "
+                     "16 numbers (4x4, row by row)"),
+    ] = None,
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
     set_: SetOption = None,
@@ -92,25 +166,33 @@ def replay_command(
             spec, parts = pick_case(scn, case)
             robot = parts["robot"]
             step(f"reading {data}")
-            rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense)
+            rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense,
+                           None if sense is None else sense.value)
+            X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
-            result = replay(parts["controller"], rec, parts["reference"], robot)
+            result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X)
             folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force)
             step(f"writing the table and the figure of {len(rec.t)} samples")
             stem = _slug(spec.label)
             table = folder / f"{stem}.csv"
             result.to_pandas().to_csv(table, index=False)
             figure = result.plot(folder / f"{stem}.png")
-        for text in [*set_notes, note]:
+        log_notes = list(rec.metadata.get("notes", []))
+        for text in [*set_notes, *log_notes, note]:
             say_note(text)
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
         return
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
-              "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets}
-    if note or set_notes:
-        report["notes"] = [*set_notes, *([note] if note else [])]
+              "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets,
+              "recording": {"format": rec.metadata.get("format"), "wrench_frame": rec.wrench_frame,
+                            "wrench_point": rec.wrench_point, "wrench_sense": rec.wrench_sense,
+                            "sensor_pose": None if X is None else {"rotation": X.rotation.tolist(),
+                                                                   "translation": X.translation.tolist(),
+                                                                   "parent": X.parent, "child": X.child}}}
+    if note or set_notes or log_notes:
+        report["notes"] = [*set_notes, *log_notes, *([note] if note else [])]
     if json_out:
         print_json(report)
         return
