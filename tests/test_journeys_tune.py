@@ -77,7 +77,7 @@ def test_tune_started_as_the_readme_says_driven_in_chromium_then_run(driver, tmp
         # the page plots the scenario's first case (k = 1e4 N/m): the book's 200 N at the end
         assert before[-1] == pytest.approx(200.0, rel=5e-3)
         handles, labels = driver.execute_script(_HANDLES), driver.execute_script(_LABELS)
-        i = next(j for j, t in enumerate(labels) if t.startswith("environment.stiffness"))
+        i = next(j for j, t in enumerate(labels) if t.startswith("k_e [N/m]"))
         handles[i].send_keys(Keys.ARROW_RIGHT)
         t0, after = time.time(), before
         while time.time() - t0 < 20 and np.array_equal(after, before):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import sys
@@ -352,3 +353,88 @@ def test_tune_command_beyond_loopback_warns_and_prints_a_token_address(tmp_path)
             proc.kill()
             _, err = proc.communicate()
     assert "warning: listening on 0.0.0.0" in err
+
+
+def test_page_margins_are_those_of_the_loop_the_stability_plot_shows():
+    """The table's margins come from a loop with the same spectral radius as ForceLoopAxis's, and vanish at its limit k_e."""
+    from forcecontrol.analysis.design import loop_model
+    from forcecontrol.workbench.metrics import loop_margins, page_metrics
+    from forcecontrol.workbench.session import TuneSession
+
+    s = TuneSession("example-9.3")
+    ev = s.evaluate()
+    ax, mx, Ts = ev.loop
+    gains = {"inertia": ax.inertia, "damping": ax.damping, "stiffness": ax.stiffness, "force_gain": ax.force_gain,
+             "integral_gain": ax.integral_gain}
+    for k in (1e3, 1e4, 1e5):
+        assert loop_model(ax.scheme, gains, k, Ts, arm_inertia=mx).spectral_radius() == pytest.approx(
+            ax.with_environment_stiffness(k).spectral_radius(Ts, mx), rel=1e-12)
+    rows = {r.key: r.value for r in page_metrics(s, ev)}
+    gm, pm = loop_margins(ev.loop)
+    assert rows["gain_margin_db"] == gm > 6.0 and rows["phase_margin_deg"] == pm > 10.0
+    at_limit = loop_margins((ax.with_environment_stiffness(ev.stability.limit), mx, Ts))
+    assert abs(at_limit[0]) < 0.05 and abs(at_limit[1]) < 0.05  # dB, deg: no margin left at the stability limit
+
+
+def test_page_metrics_are_runs_checks_and_the_library_step_metrics():
+    """Book rows equal `run`'s checks; overshoot/settling/peak equal sim.metrics.step_metrics on the run's force."""
+    from forcecontrol.sim.metrics import step_metrics
+    from forcecontrol.workbench.metrics import page_metrics
+    from forcecontrol.workbench.session import TuneSession
+
+    s = TuneSession("example-9.2")
+    rows = {r.key: r for r in page_metrics(s, s.evaluate())}
+    case = fc.scenario("example-9.2").run().cases[0]
+    for ch in case.checks:
+        r = rows[ch["metric"]]
+        assert (r.value, r.book, r.tolerance, r.ok) == pytest.approx((ch["value"], ch["expected"], ch["tolerance"], ch["ok"]))
+    sm = step_metrics(case.result.t, case.result.wrench[:, 0], window=0.1)
+    assert rows["overshoot"].value == pytest.approx(sm.overshoot_percent, rel=1e-12)
+    assert rows["settling_time"].value == pytest.approx(sm.settling_time, rel=1e-12)
+    assert rows["peak_force"].value == pytest.approx(case.result.peak_contact_force_norm(), rel=1e-12)
+    assert math.isnan(rows["steady_state_force_error"].value)  # impedance control: no force reference
+
+
+def test_knobs_are_labelled_with_the_chapters_symbols_and_unused_axes_hidden():
+    """Example 9.3: K_P,x [N/m]-style labels; k_F,y = k_I,y = 0 hidden with the reason; Example 9.4's hybrid gains K_Pλ [1/s²]."""
+    from forcecontrol.workbench.labels import knob_label, split_knobs
+    from forcecontrol.workbench.session import TuneSession
+
+    s = TuneSession("example-9.3")
+    shown, hidden = split_knobs(s.knobs, s.case.config)
+    assert [knob_label(k, s.case.config) for k in shown] == [
+        "M_d,x [kg]", "M_d,y [kg]", "K_D,x [N s/m]", "K_D,y [N s/m]", "K_P,x [N/m]", "K_P,y [N/m]", "K_F,x [m/N]",
+        "K_I,x [m/(N s)]", "k_e [N/m]", "d_e [N s/m]"]
+    assert [k.name for k, _ in hidden] == ["controller.force_gain[1]", "controller.integral_gain[1]"]
+    assert all("along y" in why for _, why in hidden)
+    h = TuneSession("example-9.4")
+    assert [knob_label(k, h.case.config) for k in h.knobs][:4] == ["K_Pν [1/s]", "K_Iν [1/s²]", "K_Pλ [1/s²]", "K_Dλ [1/s]"]
+
+
+def test_app_undo_goes_back_twenty_settings_reset_restores_the_book_and_bad_entries_are_refused(tmp_path):
+    """25 typed settings, 20 undos land on the 5th (its run, as `run` gives it); Reset is the book's run; text and
+    negative values show an error by the field and change nothing."""
+    from forcecontrol.workbench.app import UNDO_DEPTH, TuneApp
+
+    assert UNDO_DEPTH >= 20
+    a = TuneApp("example-9.2", tmp_path / "t.toml")
+    book = np.array(a.sources["fx"][0].data["v"], dtype=float)
+    values = [1000.0 + 100.0 * i for i in range(25)]
+    for v in values:
+        a.entries["controller.stiffness[0]"].value = f"{v:g}"
+    for _ in range(20):
+        a.undo_button.clicks += 1
+    assert a.session.values["controller.stiffness[0]"] == values[4]
+    assert a.sliders["controller.stiffness[0]"].value == values[4] and a.entries["controller.stiffness[0]"].value == "1400"
+    want = fc.scenario("example-9.2").with_({"controller.stiffness": [values[4], 2500.0]}).run().cases[0].result
+    np.testing.assert_allclose(np.array(a.sources["fx"][0].data["v"], dtype=float), want.wrench[:, 0], rtol=1e-12, atol=1e-9)
+    a.reset_button.clicks += 1
+    np.testing.assert_allclose(np.array(a.sources["fx"][0].data["v"], dtype=float), book, rtol=0, atol=0)
+    n = len(a.latencies)
+    for bad, says in (("abc", "expected a number >= 0"), ("-5", "expected a finite number >= 0"), ("nan", "finite")):
+        a.entries["controller.stiffness[0]"].value = bad
+        err = a.entry_errors["controller.stiffness[0]"]
+        assert err.visible and says in html.unescape(err.object) and "K_P,x [N/m]" in err.object
+    assert len(a.latencies) == n and a.session.values["controller.stiffness[0]"] == 2500.0
+    a.entries["controller.stiffness[0]"].value = "2600"
+    assert not a.entry_errors["controller.stiffness[0]"].visible and a.session.values["controller.stiffness[0]"] == 2600.0

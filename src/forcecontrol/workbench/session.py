@@ -176,6 +176,9 @@ class Evaluation:
             per axis (``{"x": array}``; empty when no analysis gives them); stability: the curve or
             None; notes: what is not available for this scheme; seconds: wall time per part.
         error: the message when the case could not be built or diverged (result None then).
+        parts: the built case (:func:`~forcecontrol.scenarios.build_case`); loop: the force axis's
+            (:class:`~forcecontrol.analysis.force.ForceLoopAxis`, arm mass m_x [kg], Ts [s]) when
+            the scheme has the sampled-loop analysis (its margins are the page's).
     """
 
     result: Any
@@ -185,6 +188,8 @@ class Evaluation:
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
     error: str | None = None
+    parts: dict[str, Any] | None = None
+    loop: tuple[Any, float, float] | None = None
 
 
 def _second_order_poles(wn: float, zeta: float) -> np.ndarray:
@@ -262,6 +267,22 @@ class TuneSession:
                 _apply_knob(cfg, k, vals[k.name])
         return cfg
 
+    def has_stability_curve(self) -> bool:
+        """True when the case's scheme has the sampled-loop stability analysis (no simulation: the page's layout)."""
+        from ..analysis.force_design import force_loop_axes
+        from ..scenarios import CaseSpec, build_case
+
+        try:
+            parts = build_case(CaseSpec(self.case.label, self.config(), {}), where=f"{self.scenario.name} (tuned)")
+            env = parts["environment"]
+            if not hasattr(env, "stiffness_matrix"):
+                return False
+            axes = force_loop_axes(parts["controller"], env.stiffness_matrix())
+        except ForceControlError:
+            return False
+        f_d = np.asarray(parts["reference"].at(float(parts["duration"])).force, dtype=float)
+        return axes[int(np.argmax(np.abs(f_d))) if np.any(f_d) else 0].environment_stiffness > 0
+
     def set(self, name: str, value: float) -> None:
         """Set one knob (checked as in :meth:`config`)."""
         self.config({name: value})
@@ -303,13 +324,14 @@ class TuneSession:
         except ForceControlError as exc:
             analysis = {}
             notes.append(f"analysis failed: {exc}")
-        poles, stability = self._poles_and_stability(parts, analysis, notes, stability_points)
+        loop: list[Any] = []
+        poles, stability = self._poles_and_stability(parts, analysis, notes, stability_points, loop)
         t3 = time.perf_counter()
         seconds.update({"build": t1 - t0, "simulate": t2 - t1, "analysis": t3 - t2})
-        return Evaluation(res, analysis, poles, stability, notes, seconds)
+        return Evaluation(res, analysis, poles, stability, notes, seconds, parts=parts, loop=tuple(loop) or None)
 
     def _poles_and_stability(self, parts: dict[str, Any], analysis: dict[str, Any], notes: list[str],
-                             n: int) -> tuple[dict[str, np.ndarray], StabilityCurve | None]:
+                             n: int, loop: list[Any]) -> tuple[dict[str, np.ndarray], StabilityCurve | None]:
         from ..analysis.force_design import force_loop_axes, operational_mass, sampled_stability_limit
 
         ctl, env = parts["controller"], parts["environment"]
@@ -347,6 +369,7 @@ class TuneSession:
         Ts = ctl.sample_time
         k_now = ax.environment_stiffness
         rho_now = ax.spectral_radius(Ts, mx)
+        loop += [ax, mx, Ts]
         try:
             limit = sampled_stability_limit(ax, Ts, arm_inertia=mx, rtol=1e-4)
         except ForceControlError:
