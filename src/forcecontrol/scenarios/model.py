@@ -308,6 +308,8 @@ class ScenarioRun:
         return out
 
     def _json_body(self) -> dict[str, Any]:
+        from .summary import case_events, case_warnings
+
         return {
             "scenario": self.scenario.name,
             "title": self.scenario.title,
@@ -321,6 +323,8 @@ class ScenarioRun:
                     "analysis": c.analysis,
                     "checks": c.checks,
                     "engine": c.result.metadata.get("engine"),
+                    "warnings": case_warnings(c),  # what stderr said about the case (summary.case_warnings)
+                    "events": case_events(c),
                 }
                 for c in self.cases
             ],

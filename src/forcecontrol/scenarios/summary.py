@@ -9,14 +9,18 @@ writes the same rows as escaped HTML (:func:`html_summary`). Units are in the co
 from __future__ import annotations
 
 import html
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .units import with_unit
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .model import ScenarioRun
+    from .model import CaseResult, ScenarioRun
 
-__all__ = ["settled_table", "checks_table", "contact_warnings", "html_summary", "task_axes"]
+__all__ = ["settled_table", "checks_table", "contact_warnings", "case_events", "case_warnings", "html_summary", "task_axes"]
+
+#: the logged events that are warnings (a limit or a protective layer changed what was asked, or contact was
+#: lost); the others (a contact transition) are reported in ``events`` only.
+WARNING_EVENTS = frozenset({"servo-limit", "ik-limit", "force-mode-deviation", "safety", "stability", "contact lost"})
 
 def task_axes(run: ScenarioRun) -> tuple[list[str], list[str]]:
     """The position and force axes every case of the run has (``x y`` planar; ``x y z``, ``fx fy fz``
@@ -70,6 +74,36 @@ def contact_warnings(run: ScenarioRun) -> list[str]:
             allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
             out.append(f"{c.label}: contact lost {lost} time(s) after touching (peak |f| = "
                        f"{c.result.peak_contact_force_norm():.4g} N)" + (" — allowed by the scenario" if allowed else ""))
+    return out
+
+
+def case_events(case: CaseResult) -> list[dict[str, Any]]:
+    """The events the case's controller logged (``SimulationResult.events``: servo and IK limits, UR force
+    mode's deviation, safety reactions, contact transitions...), each a dict with ``t`` [s], ``event`` and
+    ``detail``, in time order: the ``events`` list of a case in ``run --json``."""
+    return sorted((dict(e) for e in case.result.events or ()), key=lambda e: float(e.get("t", 0.0)))
+
+
+def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
+    """What the run warned about this case (on stderr), as ``{"kind", "t", "text"}`` (``t`` None when it is
+    not an instant): the reader's notes on a controller's configuration file (``config-note``), the logged
+    events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
+    ``safety``, ``stability``, ``contact lost``) and contact lost after touching (``contact-lost``, with its
+    count): the ``warnings`` list of a case in ``run --json``."""
+    out: list[dict[str, Any]] = []
+    for note in (case.result.metadata.get("controller") or {}).get("config_notes") or ():
+        out.append({"kind": "config-note", "t": None, "text": str(note)})
+    for e in case_events(case):
+        kind = str(e.get("event", ""))
+        if kind in WARNING_EVENTS:
+            out.append({"kind": kind, "t": float(e["t"]) if "t" in e else None, "text": str(e.get("detail", kind))})
+    lost = int(case.metrics.get("contact_losses", 0))
+    if lost:
+        allowed = all(ch["metric"] != "contact_losses" for ch in case.checks)
+        peak = case.result.peak_contact_force_norm()
+        out.append({"kind": "contact-lost", "t": None, "count": lost,
+                    "text": f"contact lost {lost} time(s) after touching (peak |f| = {peak:.4g} N)"
+                            + (" — allowed by the scenario" if allowed else "")})
     return out
 
 

@@ -1,0 +1,57 @@
+"""`run --json` lists each case's warnings and events: what stderr said (servo/IK limits, config notes, contact lost)."""
+
+from __future__ import annotations
+
+import json
+
+import tomllib
+
+import forcecontrol.scenarios as S
+from forcecontrol.scenarios.summary import case_warnings
+from journeys_helpers import forcecontrol
+
+
+def _servo_file(folder, velocity_limit: float | None) -> str:
+    """servo-admittance's first case for 0.3 s, with a joint speed limit of the servo when given."""
+    text = S.scenario_source("servo-admittance").read_text(encoding="utf-8").replace("duration = 3.0", "duration = 0.3")
+    if velocity_limit is not None:
+        text = text.replace("delay = 1\n", f"delay = 1\nvelocity_limit = {velocity_limit}\n", 1)
+    text = text.split("[[case]]", 1)[0]
+    assert tomllib.loads(text)["duration"] == 0.3
+    (folder / "servo.toml").write_text(text, encoding="utf-8")
+    return "servo.toml"
+
+
+def test_a_run_whose_servo_limits_act_says_so_in_json_and_on_stderr(tmp_path):
+    """A 0.02 rad/s joint speed limit: 'servo-limit' in the case's --json warnings and events (same t) and on stderr."""
+    proc = forcecontrol(tmp_path, "run", _servo_file(tmp_path, 0.02), "--json", "--no-figure")
+    case = json.loads(proc.stdout)["cases"][0]
+    limits = [w for w in case["warnings"] if w["kind"] == "servo-limit"]
+    events = [e for e in case["events"] if e["event"] == "servo-limit"]
+    assert len(limits) == 1 and len(events) == 1
+    assert limits[0]["t"] == events[0]["t"] and 0.0 <= limits[0]["t"] < 0.3
+    assert limits[0]["text"] == events[0]["detail"] and "joint(s) [1]" in limits[0]["text"]
+    assert "servo's speed/acceleration/jerk limits changed the motion" in proc.stderr
+
+
+def test_a_run_within_the_servo_limits_has_no_servo_warning(tmp_path):
+    """The same case without the speed limit: no 'servo-limit' in --json (warnings and events) nor on stderr."""
+    proc = forcecontrol(tmp_path, "run", _servo_file(tmp_path, None), "--json", "--no-figure")
+    case = json.loads(proc.stdout)["cases"][0]
+    assert all(w["kind"] != "servo-limit" for w in case["warnings"]) and all(e["event"] != "servo-limit" for e in case["events"])
+    assert "servo-limit" not in proc.stderr and "speed/acceleration/jerk" not in proc.stderr
+
+
+def test_contact_loss_and_config_notes_are_warnings_of_the_case():
+    """case_warnings: a contact loss counted by the metrics and the reader's config notes become warnings with their kind."""
+    from types import SimpleNamespace
+
+    result = SimpleNamespace(metadata={"controller": {"config_notes": ["key 'x' not read"]}},
+                             events=[{"t": 0.5, "event": "contact", "detail": "in"},
+                                     {"t": 0.2, "event": "ik-limit", "detail": "held"}],
+                             peak_contact_force_norm=lambda: 12.0)
+    case = SimpleNamespace(result=result, metrics={"contact_losses": 2.0}, checks=[])
+    got = case_warnings(case)
+    assert [w["kind"] for w in got] == ["config-note", "ik-limit", "contact-lost"]
+    assert got[0]["text"] == "key 'x' not read" and got[1]["t"] == 0.2 and got[2]["count"] == 2
+    assert "contact lost 2 time(s)" in got[2]["text"] and "allowed by the scenario" in got[2]["text"]
