@@ -74,7 +74,7 @@ def test_the_contract_is_short_and_has_no_exceptions():
     """Issue 29: about a dozen layers a person can hold in mind, and no ignored imports in any contract."""
     contracts = _contracts()
     (layers,) = [c for c in contracts if c["type"] == "layers"]
-    assert len(layers["layers"]) <= 13
+    assert len(layers["layers"]) <= 12
     assert all("ignore_imports" not in c for c in contracts)
 
 
