@@ -141,6 +141,15 @@ def test_mixed_and_malformed_recordings_are_refused(tmp_path):
         read_recording(ur, format="franka")
     with pytest.raises(ParameterError, match="sense must be 'on-robot'.*got 'up'"):
         read_vendor(ur, sense="up")
+    with pytest.raises(ParameterError, match=r"ur-rtde recording has the vendor's documented wrench convention \(wrench_frame "
+                                             r"'base'\); wrench_frame='end-effector' does not apply"):
+        read_table(ur, wrench_frame="end-effector")
+    assert read_table(ur, wrench_sense=ON_END_EFFECTOR).wrench_sense == ON_END_EFFECTOR  # consistent with UR's documentation
+    assert any("vendor's documented on-end-effector" in n for n in read_table(ur).metadata["notes"])  # the default, not used
+    (tmp_path / "s.jsonl").write_text('{"q": [0], "dq": [0], "time": 0}\n{"q": [1], "dq": [0], "time": 1}\n')
+    with pytest.raises(ParameterError, match="wrench_point='flange' does not apply"):
+        read_recording(tmp_path / "s.jsonl", wrench_point="flange")
+    assert read_recording(tmp_path / "s.jsonl").n == 1
     lib = tmp_path / "lib.csv"
     lib.write_text("t,q1,qd1\n0,0,0\n1,0,0\n")
     with pytest.raises(ParameterError, match="sense='on-robot' applies to a vendor's recording"):

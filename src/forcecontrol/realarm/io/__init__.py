@@ -25,10 +25,19 @@ from .convert import convert_recording, write_recording
 from .recorded import RecordedRun
 from .rosfiles import read_bag, read_mcap
 from .tables import TABLE_COLUMNS, read_recording, read_table
-from .vendor import SENSE_OVERRIDES, VENDOR_FORMATS, detect_convention, franka_pose, read_vendor, ur_pose, vendor_run
+from .vendor import (
+    SENSE_OVERRIDES,
+    VENDOR_FORMATS,
+    detect_convention,
+    franka_pose,
+    read_vendor,
+    ur_pose,
+    vendor_run,
+    with_library_options,
+)
 
 __all__ = [
     "RecordedRun", "read_table", "read_bag", "read_mcap", "read_recording", "TABLE_COLUMNS", "convert_recording",
     "write_recording", "read_vendor", "vendor_run", "detect_convention", "ur_pose", "franka_pose", "VENDOR_FORMATS",
-    "SENSE_OVERRIDES",
+    "SENSE_OVERRIDES", "with_library_options",
 ]

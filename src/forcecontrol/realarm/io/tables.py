@@ -12,7 +12,7 @@ from ...core.files import MAX_RECORDING_BYTES, check_regular
 from ...errors import MeasurementError, ParameterError
 from ..conventions import BY_END_EFFECTOR
 from .recorded import RecordedRun
-from .vendor import VENDOR_FORMATS, detect_convention, read_vendor, vendor_run
+from .vendor import VENDOR_FORMATS, detect_convention, read_vendor, vendor_run, with_library_options
 
 __all__ = ["read_table", "read_recording", "TABLE_COLUMNS"]
 
@@ -95,7 +95,8 @@ def read_table(
     cols = list(df.columns)
     kind = detect_convention(cols)
     if kind in VENDOR_FORMATS:
-        return vendor_run({c: df[c].to_numpy() for c in cols}, kind, sense=sense, source=str(path))
+        run = vendor_run({c: df[c].to_numpy() for c in cols}, kind, sense=sense, source=str(path))
+        return with_library_options(run, wrench_frame=wrench_frame, wrench_point=wrench_point, wrench_sense=wrench_sense)
     if sense is not None:
         raise ParameterError(f"{path}: sense={sense!r} applies to a vendor's recording (UR RTDE, libfranka); this table has the "
                              "library's columns: give wrench_sense= (--wrench-sense) instead")
@@ -156,11 +157,11 @@ def read_recording(path: str | Path, format: str | None = None, **kwargs: Any) -
 
     path = Path(path)
     if format in VENDOR_FORMATS or (format is None and path.suffix.lower() in (".json", ".jsonl")):
-        unknown = set(kwargs) - {"sense", "max_bytes", "wrench_sense"}
+        library = {k: kwargs.pop(k) for k in ("wrench_frame", "wrench_point", "wrench_sense") if k in kwargs}
+        unknown = set(kwargs) - {"sense", "max_bytes"}
         if unknown:
             raise ParameterError(f"a {format or 'franka'} recording takes sense= and max_bytes=; got {sorted(unknown)}")
-        kwargs.pop("wrench_sense", None)  # the vendor's documented sense, or sense= (an explicit override)
-        return read_vendor(path, format or "franka", **kwargs)
+        return with_library_options(read_vendor(path, format or "franka", **kwargs), **library)
     if format is None:
         suffix = path.suffix.lower()
         if suffix in (".csv", ".parquet", ".pq"):

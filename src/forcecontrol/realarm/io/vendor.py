@@ -42,7 +42,13 @@ from ...spatial.rotations import rotvec_to_rotation
 from ..conventions import BY_END_EFFECTOR, ON_END_EFFECTOR
 from .recorded import RecordedRun
 
-__all__ = ["VENDOR_FORMATS", "SENSE_OVERRIDES", "detect_convention", "vendor_run", "read_vendor", "ur_pose", "franka_pose"]
+__all__ = [
+    "VENDOR_FORMATS", "SENSE_OVERRIDES", "detect_convention", "vendor_run", "read_vendor", "ur_pose", "franka_pose",
+    "with_library_options",
+]
+
+#: the library's own table options (read_table's defaults): a vendor's recording carries its own
+_LIBRARY_DEFAULTS = {"wrench_frame": "base", "wrench_point": "end-effector", "wrench_sense": BY_END_EFFECTOR}
 
 #: the vendors' recording layouts :func:`read_vendor` knows
 VENDOR_FORMATS = ("ur-rtde", "franka")
@@ -222,6 +228,29 @@ def vendor_run(columns: Mapping[str, Any], format: str, *, sense: str | None = N
     meta["wrench_sense_source"] = "override" if sense is not None else "vendor documentation"
     meta["notes"] = notes
     return RecordedRun(**run, wrench_sense=wsense, source=source, metadata=meta)
+
+
+def with_library_options(run: RecordedRun, **given: Any) -> RecordedRun:
+    """A vendor's run checked against the library's table options (``wrench_frame``, ``wrench_point``, ``wrench_sense``).
+
+    A value equal to the vendor's tag is consistent; one equal to the library's default is taken
+    as not given (the vendor's convention is used, and a differing sense is noted); any other
+    value contradicts the vendor's documentation and is refused rather than ignored.
+
+    Raises:
+        ParameterError: a value that is neither the vendor's nor the library's default (named).
+    """
+    tags = {"wrench_frame": run.wrench_frame, "wrench_point": run.wrench_point, "wrench_sense": run.wrench_sense}
+    conflict = {k: v for k, v in given.items() if v != tags[k] and v != _LIBRARY_DEFAULTS[k]}
+    if conflict:
+        raise ParameterError(
+            f"{run.source}: a {run.metadata.get('format')} recording has the vendor's documented wrench convention "
+            f"({', '.join(f'{k} {tags[k]!r}' for k in conflict)}); {', '.join(f'{k}={v!r}' for k, v in conflict.items())} "
+            "does not apply (override the sense with sense='on-robot'|'by-robot', --sense)")
+    if given.get("wrench_sense", run.wrench_sense) != run.wrench_sense and run.metadata.get("wrench_sense_source") != "override":
+        run.metadata["notes"].append(f"the wrench's sense is the vendor's documented {run.wrench_sense} (not the default "
+                                     f"{given['wrench_sense']}; --sense overrides it)")
+    return run
 
 
 def _json_states(path: Path, max_bytes: int) -> dict[str, np.ndarray]:
