@@ -5,7 +5,10 @@ https://docs.universal-robots.com/tutorials/communication-protocol-tutorials/rtd
 ``timestamp`` [s] (time since the controller started), ``actual_q`` [rad], ``actual_qd`` [rad/s],
 ``actual_TCP_pose`` = ``[x, y, z, rx, ry, rz]`` (the TCP's position [m] and orientation as a
 rotation vector [rad], in the base frame), ``actual_TCP_force`` = ``[Fx, Fy, Fz, Tx, Ty, Tz]``
-("Generalized forces in the TCP", base axes; sense and point: :func:`~forcecontrol.realarm.conventions.from_ur_tcp_force`).
+("Generalized forces in the TCP", base axes; sense and point: :func:`~forcecontrol.realarm.conventions.from_ur_tcp_force`:
+the moment is about the tool flange on e-Series and about the TCP on CB3, Universal_Robots_ROS2_Driver
+PRs #1287 and #1615; an external sensor through a URCap reports it at the TCP, issue #1849. The
+reader does not move it: the series is not in the file).
 A CSV writes each vector element as its own column ``<name>_<i>``: UR's own
 ``rtde/csv_writer.py`` (``record.py``; space-delimited by default) and ur_rtde's
 ``RTDEReceiveInterface::startFileRecording`` (comma-delimited) both do; both are read.
