@@ -237,7 +237,7 @@ def test_report_of_a_sweep_has_a_map_per_metric_and_the_analytic_boundary(tmp_pa
     html = out.read_text(encoding="utf-8")
     _assert_self_contained(html)
     data = _plot_data(html)
-    kinds = [tr["type"] for tr in data]
+    kinds = [tr["type"] for tr in data if tr.get("name") != "unstable"]  # the grey layer of unstable cells aside
     assert kinds.count("heatmap") == 4 and kinds.count("contour") == 4
 
 
@@ -438,3 +438,60 @@ def test_app_undo_goes_back_twenty_settings_reset_restores_the_book_and_bad_entr
     assert len(a.latencies) == n and a.session.values["controller.stiffness[0]"] == 2500.0
     a.entries["controller.stiffness[0]"].value = "2600"
     assert not a.entry_errors["controller.stiffness[0]"].visible and a.session.values["controller.stiffness[0]"] == 2600.0
+
+
+def _plotly_array(v) -> np.ndarray:
+    """A plotly.js array as written in the page: a typed array (``bdata``) or nested lists with nulls."""
+    import base64
+
+    if isinstance(v, dict) and "bdata" in v:
+        a = np.frombuffer(base64.b64decode(v["bdata"]), dtype=np.dtype(v["dtype"])).astype(float)
+        return a.reshape([int(n) for n in str(v["shape"]).split(",")]) if "shape" in v else a
+    return np.array([[np.nan if x is None else x for x in row] for row in v], dtype=float)
+
+
+def test_sweep_maps_keep_unstable_cases_out_of_the_colour_scale(tmp_path, monkeypatch):
+    """Report and PNG maps: the colour scale spans the stable cases' metric only; unstable cells are a grey layer
+    (report) or grey hatched cells (PNG) with a legend entry "unstable"."""
+    import matplotlib.collections
+    import matplotlib.figure
+
+    from forcecontrol.sweep import prepare_sweep, run_sweep
+    from forcecontrol.sweep.figures import plot_sweep_map
+    from forcecontrol.sweep.run import read_sweep
+    from forcecontrol.sweep.spec import SweepDefinition
+    from forcecontrol.workbench.report import write_report
+
+    scn = fc.scenario("example-9.3").with_(duration=1.0)
+    definition = SweepDefinition.from_options(
+        ["environment.stiffness=logspace(3,6,4)", "controller.force_gain[0]=0.0012,0.0024"], cases=["4"])
+    table = tmp_path / "sw" / "s.parquet"
+    run_sweep(prepare_sweep(scn, definition), table, workers=1)
+    df, _ = read_sweep(table)
+    bad = ~df["stable"].to_numpy(dtype=bool)
+    assert bad.any() and (~bad).any()  # the sweep has both kinds of case
+    metric = "peak_force"
+    stable_max = float(np.nanmax(df[metric].to_numpy(dtype=float)[~bad]))
+    assert float(np.nanmax(df[metric].to_numpy(dtype=float))) > 2 * stable_max  # unstable cases would swamp the scale
+
+    data = _plot_data(write_report(table.parent).read_text(encoding="utf-8"))
+    maps = [tr for tr in data if tr["type"] == "heatmap" and tr.get("name") == metric]
+    grey = [tr for tr in data if tr["type"] == "heatmap" and tr.get("name") == "unstable"]
+    assert len(maps) == 1 and len(grey) == 4
+    z = _plotly_array(maps[0]["z"])
+    assert np.nanmax(z) == pytest.approx(stable_max, rel=1e-12)
+    u = _plotly_array(grey[0]["z"])
+    assert int(np.nansum(u)) == int(bad.sum()) and np.all(np.isnan(z[u == 1.0]))
+    assert any("unstable" in str(tr.get("name")) and tr.get("showlegend") for tr in data if tr["type"] == "scatter")
+
+    figs = []
+    real = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", lambda self, *a, **k: (figs.append(self), real(self, *a, **k)))
+    plot_sweep_map(table, "environment.stiffness", "controller.force_gain[0]", tmp_path / "m.png", metrics=(metric,),
+                   resolution=6)
+    ax = figs[0].axes[0]
+    colour = [c for c in ax.collections if isinstance(c, matplotlib.collections.QuadMesh)]
+    assert len(colour) == 1 and colour[0].get_clim()[1] == pytest.approx(stable_max, rel=1e-12)
+    hatched = [c for c in ax.collections if c.get_hatch() == "///"]
+    assert len(hatched) == 1 and int(np.ma.count(hatched[0].get_array())) == int(bad.sum())
+    assert any(t.get_text().startswith("unstable") for t in ax.get_legend().get_texts())

@@ -190,8 +190,9 @@ def plot_sweep_map(
 ) -> Path:
     """One figure: a row per scenario case, a column per metric, over swept parameters x and y.
 
-    Cells are the simulated metric (grid designs; random designs are scattered); a red ``×``
-    marks a case the simulation found unstable; the black line is the analytic sampled-loop
+    Cells are the simulated metric of the stable cases (grid designs; random designs are scattered),
+    on a colour scale of the stable cases only; a case the simulation found unstable is a grey,
+    hatched cell with a red ``×`` (legend: "unstable"), outside the colour scale; the black line is the analytic sampled-loop
     boundary ρ = 1 (on a ``resolution``² grid, a few ms per point), drawn when the analysis applies.
 
     Args:
@@ -210,6 +211,8 @@ def plot_sweep_map(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Rectangle
 
     _claim(out, overwrite)
     df, meta = _source(source)
@@ -236,19 +239,28 @@ def plot_sweep_map(
                     rho = None
         for c, metric in enumerate(metrics):
             ax = axs[r, c]
-            vals = sub[metric].to_numpy(dtype=float)
+            bad = ~sub["stable"].to_numpy(dtype=bool)
+            # the colour scale is the stable cases' (an unstable case's metric would swamp it): unstable ones grey, hatched
+            vals = np.where(bad, np.nan, sub[metric].to_numpy(dtype=float))
             if grid:
                 Z = np.full((len(ys), len(xs)), np.nan)
+                U = np.zeros((len(ys), len(xs)), dtype=bool)
                 ix = np.searchsorted(xs, sub[x].to_numpy(dtype=float))
                 iy = np.searchsorted(ys, sub[y].to_numpy(dtype=float))
                 Z[iy, ix] = vals
+                U[iy, ix] = bad
                 mesh = ax.pcolormesh(xs, ys, np.ma.masked_invalid(Z), shading="nearest", cmap="viridis")
+                if U.any():
+                    grey = ax.pcolor(xs, ys, np.ma.masked_where(~U, U.astype(float)), shading="nearest",
+                                     cmap=ListedColormap(["0.78"]), edgecolors="0.45", linewidth=0.0)
+                    grey.set_hatch("///")
             else:
-                mesh = ax.scatter(sub[x], sub[y], c=vals, cmap="viridis", s=12)
-            fig.colorbar(mesh, ax=ax)
-            bad = ~sub["stable"].to_numpy(dtype=bool)
-            ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="red", s=18, linewidths=1.0,
-                       label="unstable (simulated)")
+                mesh = ax.scatter(sub[x][~bad], sub[y][~bad], c=vals[~bad], cmap="viridis", s=12)
+            fig.colorbar(mesh, ax=ax, label=f"{metric} (stable cases)")
+            ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="red", s=18, linewidths=1.0)
+            if bad.any():
+                ax.add_patch(Rectangle((0, 0), 0, 0, facecolor="0.78", edgecolor="red", hatch="///", visible=False,
+                                       label="unstable (simulated): grey, not in the colour scale"))
             if rho is not None:
                 ax.contour(fx, fy, rho, levels=[1.0], colors="black", linewidths=1.5)
                 ax.plot([], [], color="black", label="analytic ρ = 1")
@@ -258,7 +270,7 @@ def plot_sweep_map(
             ax.set_xlabel(x)
             ax.set_ylabel(y)
             ax.set_title(f"{figure_safe(label)}\n{metric}", fontsize=9)
-            if r == 0 and c == 0:
+            if c == 0:  # a row's cases are stable or not alike in every column
                 ax.legend(fontsize=7, loc="best")
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""),

@@ -191,15 +191,22 @@ def sweep_figures(df: Any, meta: dict[str, Any], *, resolution: int = 30, bounda
                 Z = np.full((len(ys), len(xs)), np.nan)
                 ix = np.searchsorted(xs, sub[x].to_numpy(dtype=float))
                 iy = np.searchsorted(ys, sub[y].to_numpy(dtype=float))
-                Z[iy, ix] = sub[metric].to_numpy(dtype=float)
+                bad = ~stable
+                # the colour scale is the stable cases' (an unstable case's metric would swamp it); unstable cells grey
+                Z[iy, ix] = np.where(bad, np.nan, sub[metric].to_numpy(dtype=float))
+                U = np.full((len(ys), len(xs)), np.nan)
+                U[iy[bad], ix[bad]] = 1.0
                 domain = fig.layout[f"xaxis{'' if c == 1 else c}"].domain
                 bar_x = domain[1] + 0.005
                 fig.add_heatmap(x=xs, y=ys, z=Z, colorscale="Viridis", name=metric, row=1, col=c,
                                 colorbar={"x": bar_x, "len": 0.8, "thickness": 10},
                                 hovertemplate=f"{x}=%{{x:.4g}}<br>{y}=%{{y:.4g}}<br>{metric}=%{{z:.4g}}<extra>{html.escape(label)}</extra>")
-                bad = ~stable
+                if bad.any():
+                    fig.add_heatmap(x=xs, y=ys, z=U, colorscale=[[0, "#c4c4c4"], [1, "#c4c4c4"]], showscale=False,
+                                    name="unstable", hoverinfo="skip", row=1, col=c)
                 fig.add_scatter(x=sub[x][bad], y=sub[y][bad], mode="markers", marker={"symbol": "x", "color": "red", "size": 8},
-                                name="unstable (simulated)", legendgroup="unstable", showlegend=(c == 1), row=1, col=c)
+                                name="unstable (simulated): grey cells, not in the colour scale", legendgroup="unstable",
+                                showlegend=(c == 1), row=1, col=c)
                 if rho is not None:
                     fig.add_contour(x=fx, y=fy, z=rho, contours={"start": 1.0, "end": 1.0, "size": 1.0, "coloring": "lines"},
                                     line={"color": "black", "width": 2}, colorscale=[[0, "black"], [1, "black"]],
@@ -296,7 +303,8 @@ def write_report(source: str | Path, out: str | Path | None = None) -> Path:
         title = f"Sweep of {meta.get('scenario', sweep.stem)}: {len(df)} cases"
         params = meta.get("parameters", [])
         intro = (f"Table <code>{html.escape(str(sweep))}</code>; swept: {html.escape(', '.join(params))}. "
-                 "Cells: the simulated metric; red ×: cases the simulation found unstable; black line: the analytic "
+                 "Cells: the simulated metric of the stable cases (the colour scale is theirs); "
+                 "grey with a red ×: cases the simulation found unstable; black line: the analytic "
                  "sampled-loop boundary ρ = 1 (direct force schemes), stable on the side of the lower stiffness.")
         page = _page(title, intro, sweep_figures(df, meta))
     else:
