@@ -208,3 +208,17 @@ def test_an_absurd_gain_is_refused(key):
     with pytest.raises(ParameterError, match=rf"{key} must have entries of at most 1e\+12 in magnitude.*1.7e\+308"):
         fc.ParallelForcePositionController(fc.PlanarTwoLink(), **kw)
     fc.ParallelForcePositionController(fc.PlanarTwoLink(), **{**kw, key: 1e12})  # the bound itself is accepted
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e308", "9" * 401])
+def test_task_refuses_a_time_that_is_not_a_finite_sane_number(value):
+    """`task list --json --time nan` (and inf, -inf, 1e308, 401 digits) exited 0 silently (cli, seed 20261126)."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    for name in ("list", "turning-crank"):
+        res = CliRunner().invoke(app, ["task", name, "--json", "--time", value])
+        assert res.exit_code == 2, (name, res.output)
+        assert "--time" in res.output and "at most 1e+09" in res.output, res.output
+    assert CliRunner().invoke(app, ["task", "list", "--time", "1e9"]).exit_code == 0  # the bound itself is accepted

@@ -18,7 +18,10 @@ from .app import JsonOut, _fail, print_json
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["task_command", "format_matrix", "task_report"]
+__all__ = ["task_command", "format_matrix", "task_report", "MAX_TASK_TIME"]
+
+#: the largest |--time| accepted [s] (about 32 years): a moving frame's angle beyond it means nothing
+MAX_TASK_TIME = 1e9
 
 
 class FrameChoice(str, Enum):
@@ -56,8 +59,14 @@ def format_matrix(name: str, M: np.ndarray) -> str:
 
 def task_report(name: str, frame: str = "constraint", t: float = 0.0, pinv: bool = False) -> dict[str, Any]:
     """The task's table and matrices as plain data (the ``--json`` output)."""
+    import math
+
+    from ..errors import ParameterError
     from ..task import SYMBOLS, named_task
 
+    if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t) or abs(t) > MAX_TASK_TIME:
+        raise ParameterError(f"time (--time) must be a finite number of seconds of magnitude at most {MAX_TASK_TIME:g}; "
+                             f"got {t!r}")
     task = named_task(name)
     sel = task.selection(frame, t)  # type: ignore[arg-type]
     refs = {SYMBOLS[k]: v for k, v in task.references.items()}
@@ -93,6 +102,11 @@ def task_command(
     from ..task import TASKS, named_task
 
     console = Console(width=None if sys.stdout.isatty() else 132)
+    if name == "list" and (time != time or abs(time) > MAX_TASK_TIME):  # nan, inf, 1e308: refused, as for a task
+        from ..errors import ParameterError
+
+        _fail(ParameterError(f"time (--time) must be a finite number of seconds of magnitude at most {MAX_TASK_TIME:g}; "
+                             f"got {time!r}"))
     if name == "list":
         table = Table(title="Named tasks (forcecontrol task NAME)")
         table.add_column("name", style="bold")
