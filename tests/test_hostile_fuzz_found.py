@@ -222,3 +222,33 @@ def test_task_refuses_a_time_that_is_not_a_finite_sane_number(value):
         assert res.exit_code == 2, (name, res.output)
         assert "--time" in res.output and "at most 1e+09" in res.output, res.output
     assert CliRunner().invoke(app, ["task", "list", "--time", "1e9"]).exit_code == 0  # the bound itself is accepted
+
+
+def test_calibrate_plan_never_overwrites_a_file_it_did_not_write(tmp_path):
+    """`calibrate-plan chapter-arm 6 --out notes.csv` overwrote the user's notes.csv (cli, seed 20261126, 8 cases)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    notes = tmp_path / "notes.csv"
+    notes.write_text("my notes\n")
+    res = CliRunner().invoke(app, ["calibrate-plan", "chapter-arm", "6", "--json", "--out", str(notes)])
+    assert res.exit_code == 2 and "already exists" in res.output and "--force" in res.output, res.output
+    assert notes.read_text() == "my notes\n"  # untouched
+    folder = tmp_path / "plan.csv"
+    folder.mkdir()
+    res = CliRunner().invoke(app, ["calibrate-plan", "chapter-arm", "6", "--out", str(folder), "--force"])
+    assert res.exit_code == 2 and "existing folder" in res.output and folder.is_dir(), res.output
+    # its own output is replaced without --force, silently; a user's file with --force, with a note in --json
+    plan = tmp_path / "plan2.csv"
+    for _ in range(2):
+        res = CliRunner().invoke(app, ["calibrate-plan", "chapter-arm", "6", "--json", "--out", str(plan)])
+        assert res.exit_code == 0, res.output
+        assert json.loads(res.stdout)["notes"] == []
+    assert plan.read_text().splitlines()[0] == "q1,q2" and len(plan.read_text().splitlines()) == 7
+    res = CliRunner().invoke(app, ["calibrate-plan", "chapter-arm", "6", "--json", "--out", str(notes), "--force"])
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["notes"] == [f"--force: {notes} was not written by forcecontrol; it is replaced"]
+    assert notes.read_text().startswith("q1,q2")

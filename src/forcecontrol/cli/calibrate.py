@@ -141,6 +141,7 @@ def calibrate_plan_command(
     forces_only: Annotated[bool, typer.Option("--forces-only", help="plan for mass and force bias only")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="write the poses as CSV (q1..qn)")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
+    force: Annotated[bool, typer.Option("--force", help="overwrite an --out file forcecontrol did not write")] = False,
 ) -> None:
     """Plan well-conditioned calibration poses within a robot's joint limits."""
     from rich.console import Console
@@ -155,12 +156,21 @@ def calibrate_plan_command(
     if out is not None:
         import csv
 
+        from .owned import claim_output, mark_output
+
+        try:  # never over a file forcecontrol did not write, unless --force (then said on stderr and in --json)
+            report["notes"] = claim_output(out, "calibrate-plan", force)
+        except ForceControlError as exc:
+            _fail(exc)
+        for note in report["notes"]:
+            print(f"note: {note}", file=sys.stderr)
         try:
             with out.open("w", newline="", encoding="utf-8") as fh:
                 w = csv.writer(fh)
                 nq = len(report["joint_positions"][0])
                 w.writerow([f"q{i + 1}" for i in range(nq)])
                 w.writerows([[repr(float(v)) for v in q] for q in report["joint_positions"]])
+            mark_output(out, "calibrate-plan")
         except OSError as exc:
             from ..errors import OutputError
 
