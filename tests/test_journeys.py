@@ -27,6 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = [
     "example-9.1", "example-9.2", "example-9.3", "example-9.4", "hybrid-rigid-plane", "impact-safety", "impact",
     "panda-admittance-contact", "panda-peg-in-hole", "panda-table-line", "problem-9.10", "problem-9.3", "variable-stiffness",
+    "arm-circle-contour", "arm-unknown-circle", "panda-sphere", "servo-admittance", "ur5-admittance-servo",
 ]
 R2 = math.sqrt(0.5)
 
@@ -63,6 +64,18 @@ BOOK = {
     "panda-admittance-contact": lambda lab: {"f_z": -5e3 * 1e3 / 6e3 * 0.02},
     "panda-peg-in-hole": lambda lab: {"fx": (0.0, 0.05), "fy": (0.0, 0.05)},  # from 10 N (2 mm x 5000 N/m) to 0
     "variable-stiffness": lambda lab: {},
+    # a disc (R = 0.2 m, k = 1e4 N/m) traced at r_d = 0.19 m with k_p = 2500 N/m, stopped at 45 deg: the tip at
+    # r = (k R + k_p r_d)/(k + k_p) = 0.198 m, 20 N towards the centre (frictionless)
+    "arm-circle-contour": lambda lab: ({"x": 1.0 + 0.198 * R2, "y": 0.35 + 0.198 * R2, "fx": -20 * R2, "fy": -20 * R2}
+                                       if lab == "frictionless" else {}),
+    # still tracing at the end (no settled point): its own checks (the normal-force error of the analysis) must pass
+    "arm-unknown-circle": lambda lab: {},
+    # a ball (R = 0.2 m, k = 1e4 N/m) traced at r_d = 0.189 m with k_p = 1000 N/m, stopped at 60 deg in the x-z plane:
+    # 10 N towards the centre, f_x = -10 cos 60 deg
+    "panda-sphere": lambda lab: {"fx": (-5.0, 0.01)},
+    # springs in series behind the servo: k K_Pt/(k + K_Pt) * 1 cm (the 8000 N/m case bounces: no settled value)
+    "servo-admittance": lambda lab: {"fx": 2000 * 1000 / 3000 * 0.01} if lab.startswith("k = 2000") else {},
+    "ur5-admittance-servo": lambda lab: {"f_z": -3000 * 1000 / 4000 * 0.01},
 }
 COLUMN = {"x": "x [m]", "y": "y [m]", "fx": "f_x [N]", "fy": "f_y [N]", "f_z": "f_z [N]"}
 
