@@ -252,3 +252,25 @@ def test_calibrate_plan_never_overwrites_a_file_it_did_not_write(tmp_path):
     assert res.exit_code == 0, res.output
     assert json.loads(res.stdout)["notes"] == [f"--force: {notes} was not written by forcecontrol; it is replaced"]
     assert notes.read_text().startswith("q1,q2")
+
+
+@pytest.mark.parametrize("key", ["force_gain", "integral_gain"])
+def test_an_absurd_force_gain_is_refused(key):
+    """ParallelForcePositionController(force_gain=1.7e308) was accepted silently (api, seed 20261126, case 334)."""
+    kw = {"force_gain": 0.05, "integral_gain": 0.1, key: 1.7e308}
+    with pytest.raises(ParameterError, match=rf"{key} must have entries of at most 1e\+12 .*in magnitude.*1.7e\+308"):
+        fc.ParallelForcePositionController(fc.PlanarTwoLink(), 100, 500, 2500, **kw)
+    with pytest.raises(ParameterError, match=rf"{key} must have entries of at most 1e\+12"):
+        fc.ParallelForcePositionController(fc.PlanarTwoLink(), 100, 500, 2500, **{**kw, key: [0.0, 2e12]})
+    fc.ParallelForcePositionController(fc.PlanarTwoLink(), 100, 500, 2500, **{**kw, key: 1e12})  # the bound is accepted
+
+
+def test_absurd_variable_stiffness_schedules_are_refused():
+    """DirectionalStiffness(high=1e300) (the scenario's stiffness_high) and SinusoidalStiffness(mean=1e300) were accepted."""
+    from forcecontrol.controllers.variable import DirectionalStiffness, SinusoidalStiffness
+
+    with pytest.raises(ParameterError, match=r"high must have entries of at most 1e\+12 N/m.*1e\+300"):
+        DirectionalStiffness(100.0, 1e300)
+    with pytest.raises(ParameterError, match=r"mean must have entries of at most 1e\+12 N/m"):
+        SinusoidalStiffness(1e300, 0.0, 1.0)
+    assert DirectionalStiffness(100.0, 1e12).high == 1e12

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.validate import _plain_number, as_gain_matrix, readonly
+from ..core.validate import _plain_number, as_gain_matrix, check_gain_size, readonly
 from ..errors import DimensionError, DriftWarning, ParameterError
 
 __all__ = ["check_force_reference"]
@@ -26,6 +26,7 @@ def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
                 raise ParameterError(f"{name} must be finite; got {d}")
             if min(d) < 0.0:
                 raise ParameterError(f"{name} must be non-negative on every axis [{unit}]; got {d}")
+            check_gain_size(name, d, unit)
             return readonly(np.array(d))
     try:
         a = np.array(value, dtype=np.float64)
@@ -53,6 +54,7 @@ def _diagonal_gain(name: str, value: Any, m: int, unit: str) -> np.ndarray:
         raise ParameterError(f"{name} must be finite; got {d.tolist()}")
     if np.any(d < 0.0):
         raise ParameterError(f"{name} must be non-negative on every axis [{unit}]; got {d.tolist()}")
+    check_gain_size(name, d, unit)
     return readonly(d)
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.validate import as_vector, nonnegative_scalar, positive_scalar
+from ..core.validate import as_vector, gain_scalar, nonnegative_scalar, positive_scalar
 
 __all__ = ["dls_damping", "redundant_acceleration", "NullSpacePosture", "SingularityHandling"]
 
@@ -70,8 +70,8 @@ class NullSpacePosture:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "posture", as_vector("posture", self.posture))
-        object.__setattr__(self, "stiffness", nonnegative_scalar("stiffness", self.stiffness))
-        object.__setattr__(self, "damping", nonnegative_scalar("damping", self.damping))
+        object.__setattr__(self, "stiffness", gain_scalar("stiffness", self.stiffness))
+        object.__setattr__(self, "damping", gain_scalar("damping", self.damping))
 
     def acceleration(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """y₀ (n,) [rad/s²]."""

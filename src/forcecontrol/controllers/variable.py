@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..core.validate import as_gain_matrix, nonnegative_scalar, positive_scalar
+from ..core.validate import as_gain_matrix, gain_scalar, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
 from ..laws.layout import IMPEDANCE
 from ..robots.base import RobotModel
@@ -67,8 +67,8 @@ class DirectionalStiffness:
     """
 
     def __init__(self, low: float, high: float) -> None:
-        self.low = nonnegative_scalar("low", low)
-        self.high = nonnegative_scalar("high", high)
+        self.low = gain_scalar("low", low, "N/m")
+        self.high = gain_scalar("high", high, "N/m")
         if self.high < self.low:
             raise ParameterError(f"high must be >= low = {self.low:.6g} N/m; got {high!r}")
         self.__name__ = f"DirectionalStiffness(low={self.low:g}, high={self.high:g})"
@@ -86,8 +86,8 @@ class SinusoidalStiffness:
     """
 
     def __init__(self, mean: float, amplitude: float, frequency: float) -> None:
-        self.mean = nonnegative_scalar("mean", mean)
-        self.amplitude = nonnegative_scalar("amplitude", amplitude)
+        self.mean = gain_scalar("mean", mean, "N/m")
+        self.amplitude = gain_scalar("amplitude", amplitude, "N/m")
         if self.amplitude > self.mean:
             raise ParameterError(f"amplitude must be <= mean = {self.mean:.6g} N/m (stiffness >= 0); got {amplitude!r}")
         self.frequency = positive_scalar("frequency", frequency)

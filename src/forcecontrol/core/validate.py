@@ -15,6 +15,8 @@ __all__ = [
     "as_gain_matrix",
     "positive_scalar",
     "nonnegative_scalar",
+    "gain_scalar",
+    "check_gain_size",
     "readonly",
 ]
 
@@ -224,3 +226,24 @@ def positive_scalar(name: str, value: Any, unit: str = "") -> float:
 def nonnegative_scalar(name: str, value: Any, unit: str = "") -> float:
     """A finite number >= 0 (``unit`` is named in the message)."""
     return _scalar(name, value, "a non-negative number", unit, lambda v: v >= 0.0)
+
+
+def check_gain_size(name: str, values: Any, unit: str = "") -> None:
+    """Refuse a gain with an entry above :data:`MAX_GAIN` in magnitude (a finite 1.7e308 passed every other check).
+
+    Raises:
+        ParameterError: naming ``name``, the bound and the largest entry.
+    """
+    a = np.abs(np.asarray(values, dtype=np.float64))
+    top = float(np.max(a)) if a.size else 0.0
+    if top > MAX_GAIN:
+        u = f" {unit}" if unit else ""
+        raise ParameterError(f"{name} must have entries of at most {MAX_GAIN:.0e}{u} in magnitude (far beyond any arm or "
+                             f"contact); got {top:.4g}")
+
+
+def gain_scalar(name: str, value: Any, unit: str = "", *, positive: bool = False) -> float:
+    """A finite gain ``>= 0`` (``> 0`` when ``positive``) of at most :data:`MAX_GAIN` (``unit`` named in messages)."""
+    v = positive_scalar(name, value, unit) if positive else nonnegative_scalar(name, value, unit)
+    check_gain_size(name, v, unit)
+    return v

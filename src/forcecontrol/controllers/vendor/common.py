@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from ...core.validate import as_vector
+from ...core.validate import as_vector, check_gain_size
 from ...errors import DimensionError, ParameterError
 from ...spatial.closed_form import euler_xyz_to_rotation, rotation_vector
 
@@ -33,6 +33,7 @@ def axis_vector(name: str, value: Any, *, low: float | None = None, strict_low: 
                 rel = ">" if strict_low else ">="
                 raise ParameterError(f"{name} must be {rel} {low:g}{(' ' + unit) if unit else ''} on every axis; "
                                      f"got {v:g} on axis {AXES[i]}")
+    check_gain_size(name, a, unit)  # gains, limits, wrenches: 1.7e308 is finite but means nothing
     return a
 
 

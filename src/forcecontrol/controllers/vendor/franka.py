@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from ...core.validate import nonnegative_scalar, positive_scalar
+from ...core.validate import gain_scalar, nonnegative_scalar, positive_scalar
 from ...errors import ParameterError
 from ...laws.vendor import franka_impedance_torque
 from ...laws.vendor.layout import FRANKA, FRANKA_STATE
@@ -88,9 +88,9 @@ class FrankaCartesianImpedanceController(Controller):
                  pinv_damping: float = 0.2, soft_start: bool = True, sample_time: float = 1e-3) -> None:
         require_pose_robot("FrankaCartesianImpedanceController", robot)
         super().__init__(robot, sample_time)
-        self.translational_stiffness = nonnegative_scalar("translational_stiffness", translational_stiffness, "N/m")
-        self.rotational_stiffness = nonnegative_scalar("rotational_stiffness", rotational_stiffness, "N m/rad")
-        self.nullspace_stiffness = nonnegative_scalar("nullspace_stiffness", nullspace_stiffness)
+        self.translational_stiffness = gain_scalar("translational_stiffness", translational_stiffness, "N/m")
+        self.rotational_stiffness = gain_scalar("rotational_stiffness", rotational_stiffness, "N m/rad")
+        self.nullspace_stiffness = gain_scalar("nullspace_stiffness", nullspace_stiffness)
         self.delta_tau_max = positive_scalar("delta_tau_max", delta_tau_max, "N m")
         a = float(filter_coefficient)
         if not 0.0 < a <= 1.0:
