@@ -55,3 +55,19 @@ def test_contact_loss_and_config_notes_are_warnings_of_the_case():
     assert [w["kind"] for w in got] == ["config-note", "ik-limit", "contact-lost"]
     assert got[0]["text"] == "key 'x' not read" and got[1]["t"] == 0.2 and got[2]["count"] == 2
     assert "contact lost 2 time(s)" in got[2]["text"] and "allowed by the scenario" in got[2]["text"]
+
+
+def test_analyze_json_lists_the_config_notes_it_warned(tmp_path):
+    """`analyze FILE --json` of a vendor scenario: the reader's notes said on stderr are each case's config-note warnings."""
+    from importlib import resources
+
+    configs = resources.files("forcecontrol.scenarios") / "configs"
+    for f in ("fzi_issue_21.toml", "fzi_issue_21.yaml"):
+        (tmp_path / f).write_text((configs / f).read_text(encoding="utf-8"), encoding="utf-8")
+    proc = forcecontrol(tmp_path, "analyze", "fzi_issue_21.toml", "--json")
+    cases = json.loads(proc.stdout)["cases"]
+    assert len(cases) == 2
+    for case in cases:
+        notes = [w["text"] for w in case["warnings"] if w["kind"] == "config-note"]
+        assert any("solver.error_scale not set" in n for n in notes)
+        assert all(n in proc.stderr for n in notes)

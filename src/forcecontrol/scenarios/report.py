@@ -164,6 +164,7 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
         ScenarioError: the scenario cannot be loaded or built.
     """
     from .core import Scenario, build_case, case_analysis, check_expected, load_scenario
+    from .summary import config_warnings
 
     scn = source if isinstance(source, Scenario) else load_scenario(source)
     cases = []
@@ -190,6 +191,7 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
             "analysis": {k: _plain(v) for k, v in analysis.items()},
             "checks": [{k: _plain(v) if k not in ("metric", "ok", "reason") else v for k, v in c.items()} for c in checks],
         }
+        entry["warnings"] = config_warnings(getattr(parts["controller"], "config_notes", None))  # as run --json
         if not analysis:
             entry["analysis_skipped"] = no_analysis_reason(parts)
         if verify:

@@ -16,7 +16,8 @@ from .units import with_unit
 if TYPE_CHECKING:  # pragma: no cover
     from .model import CaseResult, ScenarioRun
 
-__all__ = ["settled_table", "checks_table", "contact_warnings", "case_events", "case_warnings", "html_summary", "task_axes"]
+__all__ = ["settled_table", "checks_table", "contact_warnings", "case_events", "case_warnings", "config_warnings",
+           "html_summary", "task_axes"]
 
 #: the logged events that are warnings (a limit or a protective layer changed what was asked, or contact was
 #: lost); the others (a contact transition) are reported in ``events`` only.
@@ -84,15 +85,19 @@ def case_events(case: CaseResult) -> list[dict[str, Any]]:
     return sorted((dict(e) for e in case.result.events or ()), key=lambda e: float(e.get("t", 0.0)))
 
 
+def config_warnings(notes: Any) -> list[dict[str, Any]]:
+    """The reader's notes on a controller's own configuration file (a vendor controller's ``config_notes``) as
+    ``config-note`` warnings: the first entries of a case's ``warnings`` in ``run --json`` and ``analyze --json``."""
+    return [{"kind": "config-note", "t": None, "text": str(n)} for n in notes or ()]
+
+
 def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     """What the run warned about this case (on stderr), as ``{"kind", "t", "text"}`` (``t`` None when it is
     not an instant): the reader's notes on a controller's configuration file (``config-note``), the logged
     events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
     ``safety``, ``stability``, ``contact lost``) and contact lost after touching (``contact-lost``, with its
     count): the ``warnings`` list of a case in ``run --json``."""
-    out: list[dict[str, Any]] = []
-    for note in (case.result.metadata.get("controller") or {}).get("config_notes") or ():
-        out.append({"kind": "config-note", "t": None, "text": str(note)})
+    out = config_warnings((case.result.metadata.get("controller") or {}).get("config_notes") or ())
     for e in case_events(case):
         kind = str(e.get("event", ""))
         if kind in WARNING_EVENTS:
