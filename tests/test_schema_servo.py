@@ -62,3 +62,18 @@ def test_the_loader_checks_servo_keys_from_the_schema_declarations():
     good = _servo_scenario(preset="kuka-rsi", delay=2)
     scenario_model().model_validate(good)  # the schema's model accepts what the loader accepts
     S.load_scenario(good)
+
+
+def test_vendor_types_list_config_section_and_their_parameters():
+    """Each vendor controller type is in `schema` and `schema --json` with 'config', 'section' and every parameter."""
+    from forcecontrol.scenarios.parts_vendor import VENDOR_TYPES
+
+    defs = json.loads(runner.invoke(app, ["schema", "--json"]).stdout)["$defs"]
+    by_type = {d["properties"]["type"]["const"]: d["properties"] for d in defs.values() if "type" in d.get("properties", {})}
+    text = runner.invoke(app, ["schema"]).stdout
+    for kind, (_, fields) in VENDOR_TYPES.items():
+        assert set(by_type[kind]) == {"type", "config", "section", *fields}, kind
+        assert by_type[kind]["config"]["description"].startswith("the controller's own configuration file")
+        block = text.split(f'[controller] type = "{kind}"', 1)[1].split("[controller] type =", 1)[0]
+        for key in ("config", "section", *fields):
+            assert f"│ {key} " in block, (kind, key)
