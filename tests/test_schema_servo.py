@@ -77,3 +77,10 @@ def test_vendor_types_list_config_section_and_their_parameters():
         block = text.split(f'[controller] type = "{kind}"', 1)[1].split("[controller] type =", 1)[0]
         for key in ("config", "section", *fields):
             assert f"│ {key} " in block, (kind, key)
+
+
+def test_schema_table_shows_the_choices_of_a_str_key():
+    """`schema` shows a key with choices by its choices (preset: 'ur-e-series' | 'kuka-rsi' | ...), not as 'string'."""
+    out = runner.invoke(app, ["schema"]).stdout
+    block = out.split("[robot.servo]", 1)[1].split("[sensor]", 1)[0]
+    assert "'ur-e-series'" in block and "'kuka-rsi'" in block and "'position'" in block and "'velocity'" in block

@@ -212,6 +212,8 @@ def schema_command(
             return p["$ref"].rsplit("/", 1)[-1]
         if "anyOf" in p:
             return " | ".join(kind(q) for q in p["anyOf"])
+        if "enum" in p:  # a str key with choices: the choices ('ur-e-series' | 'kuka-rsi' | ...)
+            return " | ".join(repr(e) for e in p["enum"])
         if p.get("type") == "array":
             return f"list[{kind(p.get('items', {}))}]"
         return str(p.get("type", p.get("const", p.get("enum", "any"))))
