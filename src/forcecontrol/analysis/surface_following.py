@@ -31,7 +31,9 @@ estimate n̂ lags n by δ = atan(ωτ) (see :func:`~forcecontrol.task.estimation
 Bound. |f_d − f_n| <= e_λ + λ (1/cos δ − 1) with every term non-negative on a convex contour (they
 add: this is the bound and, in steady state, the value; the tests find the simulation within 2 %).
 On a concave contour (tool inside) the curvature term changes sign and the bound is the sum of the
-magnitudes. Friction adds μ f_n sin δ to λ (its component along the lagging normal), not modelled.
+magnitudes. With integral force action (the parallel scheme (9.48) with (9.43) in the estimated frame)
+both constant terms are integrated away: λ = f_d and f_n = f_d / cos δ, the cosine error alone.
+Friction adds μ f_n sin δ to λ (its component along the lagging normal), not modelled.
 """
 
 from __future__ import annotations
@@ -79,12 +81,14 @@ class SurfaceFollowingError:
 
 def surface_following_error(desired_force: float, speed: float, radius: float, stiffness: float, force_gain: float,
                             force_rate_gain: float, time_constant: float, *, stiffness_estimate: float | None = None,
-                            sample_time: float | None = None) -> SurfaceFollowingError:
+                            sample_time: float | None = None, integral_action: bool = False) -> SurfaceFollowingError:
     """The steady normal-force error tracing a convex circle of ``radius`` [m] and ``stiffness`` k [N/m] at
     ``speed`` v [m/s] with ``desired_force`` f_d [N], force gains K_Pλ = ``force_gain`` [1/s²] and
     K_Dλ = ``force_rate_gain`` [1/s] of (9.81), the frame estimated with the first-order ``time_constant``
     τ [s] (the discrete filter's lag when ``sample_time`` is given); k̂ = ``stiffness_estimate``
-    (default: k). Derivation and assumptions in the module docstring.
+    (default: k). With ``integral_action`` (the parallel scheme (9.48) with the PI (9.43) in the estimated
+    frame) the integral removes the constant curvature and lag terms in steady state: λ = f_d and only the
+    cosine error remains (the gains are then unused). Derivation and assumptions in the module docstring.
     """
     f_d = positive_scalar("desired_force", desired_force, "N")
     v = nonnegative_scalar("speed", speed, "m/s")
@@ -101,8 +105,8 @@ def surface_following_error(desired_force: float, speed: float, radius: float, s
     for _ in range(50):  # ρ depends on f_n, f_n on ρ: a contraction (the correction is O(f_d/(k R)))
         rho = R - fn / k
         delta = circle_lag(v, rho, tau, sample_time)
-        curvature = k_hat * v * v * math.cos(delta) / (rho * kp)
-        lag = k_hat * kd * v * math.sin(delta) / kp
+        curvature = 0.0 if integral_action else k_hat * v * v * math.cos(delta) / (rho * kp)
+        lag = 0.0 if integral_action else k_hat * kd * v * math.sin(delta) / kp
         lam = f_d - curvature - lag
         new = lam / math.cos(delta)
         if abs(new - fn) < 1e-12:

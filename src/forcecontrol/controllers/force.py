@@ -353,10 +353,70 @@ class ParallelForcePositionController(_DirectForceController):
     _default_start: ClassVar[str] = "zero"
     _holds_free_axes: ClassVar[bool] = False  # x_d is the free axes' position reference (9.49)
 
+    def __init__(self, robot: RobotModel, *args: Any, frame: Any = None, **kwargs: Any) -> None:
+        """As :class:`InnerPositionForceController`, plus ``frame``: an optional frame provider (a moving,
+        e.g. estimated, constraint frame: ``update(force, velocity, x)``, ``selection() -> (S_f, S_v)``,
+        ``reset()``, ``signals()``, ``describe()``; :class:`~forcecontrol.task.estimation.ConstraintFrameEstimator`).
+        With it the task frame is ``R = [S_f S_v]`` of each sample (C_F, ξ in its coordinates: give
+        force_gain/integral_gain as ``[normal, 0]``); the reference is in the frame's coordinates
+        (``force[:k]`` = λ_d, ``velocity[:d−k]`` = ν_d) and x_d = x_e + S_v (r_d − r), with
+        ``r_d − r = ∫ (ν_d − S_vᵀ ẋ_e) dt`` (the tangential position error, kept by the controller).
+        Python loop only."""
+        self.frame = None
+        if frame is not None:
+            from .hybrid import _frame_provider
+
+            frame = _frame_provider(frame)
+            S_f, S_v = (np.asarray(a, dtype=np.float64) for a in frame.selection())
+            kwargs["task_frame"] = np.hstack([S_f, S_v])
+        super().__init__(robot, *args, **kwargs)
+        if frame is not None:
+            self.frame = frame
+            self._compiled = False  # R changes every sample: the Python loop
+            self.SIGNALS = tuple(getattr(frame, "SIGNALS", ()))
+            self._k = int(np.asarray(S_f).shape[1])
+            self._tangential_error = np.zeros(self.m - self._k)
+
     def _position_offset(self, measurement: Measurement, reference: Reference) -> np.ndarray:
         return self.robot.forward_kinematics(measurement.q) - np.asarray(reference.position, dtype=np.float64)
+
+    def _base_reference(self, x: np.ndarray, reference: Reference, S_f: np.ndarray, S_v: np.ndarray) -> Reference:
+        """The frame-coordinate reference in the base frame: x_d = x_e + S_v (r_d − r), ẋ_d = S_v ν_d, f_d = S_f λ_d."""
+        k, r = self._k, reference
+        return Reference(x + S_v @ self._tangential_error, S_v @ np.asarray(r.velocity)[: self.m - k],
+                         S_v @ np.asarray(r.acceleration)[: self.m - k], S_f @ np.asarray(r.force)[:k],
+                         S_f @ np.asarray(r.force_rate)[:k], S_f @ np.asarray(r.force_accel)[:k])
+
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """ξ as for the fixed frame; a frame provider back to its first guess, r_d − r = 0."""
+        if self.frame is None:
+            return super().reset(measurement, reference)
+        self.frame.reset()
+        self._tangential_error[:] = 0.0
+        S_f, S_v = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
+        base = None
+        if reference is not None:
+            x = self.robot.forward_kinematics(measurement.q) if measurement is not None else np.asarray(reference.position)
+            base = self._base_reference(np.asarray(x, dtype=np.float64), reference, S_f, S_v)
+        getattr(_DirectForceController.reset, "__wrapped__", _DirectForceController.reset)(self, measurement, base)
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """The frame provider's logged signals, else none."""
+        return {} if self.frame is None else dict(self.frame.signals())
 
     @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.48), (9.43) for this sample; advances ξ by one sample."""
-        return self._law_step(t, measurement, reference)
+        if self.frame is None:
+            return self._law_step(t, measurement, reference)
+        T = self.robot.terms(measurement.q, measurement.qd)
+        self.frame.update(measurement.wrench, T.xd, T.x)
+        S_f, S_v = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
+        params = self._params.copy()
+        params[FORCE.slice("R", self.m)] = np.ravel(np.hstack([S_f, S_v]))
+        self._params = params
+        x = np.asarray(T.x, dtype=np.float64)
+        u = self._law_step(t, measurement, self._base_reference(x, reference, S_f, S_v), T)
+        nu_d = np.asarray(reference.velocity, dtype=np.float64)[: self.m - self._k]
+        self._tangential_error += self.sample_time * (nu_d - S_v.T @ np.asarray(T.xd, dtype=np.float64))
+        return u
