@@ -56,6 +56,15 @@ def test_friction_along_the_velocity_does_not_bias_the_normal():
     assert err[-1] == pytest.approx(-circle_lag(0.05, 0.2, 0.05, TS), abs=1e-9)
 
 
+def test_estimate_converges_while_the_tool_presses_along_the_normal():
+    """Pressing in (velocity along the force), the velocity is not projected out (that would remove the normal
+    itself): from a 17° guess the estimate reaches the true normal."""
+    est = ConstraintFrameEstimator([0.3, 1.0], 0.05, TS)
+    for _ in range(1000):
+        est.update([0.0, 10.0], [0.0, 0.01])
+    np.testing.assert_allclose(est.normal, [0.0, 1.0], atol=1e-6)
+
+
 def test_estimate_is_held_without_contact_and_frame_is_orthonormal():
     """Below min_force the guess is held; S_f, S_v are orthonormal and reciprocal (S_fᵀ S_v = 0), 2-D and 3-D."""
     est = ConstraintFrameEstimator([3.0, 4.0], 0.05, TS)

@@ -265,14 +265,18 @@ def _hybrid_estimated(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
     )
 
 
+_ESTIMATOR_FIELDS = {
+    "first_normal": Field("vector", True, low=-1e6, high=1e6,
+                          doc="the first guess of the contact normal, along the force on the surface (into it)"),
+    "time_constant": Field("number", default=0.05, low=0.0, high=100.0, doc="τ of the normal's first-order filter [s]"),
+    "min_force": Field("number", default=1.0, low=0.0, high=1e6, doc="below this force the estimate is held [N]"),
+    "min_speed": Field("number", default=1e-3, low=0.0, high=10.0, doc="below this speed friction is not removed [m/s]"),
+}
+
 register_controller(
     "hybrid-estimated",
     {
-        "first_normal": Field("vector", True, low=-1e6, high=1e6,
-                              doc="the first guess of the contact normal, along the force on the surface (into it)"),
-        "time_constant": Field("number", default=0.05, low=0.0, high=100.0, doc="τ of the normal's first-order filter [s]"),
-        "min_force": Field("number", default=1.0, low=0.0, high=1e6, doc="below this force the estimate is held [N]"),
-        "min_speed": Field("number", default=1e-3, low=0.0, high=10.0, doc="below this speed friction is not removed [m/s]"),
+        **_ESTIMATOR_FIELDS,
         "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
         "velocity_gain": Field("gain", True, doc="K_Pν of (9.80) [1/s]"),
         "velocity_integral_gain": Field("gain", True, doc="K_Iν of (9.80) [1/s²]"),
@@ -281,6 +285,37 @@ register_controller(
     },
     _hybrid_estimated,
     "hybrid force/velocity control (9.77)-(9.82) in the constraint frame estimated online from force and velocity",
+)
+
+
+def _parallel_estimated(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
+    from ..controllers.force import ParallelForcePositionController
+    from ..task.estimation import ConstraintFrameEstimator
+
+    robot = ctx["robot"]
+    if int(robot.task_dim) != 2:
+        raise ParameterError(f"parallel-estimated is planar (the chapter's arm); got a {int(robot.task_dim)}-dimensional task")
+    Ts = ctx["sample_time"]
+    est = ConstraintFrameEstimator(p["first_normal"], p["time_constant"], Ts, min_force=p["min_force"],
+                                   min_speed=p["min_speed"], truth=_true_normal(ctx.get("environment")))
+    return ParallelForcePositionController(
+        robot, p["inertia"], p["damping"], p["stiffness"], [p["force_gain"], 0.0], [p["integral_gain"], 0.0],
+        sample_time=Ts, frame=est,
+    )
+
+
+register_controller(
+    "parallel-estimated",
+    {
+        **{key: _ESTIMATOR_FIELDS[key] for key in ("first_normal", "time_constant", "min_force", "min_speed")},
+        "inertia": Field("gain", True, doc="M_d of (9.48) [kg]"),
+        "damping": Field("gain", True, doc="K_D of (9.48) [N s/m]"),
+        "stiffness": Field("gain", True, doc="K_P of (9.48) [N/m]"),
+        "force_gain": Field("number", True, low=0.0, high=1e3, doc="k_F of C_F along the estimated normal [m/N]"),
+        "integral_gain": Field("number", default=0.0, low=0.0, high=1e3, doc="k_I of C_F along the normal [m/(N s)]"),
+    },
+    _parallel_estimated,
+    "parallel force/position control (9.48), PI C_F (9.43), in the constraint frame estimated online",
 )
 
 

@@ -9,8 +9,10 @@ compliant motion", IJRR 18(12), 1999 (the contact normal from force and velocity
 along the velocity removed by projecting it out):
 
 * the measured force with its component along the measured velocity removed
-  (``f_⊥ = f − (f·v̂) v̂`` when ``|v| > min_speed``, else ``f``): Coulomb friction acts along −v̂ on
-  the tool, so on a frictional surface ``f_⊥`` still points along the contact normal;
+  (``f_⊥ = f − (f·v̂) v̂`` when ``|v| > min_speed`` and the tool slides, ``|v·n̂| < |v|/2``, i.e. the
+  velocity within 60° of the estimated tangent plane; else ``f``: while the tool presses in, along the
+  normal, removing the velocity's direction would remove the normal itself): Coulomb friction acts
+  along −v̂ on the tool, so on a frictional surface ``f_⊥`` still points along the contact normal;
 * low-pass filtered, first order with time constant τ, on the vector's components (exact
   zero-order-hold discretisation, ``a = 1 − exp(−T_s/τ)``): ``n_f ← n_f + a (f_⊥/|f_⊥| − n_f)``;
   the normal estimate is ``n̂ = n_f/|n_f|``; below ``min_force`` (no contact) the estimate is held;
@@ -77,7 +79,7 @@ class ConstraintFrameEstimator:
         sample_time: T_s [s] between updates, > 0.
         min_force: below this measured force [N] the estimate is held (no contact), default 1.
         min_speed: below this speed [m/s] the velocity is not used (friction not removed; 3-D: the
-            tangent held), default 1e-3.
+            tangent held), default 1e-3; nor is it when it points within 30° of the normal (pressing in).
         first_tangent: 3-D only: the first tangent guess (made orthogonal to the normal); default
             any vector orthogonal to it.
         truth: optional ``x -> true normal (d,)`` (into the surface), used for the logs only.
@@ -141,8 +143,8 @@ class ConstraintFrameEstimator:
         f = np.asarray(force, dtype=np.float64)[:d]
         v = np.asarray(velocity, dtype=np.float64)[:d]
         speed = math.sqrt(float(v @ v))
-        if speed > self.min_speed:
-            f = f - float(f @ v) / (speed * speed) * v  # friction along the velocity removed
+        if speed > self.min_speed and abs(float(v @ self.normal)) < 0.5 * speed:
+            f = f - float(f @ v) / (speed * speed) * v  # friction along the (sliding) velocity removed
         fn = math.sqrt(float(f @ f))
         if fn > self.min_force:
             self.filtered = self.filtered + self.gain * (f / fn - self.filtered)
