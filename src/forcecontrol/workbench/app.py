@@ -29,7 +29,7 @@ import numpy as np
 from ..core.text import plain_text
 from .labels import knob_label, split_knobs
 from .metrics import metrics_html, page_metrics
-from .server import free_port, page_url, serve
+from .server import free_port, page_url
 from .session import Evaluation, TuneSession
 
 __all__ = ["TuneApp", "serve", "free_port", "page_url", "UNDO_DEPTH"]
@@ -437,3 +437,10 @@ def _html(text: str) -> str:
     import html
 
     return html.escape(text, quote=True)
+
+
+def serve(scenario: Any, **kwargs: Any) -> Any:
+    """Serve the tuning page (:func:`forcecontrol.workbench.server.serve` with :class:`TuneApp`; same arguments)."""
+    from .server import serve as _serve
+
+    return _serve(scenario, app_class=TuneApp, **kwargs)

@@ -1,4 +1,4 @@
-"""The tuning server: one :class:`~forcecontrol.workbench.app.TuneApp` per browser session, behind the guard.
+"""The tuning server: one page (:class:`~forcecontrol.workbench.app.TuneApp`) per browser session, behind the guard.
 
 Start-up order (the page answers before the kernels are loaded): the scenario is loaded and
 checked, the simulator's kernels are loaded (or compiled) in a background thread while the
@@ -24,10 +24,10 @@ def free_port(address: str = "localhost") -> int:
         return int(s.getsockname()[1])
 
 
-def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | Path = "tuned.toml",
+def serve(scenario: Any, *, app_class: Any, port: int = 0, show: bool = True, save_path: str | Path = "tuned.toml",
           threaded: bool = False, address: str = "localhost", token: str | None = None,
           overwrite: bool = False) -> Any:
-    """Serve the tuning page at ``http://address:port/`` (one :class:`TuneApp` per browser session).
+    """Serve the tuning page at ``http://address:port/`` (one ``app_class`` per browser session).
 
     Every request (page, static file, websocket) must name this server in its Host header (and
     Origin, when it has one) and, when a token is set, carry it (:mod:`.guard`). Listening beyond
@@ -36,6 +36,8 @@ def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | P
 
     Args:
         scenario: a loaded scenario, a built-in name or a TOML path (loaded once, checked here).
+        app_class: the page (:class:`~forcecontrol.workbench.app.TuneApp`; :func:`forcecontrol.workbench.app.serve`
+            passes it, so that this module does not import the page's).
         port: the port (0: a free one); show: open the browser; threaded: run the server in a
             background thread and return it (``.stop()`` ends it) instead of blocking.
         address: the interface to listen on; token: the access token (``?token=...``).
@@ -65,7 +67,7 @@ def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | P
     if not local:
         warnings.warn(f"the tuning server listens on {address}:{port}, beyond this machine: anyone who can reach it "
                       f"and has the token can read the scenario and write {save_path}; open {url}", UserWarning,
-                      stacklevel=2)
+                      stacklevel=3)
     guard = RequestGuard(address, port, token)
     warm = threading.Thread(target=_warm, args=(scn,), name="forcecontrol-tune-warm-up", daemon=True)
     warm.start()  # load (or compile) the simulator's kernels while the server starts
@@ -74,9 +76,7 @@ def serve(scenario: Any, *, port: int = 0, show: bool = True, save_path: str | P
     def page() -> Any:
         import panel as pn
 
-        from .app import TuneApp
-
-        app = TuneApp(scn, save_path, overwrite=overwrite, created=created, deferred=True)
+        app = app_class(scn, save_path, overwrite=overwrite, created=created, deferred=True)
 
         def load() -> None:
             warm.join()
