@@ -274,3 +274,77 @@ def test_absurd_variable_stiffness_schedules_are_refused():
     with pytest.raises(ParameterError, match=r"mean must have entries of at most 1e\+12 N/m"):
         SinusoidalStiffness(1e300, 0.0, 1.0)
     assert DirectionalStiffness(100.0, 1e12).high == 1e12
+
+
+@pytest.mark.parametrize("name, line, bad, match", [
+    ("ur5-admittance-servo", "offset = [0.0, 0.0, -0.01]", "offset = [1e308, 0.0, -0.01]",
+     r"\[reference\] .*key 'offset' must have entries of magnitude at most 1000 .*got \[1e\+308"),
+    ("variable-stiffness", "stiffness_high = 10000.0", "stiffness_high = 1e300",
+     r"\[controller\] .*key 'stiffness_high' must be of magnitude at most 1e\+12 .*got 1e\+300"),
+    ("example-9.4", "end = [1.2, 0.2]", "end = [1.7e308, 0.2]",
+     r"\[reference\] .*key 'end' must have entries of magnitude at most 1000 .*got \[1.7e\+308"),
+])
+def test_absurd_part_values_in_a_scenario_file_are_refused_at_load(tmp_path, name, line, bad, match):
+    """offset = 1e308, stiffness_high = 1e300, end = 1.7e308 were accepted at load (scenario, seed 20261126, 134/305/412)."""
+    from importlib import resources
+
+    from forcecontrol.scenarios import load_scenario
+
+    if name.startswith("ur5"):
+        pytest.importorskip("pinocchio")
+    text = (resources.files("forcecontrol.scenarios") / f"{name}.toml").read_text()
+    assert text.count(line) == 1
+    p = tmp_path / f"{name}.toml"
+    p.write_text(text.replace(line, bad))
+    with pytest.raises(ScenarioError, match=match):
+        load_scenario(p)
+
+
+def test_every_number_of_a_built_in_part_has_a_range():
+    """Every number, vector and gain key of the library's controllers, environments and references declares a range."""
+    from forcecontrol.scenarios import schema
+
+    missing = [(name, key) for reg in (schema.CONTROLLERS, schema.ENVIRONMENTS, schema.REFERENCES)
+               for name, spec in reg.items() for key, f in spec.fields.items()
+               if f.kind in ("number", "vector", "gain") and f.low is None and f.high is None]
+    assert missing == []
+
+
+@pytest.mark.parametrize("change, match", [({"environment.stiffness": 1.7e308}, r"key 'stiffness' must be of magnitude at most"),
+                                           ({"duration": 1.7e308}, r"key 'duration' must be at most 1e\+07"),
+                                           ({"settle_window": 1e300}, r"key 'settle_window' must be at most 1e\+07")])
+def test_with_refuses_absurd_values_like_a_file(change, match):
+    """scenario('example-9.2').with_({'duration': 1.7e308}) and the plane's stiffness were accepted (api, 377/393)."""
+    with pytest.raises(ScenarioError, match=match):
+        fc.scenario("example-9.2").with_(change)
+
+
+def test_a_settle_window_longer_than_the_run_is_said_and_averages_the_whole_run(tmp_path):
+    """settle_window longer than the run was used silently; it is clamped (the whole run averaged) with a note in --json."""
+    import json
+
+    from forcecontrol.scenarios.model import SettleWindowNote
+
+    scn = fc.scenario("example-9.2").with_(duration=0.05, settle_window=4.0)
+    with pytest.warns(SettleWindowNote, match=r"settle_window 4 s is longer than the run \(0.05 s\): the whole run is averaged"):
+        run = scn.run()
+    case = run.cases[0]
+    assert case.metrics["fx"] == pytest.approx(float(np.mean(case.result.wrench[:, 0])), rel=1e-12)  # the whole run
+    doc = run.to_json()
+    assert {"kind": "settle-window", "t": None,
+            "text": "settle_window 4 s is longer than the run (0.05 s): the whole run is averaged"} in doc["cases"][0]["warnings"]
+    p = tmp_path / "short.toml"
+    p.write_text(_short_example_9_2())
+    res = subprocess.run([sys.executable, "-m", "forcecontrol", "run", str(p), "--json", "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "settle_window 0.2 s is longer than the run (0.05 s): the whole run is averaged" in res.stderr
+    assert json.loads(res.stdout)["cases"][0]["warnings"][0]["kind"] == "settle-window"
+
+
+def _short_example_9_2() -> str:
+    from importlib import resources
+
+    text = (resources.files("forcecontrol.scenarios") / "example-9.2.toml").read_text()
+    assert text.count("\nduration = 4.0\n") == 1
+    return text.replace("\nduration = 4.0\n", "\nduration = 0.05\nsettle_window = 0.2\n", 1)

@@ -43,6 +43,7 @@ from .model import (  # noqa: F401
     CaseSpec,
     ScenarioRun,
     check_mathtext,
+    note_settle_window,
 )
 from .schema import check_table
 
@@ -422,6 +423,7 @@ def run_scenario(
                 metadata={"scenario": scn.name, "source": scn.source},
             )
         window = parts["settle_window"]
+        note_settle_window(res, window, parts["duration"], f"{scn.source}: [[case]] #{i + 1} ({case.label})")
         metrics = {}
         for name in ("x", "y", "fx", "fy"):
             metrics[name] = METRICS[name](res, parts, window)

@@ -19,6 +19,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from dataclasses import field as dc_field
+from dataclasses import replace as dc_replace
 from typing import Any
 
 from ..errors import ScenarioError
@@ -72,7 +73,9 @@ class Field:
         if self.low is None and self.high is None:
             return self.bound
         what = "entries" if self.kind in ("vector", "gain") else ""
-        if self.low is None:
+        if self.low is not None and self.high is not None and self.low == -self.high:
+            rng = f"of magnitude at most {self.high:g}"
+        elif self.low is None:
             rng = f"at most {self.high:g}"
         elif self.high is None:
             rng = f"at least {self.low:g}"
@@ -101,9 +104,39 @@ ENVIRONMENTS: dict[str, PartSpec] = {}
 REFERENCES: dict[str, PartSpec] = {}
 
 
+#: magnitude limits of a part's keys declared without a range of their own (:func:`default_range`): far beyond any
+#: arm, contact or run, so that a finite 1e300 (which passed every check and overflowed in the loop) is refused.
+MAX_POSITION = 1e3  # [m] (or [rad]) positions, offsets, ends of paths
+MAX_TIME = 1e7  # [s] durations, start times, ramps (about 116 days)
+MAX_SPEED = 1e3  # [m/s]
+MAX_PART_FORCE = 1e6  # [N] forces, wrenches (sim.limits.MAX_FORCE)
+MAX_VALUE = 1e12  # gains, stiffnesses and every other number (core.validate.MAX_GAIN)
+_POSITION_KEYS = frozenset({"position", "start", "end", "offset", "start_offset", "end_offset", "point", "rest_position",
+                            "payload_cog", "joint_setpoint", "setpoint_position", "start_position", "task_frame"})
+_TIME_KEYS = frozenset({"duration", "accel_time", "start_time", "force_start", "force_ramp"})
+_SPEED_KEYS = frozenset({"speed", "velocity", "max_speed"})
+_FORCE_KEYS = frozenset({"force", "normal_force", "contact_force", "release_force", "wrench", "max_force", "payload_weight"})
+
+
+def default_range(key: str, field: Field) -> Field:
+    """``field`` with a magnitude range by the kind of quantity its key names, when it declares none.
+
+    Numbers, vectors and gains of a registered part: positions ``|x| <= MAX_POSITION``, times
+    ``MAX_TIME``, speeds ``MAX_SPEED``, forces ``MAX_PART_FORCE``, anything else (gains,
+    stiffnesses, frequencies) ``MAX_VALUE``; integers, strings, tables and declared ranges unchanged.
+    """
+    if field.kind not in ("number", "vector", "gain") or field.low is not None or field.high is not None:
+        return field
+    top = (MAX_POSITION if key in _POSITION_KEYS else MAX_TIME if key in _TIME_KEYS
+           else MAX_SPEED if key in _SPEED_KEYS else MAX_PART_FORCE if key in _FORCE_KEYS else MAX_VALUE)
+    return dc_replace(field, low=-top, high=top)
+
+
 def _register(registry: dict[str, PartSpec], name: str, fields: dict[str, Field], build, doc: str) -> None:
     if name in registry:
         raise ValueError(f"type {name!r} is already registered")
+    if str(getattr(build, "__module__", "")).startswith("forcecontrol."):  # the library's parts; a plugin's as declared
+        fields = {k: default_range(k, f) for k, f in fields.items()}
     registry[name] = PartSpec(name, dict(fields), build, doc)
 
 
