@@ -348,3 +348,23 @@ def _short_example_9_2() -> str:
     text = (resources.files("forcecontrol.scenarios") / "example-9.2.toml").read_text()
     assert text.count("\nduration = 4.0\n") == 1
     return text.replace("\nduration = 4.0\n", "\nduration = 0.05\nsettle_window = 0.2\n", 1)
+
+
+def test_fuzz_oracle_hears_warnings_not_empty_lists_nor_the_harness_settle_note():
+    """The campaign's oracle: `run --json` has a 'warnings' list in every case (empty: nothing said, still silent), and
+    the settle_window note that every shortened 0.05-s run gives answers no mutation but settle_window's."""
+    import json
+
+    from fuzz.core import Case, _cli_result
+
+    case = Case("scenario", "run:absurd", 1, "run x.toml (('controller', 'stiffness') = 1e+300)", invalid=True)
+    own = Case("scenario", "run:absurd", 2, "run x.toml (('settle_window',) = 5)", invalid=True)
+    note = "settle_window 0.1 s is longer than the run (0.05 s): the whole run is averaged"
+    empty = json.dumps({"cases": [{"warnings": []}], "notes": []})
+    harness = json.dumps({"cases": [{"warnings": [{"kind": "settle-window", "t": None, "text": note}]}], "notes": []})
+    said = json.dumps({"cases": [{"warnings": [{"kind": "config-note", "t": None, "text": "clipped"}]}]})
+    assert _cli_result(case, 0, empty).outcome == "silent"
+    assert _cli_result(case, 0, harness, f"x.py:1: SettleWindowNote: {note}\n  run = f()\n").outcome == "silent"
+    assert _cli_result(case, 0, said).outcome == "success"
+    assert _cli_result(case, 0, empty, "warning: clipped\n").outcome == "success"
+    assert _cli_result(own, 0, harness).outcome == "success"  # the mutation is the window: its note answers it
