@@ -21,7 +21,9 @@ constant symmetric matrix added to B (constant, so it adds nothing to C q̇).
 from __future__ import annotations
 
 import importlib.metadata
+import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -34,7 +36,7 @@ from ..errors import DimensionError, ParameterError
 from ..spatial.closed_form import rotation_to_euler_xyz  # per integrator stage
 from .base import RobotTerms
 
-__all__ = ["PinocchioRobot", "chapter_arm", "panda", "ur5", "example_robot_data_dir", "model_path"]
+__all__ = ["PinocchioRobot", "Payload", "chapter_arm", "panda", "ur5", "ur10", "example_robot_data_dir", "model_path"]
 
 Task = Literal["pose", "position", "planar"]
 _ROWS = {"pose": slice(0, 6), "position": slice(0, 3), "planar": slice(0, 2)}
@@ -68,6 +70,36 @@ def example_robot_data_dir() -> Path:
         if s.endswith("panda_description/urdf/panda.urdf"):
             return Path(str(dist.locate_file(f))).parents[2]
     raise ImportError("example-robot-data is installed but its robots folder was not found")  # pragma: no cover
+
+
+@dataclass(frozen=True)
+class Payload:
+    """A rigid payload fixed to the controlled frame (a tool, a gripper with its part).
+
+    Attributes:
+        mass: m [kg], > 0.
+        com: its centre of mass in the controlled frame, (3,) [m].
+        inertia: its rotational inertia about the centre of mass in the controlled frame's axes,
+            (3, 3) [kg m²]; zeros (a point mass) by default.
+    """
+
+    mass: float
+    com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    inertia: Any = None
+
+    def __post_init__(self) -> None:
+        m = float(self.mass)
+        if not (math.isfinite(m) and m > 0.0):
+            raise ParameterError(f"payload mass must be a finite number > 0 [kg]; got {self.mass!r}")
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "com", tuple(float(c) for c in as_vector("payload com", self.com, 3)))
+        I = np.zeros((3, 3)) if self.inertia is None else np.array(as_matrix("payload inertia", self.inertia, (3, 3)))
+        if not np.allclose(I, I.T, atol=1e-12) or np.min(np.linalg.eigvalsh(I)) < -1e-12:
+            raise ParameterError(f"payload inertia must be a symmetric positive semi-definite (3, 3) matrix; got {I.tolist()}")
+        object.__setattr__(self, "inertia", I)
+
+    def describe(self) -> dict[str, Any]:
+        return {"mass": self.mass, "com": list(self.com), "inertia": np.asarray(self.inertia).tolist()}
 
 
 def _frame_id(pin: Any, model: Any, frame: str, frame_type: str | None) -> int:
@@ -112,6 +144,9 @@ class PinocchioRobot:
     Raises:
         ParameterError: the frame does not exist (the message lists the frames), or the name is
             ambiguous without ``frame_type``.
+
+    ``payload``: a :class:`Payload` fixed to the controlled frame; its inertia is added to the
+    body of the frame's parent joint (``model.inertias``), so B, n, g and the dynamics carry it.
     """
 
     def __init__(
@@ -126,6 +161,7 @@ class PinocchioRobot:
         gravity: Any = None,
         name: str = "",
         frame_type: str | None = None,
+        payload: Payload | None = None,
     ) -> None:
         pin = _pin()
         self._pin = pin
@@ -164,6 +200,14 @@ class PinocchioRobot:
             if not np.allclose(Rc, Rc.T, atol=1e-12):
                 raise ParameterError("rotor_coupling must be a symmetric (n, n) matrix")
             self.rotor_coupling = Rc
+        if payload is not None and not isinstance(payload, Payload):
+            raise ParameterError(f"payload must be a Payload or None; got {type(payload).__name__}")
+        #: the payload on the controlled frame (None: none); already in ``model.inertias``.
+        self.payload = payload
+        if payload is not None:
+            f = self.model.frames[self.frame_id]
+            local = pin.Inertia(payload.mass, np.array(payload.com), np.asarray(payload.inertia, dtype=np.float64))
+            self.model.inertias[f.parentJoint] = self.model.inertias[f.parentJoint] + f.placement.act(local)
         self.data = self.model.createData()
         self._lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         self.urdf_path: Path | None = None
@@ -365,7 +409,10 @@ class PinocchioRobot:
 
     def describe(self) -> dict[str, Any]:
         """Plain description for metadata."""
-        return {"type": "PinocchioRobot", "name": self.name, "frame": self.frame, "task": self.task, "nq": self.nq}
+        out = {"type": "PinocchioRobot", "name": self.name, "frame": self.frame, "task": self.task, "nq": self.nq}
+        if self.payload is not None:
+            out["payload"] = self.payload.describe()
+        return out
 
 
 # ----------------------------------------------------------------------------- ready-made models
@@ -401,6 +448,16 @@ def ur5(frame: str = "tool0", task: Task = "pose") -> PinocchioRobot:
     """Universal Robots UR5 from example-robot-data: 6 DOF; frame ``tool0``."""
     path = example_robot_data_dir() / "ur_description" / "urdf" / "ur5_robot.urdf"
     return PinocchioRobot.from_urdf(path, frame, task=task, name="ur5")
+
+
+
+def ur10(frame: str = "tool0", task: Task = "pose", payload: Payload | None = None) -> PinocchioRobot:
+    """Universal Robots UR10 (CB series) from example-robot-data: 6 DOF; frame ``tool0``; optional payload.
+
+    example-robot-data has no e-Series model (UR10e, UR16e, UR20): the UR10 stands in for them.
+    """
+    path = example_robot_data_dir() / "ur_description" / "urdf" / "ur10_robot.urdf"
+    return PinocchioRobot.from_urdf(path, frame, task=task, name="ur10", payload=payload)
 
 
 #: a neutral-ish, well-conditioned Panda posture [rad] (elbow bent, hand down).
