@@ -18,7 +18,7 @@ from ..errors import ParameterError
 from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID, HYBRID_STATE, REFERENCE
 from ..robots.base import RobotModel
 from .base import Measurement, Reference
-from .hybrid import ForceLaw, _force_law_gains
+from .hybrid import ForceLaw, _force_law_gains, _frame_provider
 from .redundant import SingularityHandling
 from .spatial import Orientation, _SpatialBase, desired_frame_error
 
@@ -74,10 +74,15 @@ class _DesiredFrameHybrid(_SpatialBase):
         h = self._wrench(measurement.wrench)
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
+        reference = self._frame_step(err, o_e, J[:3] @ qd, h, reference)
         h_d = _desired_frame(err, reference, h, self._ref)
         a = np.empty(6)
         law(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params, state, self._ws, a, self._hc)
         return a, err, (q, qd, B, nv, J), h
+
+    def _frame_step(self, err: Any, o_e: np.ndarray, v_e: np.ndarray, h: np.ndarray, reference: Reference) -> Reference:
+        """A frame provider's hook (none here): the reference unchanged."""
+        return reference
 
 
 class SpatialHybridController(_DesiredFrameHybrid):
@@ -111,15 +116,29 @@ class SpatialHybridController(_DesiredFrameHybrid):
         stiffness, damping: K_P, K_D of the motion loop (6, 6) SPD [1/s², 1/s].
         force_stiffness, force_damping: K_Pλ, K_Dλ (k, k) SPD [1/s², 1/s].
         orientation, posture, singularity, sample_time: as for :class:`SpatialImpedanceController`.
+        frame: optional provider of a moving contact normal (e.g. estimated online:
+            :class:`~forcecontrol.task.estimation.ConstraintFrameEstimator` in 3-D), with
+            ``update(force, velocity, x)`` (base-frame tip force [N], tip velocity [m/s], tip position
+            [m]) and ``selection()`` → (n̂ (3, 1), [t̂ b̂] (3, 2)), base frame. Each sample S_f = [n̂; 0]
+            (k = 1) and S_v = [[t̂ b̂ O]; [O I]] (the tangent plane and every rotation) are rotated to
+            the desired frame and the law's blocks rebuilt (the same law, no fork); the force
+            reference is then λ_d = ``reference.force[0]`` (with its rates) along n̂, and the pose
+            reference's component along n̂ is not servoed. ``force_directions`` must then be one
+            direction (its value is replaced by the estimate at the first sample).
     """
 
     def __init__(
         self, robot: RobotModel, force_directions: Any, compliance: Any, stiffness: Any, damping: Any,
         force_stiffness: Any, force_damping: Any, *, orientation: Orientation = "euler", posture: Any = None,
-        singularity: SingularityHandling | None = None, sample_time: float = 1e-3,
+        singularity: SingularityHandling | None = None, sample_time: float = 1e-3, frame: Any = None,
     ) -> None:
         super().__init__(robot, orientation, posture, singularity, sample_time, "world", None)
+        self.frame = _frame_provider(frame)
+        if frame is not None:
+            self.SIGNALS = tuple(getattr(frame, "SIGNALS", ()))  # plottable signals of the run
         Q, S_v = _directions(force_directions)
+        if frame is not None and Q.shape[1] != 1:
+            raise ParameterError(f"force_directions must be one direction with a frame provider (the normal); got {Q.shape[1]}")
         self.force_selection = Q
         k = Q.shape[1]
         self.compliance = as_gain_matrix("compliance", compliance, k)
@@ -141,13 +160,52 @@ class SpatialHybridController(_DesiredFrameHybrid):
         self._ref = np.zeros(REFERENCE.size(6))
         self._hc = np.zeros(6)
 
+    def _frame_step(self, err: Any, o_e: np.ndarray, v_e: np.ndarray, h: np.ndarray, reference: Reference) -> Reference:
+        """With a frame provider: update it, rebuild the law's selection blocks on the desired frame, and
+        return the reference with λ_d (and its rates) along n̂ in the base frame."""
+        if self.frame is None:
+            return reference
+        self.frame.update(h[:3], v_e, o_e)
+        n, tb = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
+        n = n.reshape(3)
+        RdT = err.R_d.T
+        Q = np.zeros((6, 1))
+        Q[:3, 0] = RdT @ n
+        S_v = np.zeros((6, 5))
+        S_v[:3, :2] = RdT @ tb.reshape(3, 2)
+        S_v[3:, 2:] = np.eye(3)
+        self.force_selection = Q
+        blocks = {"S_v": S_v, "S_v_pinv": S_v.T, "S_f_pinv": Q.T, "CpS_f": Q @ self.compliance,
+                  "L_hat": np.linalg.solve(self.compliance, Q.T), "K_1": S_v.T @ self.damping @ S_v,
+                  "K_2": S_v.T @ self.stiffness @ S_v}
+        for block, value in blocks.items():
+            self._params[HYBRID_COMPLIANT.slice(block, 6, 5, 1)] = np.ravel(value)
+        r = reference
+        lam = [float(np.asarray(w, dtype=np.float64)[0]) for w in (r.force, r.force_rate, r.force_accel)]
+        wr = [np.concatenate([n * v, np.zeros(3)]) for v in lam]
+        return Reference(r.position, r.velocity, r.acceleration, *wr)
+
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of the 6-D hybrid law for this sample: (9.77)-(9.82) on the desired frame, then (9.30)."""
         a, err, terms, h = self._run(laws.hybrid_compliant_acceleration, t, measurement, reference, self._integral)
         u = self._redundant_torque(err.JAd, err.c + a, *terms, h)  # x̃̈ = −J_Ad q̈ + c = −a
         return self._check_output(t, u, measurement)
 
+    def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
+        """As every controller; a frame provider back to its first guess."""
+        super().reset(measurement, reference)
+        if self.frame is not None:
+            self.frame.reset()
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """The frame provider's logged signals (e.g. estimated vs true normal angle), else none."""
+        return {} if self.frame is None else dict(self.frame.signals())
+
     def gains(self) -> dict[str, Any]:
+        if self.frame is not None:
+            return {"frame": self.frame.describe(), "compliance": self.compliance.tolist(), "stiffness": self.stiffness.tolist(),
+                    "damping": self.damping.tolist(), "force_stiffness": self.force_stiffness.tolist(),
+                    "force_damping": self.force_damping.tolist()}
         return {
             "force_directions": self.force_selection.tolist(),
             "compliance": self.compliance.tolist(),
