@@ -54,3 +54,54 @@ def test_mujoco_refuses_a_payload_it_would_drop():
     with pytest.raises(ParameterError, match="payload"):
         _robot_source(ur10(payload=Payload(10.94, COM)))
     assert _robot_source(ur10())[1] == "tool0"
+
+
+def test_payload_wrench_closed_form_of_a_spinning_point_mass():
+    """2 kg at r = (0.3, 0, 0) spinning about z (ω = 3, α = 2 rad/s²): f = m(α×r + ω×(ω×r) − g), τ = r×f + Iα, by hand."""
+    from forcecontrol.sensors import payload_wrench
+
+    I = np.diag([0.01, 0.02, 0.05])
+    w = payload_wrench(2.0, [0.3, 0, 0], I, [0, 0, 0], [0, 0, 3.0], [0, 0, 2.0], [0, 0, -9.81])
+    np.testing.assert_allclose(w, [-5.4, 1.2, 19.62, 0.0, -5.886, 0.46], atol=1e-12)
+    wc = payload_wrench(2.0, [0.3, 0, 0], I, [0, 0, 0], [0, 0, 3.0], [0, 0, 2.0], [0, 0, -9.81], gravity_compensated=True)
+    np.testing.assert_allclose(wc, [-5.4, 1.2, 0.0, 0.0, 0.0, 0.46], atol=1e-12)
+
+
+@pytest.mark.parametrize("compensated", [False, True])
+def test_sensor_reads_the_wrench_that_rnea_needs_to_carry_the_payload(compensated):
+    """On the UR10 moving with constant q̈ (backward differences exact), the sensor's reading w at every sample from the
+    fourth equals the second implementation Jᵀ w = RNEA(loaded) − RNEA(bare) (weight removed when compensated)."""
+    import pinocchio as pin
+
+    from forcecontrol.sensors import PayloadForceSensor
+
+    P = Payload(10.94, COM, I_C)
+    bare, loaded = ur10(), ur10(payload=P)
+    Ts, v, a = 0.0005, np.array([0.4, -0.3, 0.5, 0.8, -0.6, 1.0]), np.array([3.0, -2.0, 4.0, -5.0, 6.0, 8.0])
+    s = PayloadForceSensor(loaded, gravity_compensated=compensated)
+    s.start(20, 6, Ts, np.zeros(6), Q)
+    for k in range(1, 12):
+        t = k * Ts
+        q, qd = Q + v * t + 0.5 * a * t * t, v + a * t
+        got = s.measure(k, t, np.zeros(6), q)
+        if k < 4:
+            continue
+        dtau = pin.rnea(loaded.model, loaded.data, q, qd, a) - pin.rnea(bare.model, bare.data, q, qd, a)
+        if compensated:
+            dtau -= loaded.gravity(q) - bare.gravity(q)
+        ref = np.linalg.solve(loaded.spatial_jacobian(q).T, dtau)
+        np.testing.assert_allclose(got, ref, rtol=1e-6, atol=1e-6)
+    assert not compensated or abs(ref[2]) < 0.5 * 10.94 * 9.81  # the weight (107 N) is not in it
+
+
+def test_payload_sensor_adds_the_contact_wrench_and_refuses_a_bare_robot():
+    """At rest the compensated reading is the contact wrench itself; a robot without a payload is refused by name."""
+    from forcecontrol.sensors import PayloadForceSensor
+
+    s = PayloadForceSensor(ur10(payload=Payload(10.94, COM)))
+    h = np.array([1.0, -2.0, -10.0, 0.1, 0.2, 0.3])
+    s.start(10, 6, 0.001, h, Q)
+    for k in range(1, 6):
+        np.testing.assert_allclose(s.measure(k, k * 0.001, h, Q), h, atol=1e-9)
+    with pytest.raises(ParameterError, match="payload"):
+        PayloadForceSensor(ur10())

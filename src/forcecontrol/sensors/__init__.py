@@ -24,11 +24,14 @@ from .gravity import (
     identify_tool_gravity,
     planar_sensor_rotation,
 )
+from .payload import PayloadForceSensor, payload_wrench
 from .realistic import RealisticForceSensor
 
 __all__ = [
     "ForceSensor",
     "RealisticForceSensor",
+    "PayloadForceSensor",
+    "payload_wrench",
     "ToolGravity",
     "identify_tool_gravity",
     "planar_sensor_rotation",
