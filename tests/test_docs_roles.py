@@ -158,10 +158,12 @@ def test_a_missing_target_or_a_stray_role_is_a_warning(tmp_path, caplog):
     assert any(":class:<code>Left</code>" in w for w in warnings)
 
 
-def _mini_site(tmp_path: Path, docs: dict[str, str], *, api: bool, extra: str = "") -> subprocess.CompletedProcess:
-    """Build a small site with the project's `strict` and `validation` settings (and its roles machinery if `api`)."""
+def _mini_site(tmp_path: Path, docs: dict[str, str], *, api: bool, extra: str = "",
+               strict: bool = True) -> subprocess.CompletedProcess:
+    """Build a small site with the project's `strict` (unless `strict=False`) and `validation` settings (and its roles
+    machinery if `api`)."""
     project = yaml.load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"), Loader=yaml.SafeLoader)
-    cfg = {"site_name": "mini", "docs_dir": "docs", "strict": project["strict"], "validation": project["validation"],
+    cfg = {"site_name": "mini", "docs_dir": "docs", "strict": project["strict"] and strict, "validation": project["validation"],
            "theme": {"name": "mkdocs"}, "nav": list(docs)}
     if api:
         handler = project["plugins"][1]["mkdocstrings"]["handlers"]["python"]
@@ -185,10 +187,13 @@ def _mini_site(tmp_path: Path, docs: dict[str, str], *, api: bool, extra: str = 
 
 
 def test_strict_build_fails_on_a_missing_cross_reference(tmp_path):
-    """A docstring role to an object that does not exist fails the strict build and names the role."""
+    """A docstring role to an object that does not exist, or to an old path, fails the strict build and names the role."""
     docs = {"index.md": "# API\n\n::: rolespkg.sub\n"}
-    proc = _mini_site(tmp_path / "good", docs, api=True)
-    assert proc.returncode == 0, proc.stderr[-3000:]  # the package as written resolves
+    proc = _mini_site(tmp_path / "stale", docs, api=True)
+    assert proc.returncode != 0  # the package as written names rolespkg.old.Gadget, an old path: fix the docstring
+    assert "rolespkg.old.Gadget" in proc.stderr and "old path" in proc.stderr, proc.stderr[-3000:]
+    proc = _mini_site(tmp_path / "good", docs, api=True, strict=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]  # without strict, the old path is still linked to its new place
     html = (tmp_path / "good" / "site" / "index.html").read_text(encoding="utf-8")
     for target, text in [("Base.reset", "reset"), ("helper", "helper"), ("Gadget", "rolespkg.old.Gadget"), ("LIMIT", "LIMIT")]:
         assert f'href="#rolespkg.sub.{target}"><code>{text}</code></a>' in html, target
