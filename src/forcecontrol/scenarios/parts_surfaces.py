@@ -155,13 +155,17 @@ def _arc_basis(dim: int, axis: Any, first: Any) -> tuple[np.ndarray, np.ndarray]
 
 def arc_reference(center: Any, radius: float, start_angle: float, end_angle: float, speed: float,
                   start_time: float = 0.0, accel_time: float = 0.5, *, axis: Any = None, first: Any = None,
-                  orientation: Any = None) -> SampledReference:
+                  orientation: Any = None, normal_force: float | None = None, force_time: float = 0.5) -> SampledReference:
     """x_d on the arc ``c + r (cos θ e1 + sin θ e2)`` from ``start_angle`` to ``end_angle`` [deg] at the tangential
     ``speed`` [m/s], with a linear speed ramp over ``accel_time`` at both ends; held before and after.
 
     Planar (c of 2 components): e1, e2 = x, y. 3-D: the arc lies in the plane normal to ``axis`` (default z),
     θ from ``first`` (default x, made normal to the axis). ``orientation`` (3 XYZ Euler angles [rad]) makes it a
     pose reference ``[o_d; φ_d]`` with that orientation held (6-D robots).
+
+    ``normal_force``: λ_d [N] in a frame provider's coordinates (the force reference's first component, e.g.
+    along the estimated normal of :class:`~forcecontrol.controllers.spatial_hybrid.SpatialHybridController`
+    with ``frame=``), ramped linearly from 0 over ``force_time`` [s] from t = 0; the other components zero.
     """
     c = np.asarray(center, dtype=np.float64)
     if c.shape not in ((2,), (3,)):
@@ -197,11 +201,19 @@ def arc_reference(center: Any, radius: float, start_angle: float, end_angle: flo
     times = t + start_time
     if start_time > 0.0:  # held at rest before: zero rate up to 1 ms before the start (where the speed ramp's step is)
         hold = [0.0] if start_time <= 0.002 else [0.0, start_time - 0.001]
+        if normal_force is not None and force_time < start_time - 0.001:  # the force ramp's corner, sampled
+            hold = sorted({*hold, force_time})
         times = np.concatenate([hold, times])
         pos = np.vstack([np.repeat(pos[:1], len(hold), axis=0), pos])
         vel, acc = (np.vstack([np.zeros((len(hold), a.shape[1])), a]) for a in (vel, acc))
+    force = None
+    if normal_force is not None:
+        if not force_time > 0:
+            raise ParameterError(f"force_time must be positive; got {force_time!r}")
+        force = np.zeros_like(pos)
+        force[:, 0] = normal_force * np.clip(times / force_time, 0.0, 1.0)
     # exact rates, interpolated linearly between 5 ms samples: local (a global spline would ring ahead of the motion)
-    return SampledReference(times, pos, interpolation="linear", velocity=vel, acceleration=acc)
+    return SampledReference(times, pos, force, interpolation="linear", velocity=vel, acceleration=acc)
 
 
 def _arc(p: dict[str, Any], ctx: dict[str, Any]) -> SampledReference:
@@ -215,7 +227,8 @@ def _arc(p: dict[str, Any], ctx: dict[str, Any]) -> SampledReference:
     elif len(p["center"]) != int(robot.task_dim):
         raise ParameterError(f"center must have {int(robot.task_dim)} components for this robot; got {len(p['center'])}")
     return arc_reference(p["center"], p["radius"], p["start_angle"], p["end_angle"], p["speed"], p["start_time"],
-                         p["accel_time"], axis=p["axis"], first=p["first"], orientation=orientation)
+                         p["accel_time"], axis=p["axis"], first=p["first"], orientation=orientation,
+                         normal_force=p["normal_force"], force_time=p["force_time"])
 
 
 register_reference(
@@ -230,6 +243,9 @@ register_reference(
         "accel_time": Field("number", default=0.5, low=0.0, high=1e5, doc="speed ramp at both ends [s]"),
         "axis": Field("vector", low=-1e6, high=1e6, doc="3-D: the normal of the arc's plane (default z)"),
         "first": Field("vector", low=-1e6, high=1e6, doc="3-D: the direction of θ = 0 (default x)"),
+        "normal_force": Field("number", low=0.0, high=1e5,
+                              doc="λ_d along a frame provider's normal [N] (spatial-hybrid-estimated); none by default"),
+        "force_time": Field("number", default=0.5, low=0.0, high=1e5, doc="the normal force's ramp from 0 at t = 0 [s]"),
     },
     _arc,
     "x_d along a circular arc at a constant tangential speed (planar or 3-D; a 6-D robot holds its start orientation)",
@@ -350,4 +366,43 @@ register_reference(
     lambda p, ctx: surface_following_reference(int(ctx["robot"].task_dim), p["speed"], p["normal_force"], p["start_time"],
                                                p["accel_time"], p["force_time"]),
     "tangential speed and normal force in the estimated constraint frame's coordinates (for hybrid-estimated)",
+)
+
+
+def _spatial_hybrid_estimated(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
+    from ..controllers.redundant import NullSpacePosture
+    from ..controllers.spatial_hybrid import SpatialHybridController
+    from ..task.estimation import ConstraintFrameEstimator
+
+    robot = ctx["robot"]
+    if int(robot.task_dim) != 6:
+        raise ParameterError(f"spatial-hybrid-estimated is 6-D (e.g. the Panda); got a {int(robot.task_dim)}-dimensional task")
+    if len(p["first_normal"]) != 3:
+        raise ParameterError(f"first_normal must have 3 components for a 6-D robot; got {len(p['first_normal'])}")
+    Ts = ctx["sample_time"]
+    est = ConstraintFrameEstimator(p["first_normal"], p["time_constant"], Ts, min_force=p["min_force"],
+                                   min_speed=p["min_speed"], truth=_true_normal(ctx.get("environment")))
+    posture = NullSpacePosture(ctx["q0"], p["posture_stiffness"], p["posture_damping"]) if robot.nq > 6 else None
+    return SpatialHybridController(
+        robot, [0.0, 0.0, 1.0, 0.0, 0.0, 0.0], 1.0 / p["stiffness_estimate"], p["stiffness"], p["damping"], p["force_gain"],
+        p["force_rate_gain"], orientation=p["orientation"], posture=posture, sample_time=Ts, frame=est,
+    )
+
+
+register_controller(
+    "spatial-hybrid-estimated",
+    {
+        **_ESTIMATOR_FIELDS,
+        "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
+        "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) along S_v (6, 6) [1/s²]"),
+        "damping": Field("gain", True, doc="K_D of the pose servo (9.95) along S_v (6, 6) [1/s]"),
+        "force_gain": Field("number", True, low=0.0, high=1e12, doc="K_Pλ of (9.82) [1/s²]"),
+        "force_rate_gain": Field("number", True, low=0.0, high=1e12, doc="K_Dλ of (9.82) [1/s]"),
+        "posture_stiffness": Field("number", default=25.0, low=0.0, high=1e12, doc="null-space posture K_n [1/s²] (n > 6)"),
+        "posture_damping": Field("number", default=10.0, low=0.0, high=1e12, doc="null-space posture D_n [1/s]"),
+        "orientation": Field("str", default="euler", choices=("euler", "rotvec"), doc="orientation error"),
+    },
+    _spatial_hybrid_estimated,
+    "6-D hybrid force/motion control (9.77)-(9.84) on the desired frame, S_f along the normal estimated online "
+    "(the pose reference's normal component not servoed; λ_d = the arc reference's normal_force)",
 )
