@@ -58,8 +58,10 @@ VENDOR_FORMATS = ("ur-rtde", "franka")
 #: ``--sense`` values: the wrench the environment exerts on the robot, or the one the robot exerts
 SENSE_OVERRIDES = {"on-robot": ON_END_EFFECTOR, "by-robot": BY_END_EFFECTOR}
 
+#: the state columns that name a layout; commanded joint positions (UR's ``target_q_i``) are not among
+#: them: a library table may carry them beside its own columns (the servo identification reads both)
 _MARKERS = {
-    "ur-rtde": re.compile(r"timestamp|actual_(q|qd|TCP_pose|TCP_force|current|TCP_speed)_\d+|target_q_\d+"),
+    "ur-rtde": re.compile(r"timestamp|actual_(q|qd|TCP_pose|TCP_force|current|TCP_speed)_\d+"),
     "franka": re.compile(r"(O_T_EE|O_T_EE_d|EE_T_K|O_F_ext_hat_K|K_F_ext_hat_K|tau_J|q|dq|q_d|dq_d)_\d+"),
     "library table": re.compile(r"t|q\d+|qd\d+|tau\d+|u\d+|[fm][xyz](_measured)?"),
 }
