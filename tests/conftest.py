@@ -1,4 +1,12 @@
-"""Shared fixtures."""
+"""Shared fixtures, and how the suite is spread over pytest-xdist's workers.
+
+The README's test line runs ``python -m pytest -q``; pyproject's ``addopts`` adds ``-n auto --dist
+loadgroup``: every test goes to whichever worker is free, except the tests of the modules in
+:data:`ONE_WORKER`, which share an expensive module- or session-scoped fixture (a site build, a
+browser, a Dask cluster, a fuzz warm-up, a set of recorded runs) and are kept on one worker so that
+the fixture is built once. The compiled-kernel cache is shared by the workers (it is safe under
+concurrency: ``tests/test_kernel_cache.py``).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +16,22 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
+
+#: modules whose tests stay together on one worker (their module/session fixture is expensive)
+ONE_WORKER = {
+    "test_docs.py", "test_docs_roles.py", "test_workbench_browser.py", "test_fuzz_campaign.py",
+    "test_fuzz_scenarios.py", "test_journeys_sweep.py", "test_sweep_faults.py", "test_surface_following.py",
+    "test_surface_following_6d.py", "test_rigid.py", "test_monitor.py", "test_problem_9_10.py", "test_journeys.py",
+    "test_cli_replay.py", "test_journeys_files.py", "test_python_parity.py", "test_render_process.py",
+    "test_ergonomics.py", "test_plotting.py", "test_animation.py", "test_vendor_data.py", "test_replay_frames.py",
+}
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the tests of :data:`ONE_WORKER`'s modules with one ``xdist_group`` per module."""
+    for item in items:
+        if item.path.name in ONE_WORKER:
+            item.add_marker(pytest.mark.xdist_group(name=item.path.name))
 
 
 @pytest.fixture(scope="session")
