@@ -4,7 +4,9 @@ One interface cycle (period T) of the 1-DOF loop, written from the controller's 
 equations (survey of issue 30, §2.1–2.5, §2.8) and the servo model of
 :mod:`forcecontrol.robots.servo`::
 
-    measured x = q_r (the servo's output; the arm follows it), h = k_e (x − x_e)
+    measured x = q_r (the servo's output; the arm follows it), h = k_e (x − x_e) + m_p q̈_r
+        (m_p: a payload after the sensor, its weight compensated: its inertial force, with q̈_r
+        the servo's acceleration at the end of the last cycle, FZI #177)
     accumulating solver: q ← x, the virtual velocity v kept, the first pose = the previous command
         N times: e = K (x_t − x_cur) + f_d − h;  f = s (p e + d (e − e_prev)/h_s);  e_prev = e
                  q ← q + h_s v;  v ← 0.9 (v + h_s f/m_v);  x_cur = q
@@ -28,7 +30,8 @@ from scipy.linalg import expm
 
 from ..errors import ParameterError
 
-__all__ = ["FdccLoop", "fdcc_loop_matrix", "fdcc_spectral_radius", "fdcc_stability_limit", "fdcc_design_error_scale"]
+__all__ = ["FdccLoop", "fdcc_loop_matrix", "fdcc_spectral_radius", "fdcc_stability_limit", "fdcc_design_error_scale",
+           "fdcc_error_scale_limit"]
 
 
 @dataclass(frozen=True)
@@ -39,7 +42,8 @@ class FdccLoop:
         p, d: the axis's ``pd_gains``; error_scale: ``solver.error_scale``; stiffness: K [N/m]
             (0 for the force controller); iterations: N; virtual_mass: m_v [kg]; solver:
             ``"accumulating"`` or ``"instantaneous"``; internal_period: h_s [s] (0.02);
-        rate: the interface rate [Hz]; bandwidth, damping: the servo's ω [rad/s], ζ; delay: n_d [cycles].
+        rate: the interface rate [Hz]; bandwidth, damping: the servo's ω [rad/s], ζ; delay: n_d [cycles];
+        payload_mass: m_p [kg] carried after the sensor (its inertial force is sensed; 0: none).
     """
 
     p: float
@@ -54,6 +58,7 @@ class FdccLoop:
     virtual_mass: float = 1.3
     solver: str = "accumulating"
     internal_period: float = 0.02
+    payload_mass: float = 0.0
 
 
 def _servo(T: float, w: float, z: float) -> tuple[np.ndarray, np.ndarray]:
@@ -66,12 +71,13 @@ def _servo(T: float, w: float, z: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _cycle(L: FdccLoop, k_e: float, z: np.ndarray, Ad: np.ndarray, Bd: np.ndarray) -> np.ndarray:
-    """One cycle of the loop on the state ``[q_r, q̇_r, ring (n_d), v, e_prev, x_prev]`` (zero constants)."""
+    """One cycle of the loop on the state ``[q_r, q̇_r, ring (n_d), v, e_prev, x_prev, y_held]`` (zero constants)."""
     nd = L.delay
     qr, qdr = z[0], z[1]
     ring = list(z[2 : 2 + nd])
-    v, e_prev, x_prev = z[2 + nd], z[3 + nd], z[4 + nd]
-    h = k_e * qr
+    v, e_prev, x_prev, y_held = z[2 + nd], z[3 + nd], z[4 + nd], z[5 + nd]
+    w, zeta = L.bandwidth, L.damping
+    h = k_e * qr + L.payload_mass * (w * w * (y_held - qr) - 2.0 * zeta * w * qdr)
     hs, s, m = L.internal_period, L.error_scale, L.virtual_mass
     q = x_prev if L.solver == "instantaneous" else qr
     x_cur = x_prev
@@ -92,15 +98,15 @@ def _cycle(L: FdccLoop, k_e: float, z: np.ndarray, Ad: np.ndarray, Bd: np.ndarra
     else:
         y = q
     nxt = Ad @ np.array([qr, qdr]) + Bd * y
-    return np.array([nxt[0], nxt[1], *ring, v, e_prev, q])
+    return np.array([nxt[0], nxt[1], *ring, v, e_prev, q, y])
 
 
 def fdcc_loop_matrix(loop: FdccLoop, environment_stiffness: float) -> np.ndarray:
-    """The closed loop's matrix over one interface cycle (size 5 + n_d)."""
+    """The closed loop's matrix over one interface cycle (size 6 + n_d)."""
     if loop.iterations < 1 or loop.delay < 0 or loop.rate <= 0 or loop.bandwidth <= 0:
         raise ParameterError(f"iterations >= 1, delay >= 0, rate > 0 and bandwidth > 0 are needed; got {loop!r}")
     Ad, Bd = _servo(1.0 / loop.rate, loop.bandwidth, loop.damping)
-    n = 5 + loop.delay
+    n = 6 + loop.delay
     return np.column_stack([_cycle(loop, environment_stiffness, np.eye(n)[i], Ad, Bd) for i in range(n)])
 
 
@@ -157,4 +163,29 @@ def fdcc_design_error_scale(loop: FdccLoop, environment_stiffness: float, margin
     while hi - lo > 1e-3 * hi:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo
+
+
+def fdcc_error_scale_limit(loop: FdccLoop, environment_stiffness: float = 0.0, s_max: float = 1e3) -> float:
+    """The largest ``error_scale`` at which the loop is stable at the given environment stiffness (0: free space),
+    by bisection on the spectral radius; ``inf`` when stable up to ``s_max``.
+
+    FZI #177: in free space with a heavy payload after the sensor (``payload_mass``, its weight compensated), the
+    payload's inertial force fed back through the sensor is what bounds error_scale; on a rotational axis use
+    ``virtual_mass`` = the virtual inertia (1 kg m²) and ``payload_mass`` = the payload's inertia about the axis
+    through the sensor, m (|r|² − (r·a)²) + I_aa.
+    """
+    import dataclasses
+
+    def stable(s: float) -> bool:
+        return fdcc_spectral_radius(dataclasses.replace(loop, error_scale=s), environment_stiffness) < 1.0
+
+    lo, hi = 0.0, 1e-3
+    while stable(hi):
+        lo, hi = hi, 2.0 * hi
+        if hi > s_max:
+            return math.inf
+    while hi - lo > 1e-4 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
     return lo
