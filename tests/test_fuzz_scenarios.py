@@ -543,10 +543,12 @@ def test_vanishing_path_duration_is_a_clear_error(tmp_path):
 
 def test_absurd_admittance_stiffness_on_the_panda_is_a_library_error(tmp_path):
     """Found by the fuzzer (seed 10, file 566): stiffness = [1000, 1e300, ...] loaded, then the run raised LinAlgError;
-    now the admittance controller refuses gains whose compliant frame cannot be discretised (a ScenarioError at load)."""
+    the admittance controller refused gains whose compliant frame cannot be discretised; since issue 28's ranges the
+    [controller] key's range (entries of magnitude at most 1e12) refuses it first, naming key, range and value."""
     p = _edited(tmp_path, "panda-admittance-contact", "stiffness = [1000.0, 1000.0, 1000.0, 20.0, 20.0, 20.0]",
                 "stiffness = [1000.0, 1e300, 1000.0, 20.0, 20.0, 20.0]")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(ForceControlError, match="cannot be discretised"):
+        with pytest.raises(ForceControlError, match=r"\[controller\].*'stiffness' must have entries of magnitude at most "
+                                                    r"1e\+12.*got \[1000.0, 1e\+300"):
             run_scenario(load_scenario(p).with_(duration=RUN_DURATION))
