@@ -278,11 +278,11 @@ def test_absurd_variable_stiffness_schedules_are_refused():
 
 @pytest.mark.parametrize("name, line, bad, match", [
     ("ur5-admittance-servo", "offset = [0.0, 0.0, -0.01]", "offset = [1e308, 0.0, -0.01]",
-     r"\[reference\] .*key 'offset' must have entries of magnitude at most 1000 .*got \[1e\+308"),
+     r"\[reference\] .*key 'offset' must have entries in \[-1000, 1000\] .*got \[1e\+308"),
     ("variable-stiffness", "stiffness_high = 10000.0", "stiffness_high = 1e300",
-     r"\[controller\] .*key 'stiffness_high' must be of magnitude at most 1e\+12 .*got 1e\+300"),
+     r"\[controller\] .*key 'stiffness_high' must be in \[-1e\+12, 1e\+12\] .*got 1e\+300"),
     ("example-9.4", "end = [1.2, 0.2]", "end = [1.7e308, 0.2]",
-     r"\[reference\] .*key 'end' must have entries of magnitude at most 1000 .*got \[1.7e\+308"),
+     r"\[reference\] .*key 'end' must have entries in \[-1000, 1000\] .*got \[1.7e\+308"),
 ])
 def test_absurd_part_values_in_a_scenario_file_are_refused_at_load(tmp_path, name, line, bad, match):
     """offset = 1e308, stiffness_high = 1e300, end = 1.7e308 were accepted at load (scenario, seed 20261126, 134/305/412)."""
@@ -310,7 +310,7 @@ def test_every_number_of_a_built_in_part_has_a_range():
     assert missing == []
 
 
-@pytest.mark.parametrize("change, match", [({"environment.stiffness": 1.7e308}, r"key 'stiffness' must be of magnitude at most"),
+@pytest.mark.parametrize("change, match", [({"environment.stiffness": 1.7e308}, r"key .stiffness. must be in \[-1e\+12, 1e"),
                                            ({"duration": 1.7e308}, r"key 'duration' must be at most 1e\+07"),
                                            ({"settle_window": 1e300}, r"key 'settle_window' must be at most 1e\+07")])
 def test_with_refuses_absurd_values_like_a_file(change, match):

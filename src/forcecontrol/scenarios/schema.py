@@ -73,9 +73,7 @@ class Field:
         if self.low is None and self.high is None:
             return self.bound
         what = "entries" if self.kind in ("vector", "gain") else ""
-        if self.low is not None and self.high is not None and self.low == -self.high:
-            rng = f"of magnitude at most {self.high:g}"
-        elif self.low is None:
+        if self.low is None:
             rng = f"at most {self.high:g}"
         elif self.high is None:
             rng = f"at least {self.low:g}"
