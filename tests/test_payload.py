@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from importlib import resources
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -10,6 +13,7 @@ pytest.importorskip("pinocchio")
 from forcecontrol.errors import ForceControlError, ParameterError  # noqa: E402
 from forcecontrol.robots.pinocchio import Payload, ur10  # noqa: E402
 
+CONFIGS = Path(str(resources.files("forcecontrol.scenarios"))) / "configs"
 Q = np.array([0.3, -1.2, 1.4, -1.7, -1.3, 0.4])
 COM = np.array([0.042, -0.223, 0.229])  # FZI #177's CoG in tool0
 I_C = np.diag([0.05, 0.08, 0.03])
@@ -105,3 +109,27 @@ def test_payload_sensor_adds_the_contact_wrench_and_refuses_a_bare_robot():
         np.testing.assert_allclose(s.measure(k, k * 0.001, h, Q), h, atol=1e-9)
     with pytest.raises(ParameterError, match="payload"):
         PayloadForceSensor(ur10())
+
+
+@pytest.mark.parametrize("robot, word", [
+    ({"model": "ur5", "payload_mass": 5.0}, "payload_mass"),
+    ({"model": "ur10", "payload_com": [0.0, 0.0, 0.1]}, "payload_com"),
+    ({"model": "ur10", "payload_mass": -1.0}, "mass"),
+])
+def test_scenario_payload_keys_are_refused_where_they_would_be_ignored(tmp_path, robot, word):
+    """[robot] payload_mass on a model without payload support, payload_com alone, or a negative mass: ScenarioError."""
+    import tomllib
+
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import run_scenario
+
+    text = (CONFIGS / "fzi_issue_177.toml").read_text(encoding="utf-8")
+    cfg = tomllib.loads(text)
+    lines = [f"model = {robot['model']!r}".replace("'", '"'), "q0 = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]"]
+    lines += [f"{k} = {v}" for k, v in robot.items() if k != "model"]
+    head, tail = text.split("[robot]\n", 1)[0], text.split("[robot.servo]", 1)[1]
+    body = head + "[robot]\n" + "\n".join(lines) + "\n\n[robot.servo]" + tail
+    (tmp_path / "s.toml").write_text(body, encoding="utf-8")
+    (tmp_path / cfg["controller"]["config"]).write_text((CONFIGS / cfg["controller"]["config"]).read_text(), encoding="utf-8")
+    with pytest.raises(ScenarioError, match=word):
+        run_scenario(tmp_path / "s.toml")

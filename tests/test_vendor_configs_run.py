@@ -57,3 +57,26 @@ def test_vendor_example_runs_from_its_file(tmp_path, name, bounces, settles, f_z
     assert good["settled"]["contact_losses"] == 0 and all(w["kind"] != "contact-lost" for w in good["warnings"])
     got = good["final"]["contact_force"][2] if read == "final" else good["settled"]["fz"]
     assert got == pytest.approx(f_z, rel=0.01)
+
+
+def test_issue_177_runs_from_its_file(tmp_path):
+    """`forcecontrol run fzi_issue_177.toml --json` in a fresh folder: exit 0, figure, config notes; the reported setting
+    hits the servo's limits (warned, the shake), the reporter's and the proposed ones do not, and the proposed one has
+    moved more than half-way to the target 5 mm above the start."""
+    import numpy as np
+
+    from forcecontrol.robots.pinocchio import ur10
+
+    for f in ("fzi_issue_177.toml", "fzi_issue_177.yaml"):
+        shutil.copy(CONFIGS / f, tmp_path / f)
+    proc = forcecontrol(tmp_path, "run", "fzi_issue_177.toml", "--json")
+    doc = json.loads(proc.stdout)
+    assert_figure(tmp_path / doc["files"]["figure"])
+    assert "ConfigNote" in proc.stderr and "servo" in proc.stderr
+    cases = {c["label"]: c for c in doc["cases"]}
+    assert set(cases) == {"reported", "reporter's error_scale 0.002", "proposed"}
+    assert any(w["kind"] == "servo-limit" for w in cases["reported"]["warnings"])
+    for label in ("reporter's error_scale 0.002", "proposed"):
+        assert all(w["kind"] == "config-note" for w in cases[label]["warnings"])
+    z0 = ur10().frame_pose(np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0]))[1][2]
+    assert 0.5 * 0.005 < cases["proposed"]["final"]["tip_position"][2] - z0 < 0.005

@@ -96,7 +96,9 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
         if robot_key in memo:
             robot, q0 = memo[robot_key]
             return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor)
-    if rt["model"] in ("panda", "ur5", "urdf"):
+    if rt.get("payload_mass") is not None and rt["model"] != "ur10":
+        raise ScenarioError(f"{where}: [robot]: key 'payload_mass' needs model = 'ur10'; got model = {rt['model']!r}")
+    if rt["model"] in ("panda", "ur5", "ur10", "urdf"):
         from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
 
         robot = pinocchio_robot(where, rt)
@@ -161,6 +163,13 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx, memo)
     ref = _shared_reference(where, cfg["reference"], ctx, memo)
     sensor = build_sensor(where, cfg.get("sensor"), Ts) if sensor is None else sensor
+    arm = getattr(robot, "torque_robot", robot)
+    if getattr(arm, "payload", None) is not None:  # the sensor carries the payload: reads its inertial wrench
+        if cfg.get("sensor"):
+            raise ScenarioError(f"{where}: [sensor] cannot be combined with [robot] payload_mass (the payload's sensor is ideal)")
+        from ..sensors import PayloadForceSensor
+
+        sensor = PayloadForceSensor(arm)
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     _check_delays(where, duration, Ts, sensor, actuator)
     for name, part in (("environment", env), ("reference", ref)):

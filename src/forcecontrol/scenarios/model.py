@@ -94,7 +94,7 @@ def note_settle_window(res: SimulationResult, window: float, duration: float, wh
 
 
 ROBOT_FIELDS: dict[str, Field] = {
-    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "urdf")),
+    "model": Field("str", default="chapter-arm", choices=("chapter-arm", "planar-2r", "panda", "ur5", "ur10", "urdf")),
     "urdf": Field("str", doc="model = 'urdf': path of the URDF file"),
     "frame": Field("str", doc="panda/ur5/urdf: the controlled frame (default panda_hand_tcp / tool0)"),
     "frame_type": Field("str", choices=("BODY", "JOINT", "FIXED_JOINT", "OP_FRAME"),
@@ -106,6 +106,8 @@ ROBOT_FIELDS: dict[str, Field] = {
     "elbow": Field("str", default="up", choices=("up", "down")),
     "qd0": Field("vector", low=-MAX_JOINT_SPEED, high=MAX_JOINT_SPEED, doc="initial joint velocities [rad/s]"),
     "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
+    "payload_mass": Field("number", high=1e3, doc="ur10: a payload on the controlled frame [kg] (the sensor reads its inertia)"),
+    "payload_com": Field("vector", doc="its centre of mass in the controlled frame [m]"),
     "servo": Field("table", fields=SERVO_FIELDS, doc="the joint servo of a position/velocity-interface arm: see [robot.servo]"),
 }
 
