@@ -368,3 +368,35 @@ def test_fuzz_oracle_hears_warnings_not_empty_lists_nor_the_harness_settle_note(
     assert _cli_result(case, 0, said).outcome == "success"
     assert _cli_result(case, 0, empty, "warning: clipped\n").outcome == "success"
     assert _cli_result(own, 0, harness).outcome == "success"  # the mutation is the window: its note answers it
+
+
+@pytest.mark.parametrize("option, match", [("--gravity", r"gravity must be a positive number of at most 1000 \[m/s\^2\]; got 1e"),
+                                           ("--max-condition", r"max_condition must be a positive number of at most 1e16")])
+def test_calibrate_refuses_absurd_gravity_and_condition_limit(tmp_path, option, match):
+    """`calibrate calib.csv --json --gravity 1e308` (a 1e-307 kg mass) and --max-condition 1e308 exited 0 (cli 37, 373)."""
+    import re
+
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    p = tmp_path / "calib.csv"  # the campaign's file: 1.2 kg, biases (0.3, -0.2) N, a few mN of noise
+    p.write_text("angle,fx,fy\n0,0.3,11.572\n0.785398163397,8.62406102813,8.12406102813\n1.57079632679,12.072,-0.2\n"
+                 "2.35619449019,8.62406102813,-8.52406102813\n3.14159265359,0.3,-11.972\n"
+                 "3.92699081699,-8.02406102813,-8.52406102813\n4.71238898038,-11.472,-0.2\n"
+                 "5.49778714378,-8.02406102813,8.12406102813\n")
+    assert CliRunner().invoke(app, ["calibrate", str(p), "--json"]).exit_code == 0  # the file itself is fine
+    res = CliRunner().invoke(app, ["calibrate", str(p), "--json", option, "1e308"])
+    assert res.exit_code == 2 and re.search(match, " ".join(res.output.split())), res.output
+
+
+def test_sweep_refuses_an_absurd_worker_count(tmp_path):
+    """`sweep ... --workers <401 digits>` exited 0 silently (cli, seed 20261126, case 82)."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    res = CliRunner().invoke(app, ["sweep", "example-9.2", "-p", "sample_time=0.001,0.002", "--out", str(tmp_path / "s.parquet"),
+                                   "--no-figure", "--workers", "9" * 401])
+    assert res.exit_code == 2 and "--workers" in res.output and "4096" in res.output, res.output
+    assert not (tmp_path / "s.parquet").exists()

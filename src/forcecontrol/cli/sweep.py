@@ -39,7 +39,8 @@ def sweep_command(
         help="Parquet table (default forcecontrol-out/NAME-sweep.parquet)")] = None,
     scheduler: Annotated[str | None, typer.Option(  # noqa: UP007
         help="Dask scheduler address (tcp://host:8786); default: this machine, all cores")] = None,
-    workers: Annotated[int | None, typer.Option(min=1, help="local threads, >= 1 (default: all cores)")] = None,  # noqa: UP007
+    workers: Annotated[int | None, typer.Option(  # noqa: UP007
+        min=1, max=4096, help="local threads, 1 to 4096 (default: all cores)")] = None,
     block_size: Annotated[int | None, typer.Option(  # noqa: UP007
         min=1, help="cases per stored block, >= 1 (default: automatic)")] = None,
     figure: Annotated[bool, typer.Option(help="write the metric maps over the first two parameters (PNG)")] = True,

@@ -298,8 +298,12 @@ def calibrate(
             do not identify the unknowns (rank deficient); the poses are too similar (condition
             number above ``max_condition``); the identified mass is significantly negative.
     """
-    g = positive_scalar("gravity", gravity)
+    g = positive_scalar("gravity", gravity, "m/s^2")
     max_condition = positive_scalar("max_condition", max_condition)
+    if g > 1e3:  # 1e308 was accepted (fuzz, seed 20261126) and gave a mass of 1e-307 kg
+        raise ParameterError(f"gravity must be a positive number of at most 1000 [m/s^2]; got {g:g}")
+    if max_condition > 1e16:  # beyond 1/eps every pose set passes and the estimate is noise
+        raise ParameterError(f"max_condition must be a positive number of at most 1e16 (1/eps); got {max_condition:g}")
     R = _rotations(rotations)
     k, d = R.shape[0], R.shape[1]
     nt = 1 if d == 2 else 3
