@@ -20,7 +20,7 @@ from forcecontrol.task.estimation import circle_lag
 
 TS = 1e-3
 SHAPES = {"panda-unknown-sphere": 0.2, "panda-unknown-cylinder": 0.1}  # scenario: the surface's radius [m]
-AFTER = 1.0  # [s]: force ramp (0.3 s), first contact and the speed ramp (0.5-0.8 s) are over
+AFTER = 1.0  # [s]: the first contact transient (17° first guess) and the speed ramp (0.5-0.8 s) are over
 
 
 class _Constant:
