@@ -51,12 +51,20 @@ NO_EFFECT = {
     ("panda-sphere", "reference.start_time"): "the arc starts at 0.3 s (0.39 s perturbed), after the run",
     ("panda-sphere", "reference.accel_time"): "the arc starts at 0.3 s, after the run",
     ("panda-sphere", "reference.axis"): "a direction: x 1.3 is the same axis",
+    **{(name, f"reference.{key}"): why for name in ("panda-unknown-cylinder", "panda-unknown-sphere") for key, why in (
+        ("end_angle", "the arc starts at 0.5 s, after the run"), ("speed", "the arc starts at 0.5 s, after the run"),
+        ("start_time", "the arc starts at 0.5 s (0.65 s perturbed), after the run"),
+        ("accel_time", "the arc starts at 0.5 s, after the run"), ("axis", "a direction: x 1.3 is the same axis"))},
+    ("panda-unknown-cylinder", "controller.first_normal"): "a direction: x 1.3 is the same first guess",
+    ("panda-unknown-sphere", "controller.first_normal"): "a direction: x 1.3 is the same first guess",
+    ("panda-unknown-cylinder", "environment.axis"): "a direction: x 1.3 is the same axis",
 }
 
 
 def test_the_6d_builtins_are_the_panda_and_ur5_scenarios():
     """The parametrisation below covers the 6-D built-ins `forcecontrol list` shows."""
-    assert SIX_D == ["panda-admittance-contact", "panda-peg-in-hole", "panda-sphere", "panda-table-line", "ur5-admittance-servo"]
+    assert SIX_D == ["panda-admittance-contact", "panda-peg-in-hole", "panda-sphere", "panda-table-line",
+                     "panda-unknown-cylinder", "panda-unknown-sphere", "ur5-admittance-servo"]
 
 
 @pytest.mark.parametrize("name", SIX_D)
