@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = [
     "example-9.1", "example-9.2", "example-9.3", "example-9.4", "hybrid-rigid-plane", "impact-safety", "impact",
     "panda-admittance-contact", "panda-peg-in-hole", "panda-table-line", "problem-9.10", "problem-9.3", "variable-stiffness",
-    "arm-circle-contour", "arm-unknown-circle", "panda-sphere", "servo-admittance", "ur5-admittance-servo",
+    "arm-circle-contour", "arm-unknown-circle", "arm-unknown-circle-parallel", "panda-sphere", "servo-admittance", "ur5-admittance-servo",
     "panda-unknown-cylinder", "panda-unknown-sphere",
 ]
 R2 = math.sqrt(0.5)
@@ -71,6 +71,8 @@ BOOK = {
                                        if lab == "frictionless" else {}),
     # still tracing at the end (no settled point): its own checks (the normal-force error of the analysis) must pass
     "arm-unknown-circle": lambda lab: {},
+    # the parallel scheme (9.48) in the estimated frame, still tracing at the end: its own checks must pass
+    "arm-unknown-circle-parallel": lambda lab: {},
     # a ball (R = 0.2 m, k = 1e4 N/m) traced at r_d = 0.189 m with k_p = 1000 N/m, stopped at 60 deg in the x-z plane:
     # 10 N towards the centre, f_x = -10 cos 60 deg
     "panda-sphere": lambda lab: {"fx": (-5.0, 0.01)},
