@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = [
     "example-9.1", "example-9.2", "example-9.3", "example-9.4", "hybrid-rigid-plane", "impact-safety", "impact",
     "panda-admittance-contact", "panda-peg-in-hole", "panda-table-line", "problem-9.10", "problem-9.3", "variable-stiffness",
-    "arm-circle-contour", "arm-unknown-circle", "arm-unknown-circle-parallel", "panda-sphere", "servo-admittance", "ur5-admittance-servo",
-    "panda-unknown-cylinder", "panda-unknown-sphere",
+    "arm-circle-contour", "arm-unknown-circle", "arm-unknown-circle-parallel", "panda-sphere", "servo-admittance",
+    "ur5-admittance-servo", "panda-unknown-cylinder", "panda-unknown-sphere",
 ]
 R2 = math.sqrt(0.5)
 

@@ -163,7 +163,8 @@ class SampledReference(ReferenceSignal):
             if not np.all(np.isfinite(V)):
                 raise ParameterError(f"{name} samples must be finite; got NaN or inf")
             extra[name] = V
-        for name, v, unit in (("times", t, "s"), ("position", X, "m"), ("force", F, "N"), *((k, V, "") for k, V in extra.items())):
+        named = (("times", t, "s"), ("position", X, "m"), ("force", F, "N"), *((k, V, "") for k, V in extra.items()))
+        for name, v, unit in named:
             big = np.abs(v) > MAX_SAMPLE_MAGNITUDE  # beyond any arm's reach or force: a spline of it overflows
             if np.any(big):
                 k = int(np.flatnonzero(big.reshape(big.shape[0], -1).any(axis=1))[0])
