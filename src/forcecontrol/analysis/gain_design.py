@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.validate import nonnegative_scalar, positive_scalar
+from ..core.validate import nonnegative_scalar, positive_scalar, stiffness_range_arg
 from ..errors import ParameterError
 from .design import DESIGN_SCHEMES, loop_model
 from .force_design import design_force_gains
@@ -155,12 +155,7 @@ def design_gains(
     """
     if scheme not in DESIGN_SCHEMES:
         raise ParameterError(f"scheme must be one of {list(DESIGN_SCHEMES)}; got {scheme!r}")
-    try:
-        k_min, k_max = (float(v) for v in stiffness_range)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"stiffness_range must be (k_min, k_max) in N/m; got {stiffness_range!r}") from exc
-    if not (0.0 < k_min <= k_max < math.inf):
-        raise ParameterError(f"stiffness_range must satisfy 0 < k_min <= k_max < inf; got {stiffness_range!r}")
+    k_min, k_max = stiffness_range_arg(stiffness_range)
     Ts = positive_scalar("sample_time", sample_time)
     pm_req = positive_scalar("phase_margin", phase_margin)
     gm_req = nonnegative_scalar("gain_margin", gain_margin)

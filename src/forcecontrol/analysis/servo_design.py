@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.validate import nonnegative_scalar, positive_scalar
+from ..core.validate import nonnegative_scalar, positive_scalar, stiffness_range_arg
 from ..errors import ParameterError
 from .gain_design import GainDesign
 from .servo_loop import ServoLoop
@@ -119,12 +119,7 @@ def design_admittance_servo(
     """
     from ..robots.servo import JointServo
 
-    try:
-        k_min, k_max = (float(v) for v in stiffness_range)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"stiffness_range must be (k_min, k_max) in N/m; got {stiffness_range!r}") from exc
-    if not (0.0 < k_min <= k_max < math.inf):
-        raise ParameterError(f"stiffness_range must satisfy 0 < k_min <= k_max < inf; got {stiffness_range!r}")
+    k_min, k_max = stiffness_range_arg(stiffness_range)
     if robot not in DESIGN_ROBOTS:
         raise ParameterError(f"robot must be one of {list(DESIGN_ROBOTS)}; got {robot!r}")
     servo = JointServo(nq=1, rate=rate, bandwidth=servo_bandwidth, damping=servo_damping, delay=delay_cycles,

@@ -247,3 +247,27 @@ def gain_scalar(name: str, value: Any, unit: str = "", *, positive: bool = False
     v = positive_scalar(name, value, unit) if positive else nonnegative_scalar(name, value, unit)
     check_gain_size(name, v, unit)
     return v
+
+
+def is_number(value: Any) -> bool:
+    """Whether ``float(value)`` succeeds (a table cell that reads as a number)."""
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def stiffness_range_arg(stiffness_range: Any) -> tuple[float, float]:
+    """``(k_min, k_max)`` in N/m with ``0 < k_min <= k_max < inf`` (a design's environment range).
+
+    Raises:
+        ParameterError: not two numbers, or not in that order and range.
+    """
+    try:
+        k_min, k_max = (float(v) for v in stiffness_range)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"stiffness_range must be (k_min, k_max) in N/m; got {stiffness_range!r}") from exc
+    if not (0.0 < k_min <= k_max < math.inf):
+        raise ParameterError(f"stiffness_range must satisfy 0 < k_min <= k_max < inf; got {stiffness_range!r}")
+    return k_min, k_max

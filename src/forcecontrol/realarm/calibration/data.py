@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ...core.files import MAX_TABLE_BYTES, check_regular, read_text_limited
+from ...core.validate import is_number
 from ...errors import MeasurementError, ParameterError
 
 __all__ = ["calibration_data_from_columns", "read_calibration_data", "read_columns"]
@@ -24,14 +25,6 @@ _QUAT = ("qx", "qy", "qz", "qw")
 
 
 _MATRIX = tuple(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
-
-
-def _is_number(v: Any) -> bool:
-    try:
-        float(v)
-    except (TypeError, ValueError):
-        return False
-    return True
 
 
 def calibration_data_from_columns(
@@ -65,7 +58,7 @@ def calibration_data_from_columns(
         try:
             a = np.asarray(cols[name], dtype=np.float64).reshape(-1)
         except (TypeError, ValueError) as exc:
-            rows = [i for i, v in enumerate(list(cols[name])) if not _is_number(v)]
+            rows = [i for i, v in enumerate(list(cols[name])) if not is_number(v)]
             raise ParameterError(
                 f"column {name!r} must hold numbers; row {rows[0] if rows else '?'} is not a number"
             ) from exc

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from ...core.files import MAX_RECORDING_BYTES, check_regular, read_text_limited
+from ...core.validate import is_number
 from ...errors import MeasurementError, ParameterError
 from ...spatial.rotations import rotvec_to_rotation
 from ..conventions import BY_END_EFFECTOR, ON_END_EFFECTOR
@@ -146,16 +147,8 @@ def _numeric(cols: Mapping[str, Any], name: str, source: str) -> np.ndarray:
     try:
         return a.astype(np.float64)
     except (TypeError, ValueError):
-        row = next(i for i, v in enumerate(a) if not _is_number(v))
+        row = next(i for i, v in enumerate(a) if not is_number(v))
         raise MeasurementError(f"{source}: column {name!r} is not numeric; data row {row} holds {str(a[row])[:40]!r}") from None
-
-
-def _is_number(v: Any) -> bool:
-    try:
-        float(v)
-    except (TypeError, ValueError):
-        return False
-    return True
 
 
 def vendor_run(columns: Mapping[str, Any], format: str, *, sense: str | None = None, source: str = "<columns>") -> RecordedRun:
