@@ -33,7 +33,14 @@ add: this is the bound and, in steady state, the value; the tests find the simul
 On a concave contour (tool inside) the curvature term changes sign and the bound is the sum of the
 magnitudes. With integral force action (the parallel scheme (9.48) with (9.43) in the estimated frame)
 both constant terms are integrated away: λ = f_d and f_n = f_d / cos δ, the cosine error alone.
-Friction adds μ f_n sin δ to λ (its component along the lagging normal), not modelled.
+Friction adds μ f_n sin δ to λ (its component along the lagging normal), not modelled here: see
+:mod:`forcecontrol.analysis.friction`.
+
+A surface of varying curvature (a height field: crests, inflections, troughs) traced slowly against the
+force loop (the curvature changing over a time much longer than 1/ω_f and τ) is, at each point, a circle
+of the local normal curvature κ along the path: :func:`path_following_bound` evaluates the bound at the
+largest |κ| met (ρ = 1/|κ| − f_d/k: the convex side's, the larger error; on the concave side the
+curvature term changes sign and its magnitude is smaller).
 """
 
 from __future__ import annotations
@@ -46,7 +53,7 @@ from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
 from ..task.estimation import circle_lag
 
-__all__ = ["SurfaceFollowingError", "surface_following_error"]
+__all__ = ["SurfaceFollowingError", "surface_following_error", "path_following_bound"]
 
 
 @dataclass(frozen=True)
@@ -118,3 +125,24 @@ def surface_following_error(desired_force: float, speed: float, radius: float, s
         lag=delta, tip_radius=rho, curvature_error=curvature, lag_error=lag, regulated_force=lam, cosine_error=cosine,
         normal_force=fn, tangential_leak=fn * math.sin(delta), bound=curvature + lag + abs(cosine),
     )
+
+
+def path_following_bound(desired_force: float, speed: float, curvatures: Any, stiffness: float, force_gain: float,
+                         force_rate_gain: float, time_constant: float, *, stiffness_estimate: float | None = None,
+                         sample_time: float | None = None) -> SurfaceFollowingError:
+    """The first-order bound on |f_d − f_n| along a path of varying normal curvature ``curvatures`` [1/m]
+    (any sign: convex or concave; e.g. sampled along the path), traced at ``speed`` [m/s]: the circle's
+    error (:func:`surface_following_error`) at the largest |κ| (module docstring); zero curvature
+    everywhere gives a zero bound. Other arguments as for :func:`surface_following_error`."""
+    import numpy as np
+
+    k = np.abs(np.asarray(curvatures, dtype=np.float64)).ravel()
+    if k.size == 0 or not np.all(np.isfinite(k)):
+        raise ParameterError(f"curvatures must be a non-empty array of finite numbers [1/m]; got {k.size} values")
+    kmax = float(k.max())
+    if kmax == 0.0:
+        return SurfaceFollowingError(lag=0.0, tip_radius=math.inf, curvature_error=0.0, lag_error=0.0,
+                                     regulated_force=float(desired_force), cosine_error=0.0, normal_force=float(desired_force),
+                                     tangential_leak=0.0, bound=0.0)
+    return surface_following_error(desired_force, speed, 1.0 / kmax, stiffness, force_gain, force_rate_gain, time_constant,
+                                   stiffness_estimate=stiffness_estimate, sample_time=sample_time)
