@@ -51,13 +51,16 @@ def test_payload_refuses_unphysical_values(kw, word):
         Payload(**kw)
 
 
-def test_mujoco_refuses_a_payload_it_would_drop():
-    """MuJoCo rebuilds the arm from the URDF, which lacks the payload: refused by name rather than silently dropped."""
-    from forcecontrol.engines.urdf import _robot_source
+def test_mujoco_carries_the_payload_it_used_to_refuse():
+    """MuJoCo rebuilds the arm from the URDF, which lacks the payload: the plant adds it (not silently dropped): MuJoCo's
+    total mass is the bare arm's plus 10.94 kg, its centre of mass at COM in tool0 (tests/test_payload_mujoco.py)."""
+    pytest.importorskip("mujoco")
+    from forcecontrol.engines.mujoco import MujocoPlant
+    from forcecontrol.environments.spatial import Table
 
-    with pytest.raises(ParameterError, match="payload"):
-        _robot_source(ur10(payload=Payload(10.94, COM)))
-    assert _robot_source(ur10())[1] == "tool0"
+    bare, loaded = (MujocoPlant(a, Table([0.0, 0.0, -5.0])).model for a in (ur10(), ur10(payload=Payload(10.94, COM))))
+    assert loaded.body_mass.sum() == pytest.approx(bare.body_mass.sum() + 10.94, rel=1e-12)
+    np.testing.assert_allclose(loaded.body_ipos[loaded.body("payload").id], COM, atol=1e-12)
 
 
 def test_payload_wrench_closed_form_of_a_spinning_point_mass():

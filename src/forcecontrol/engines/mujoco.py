@@ -7,7 +7,8 @@ The robot is rebuilt in MuJoCo from the same URDF (visual and collision meshes d
 joints made fixed, static bodies kept so the controlled frame exists), with the joints'
 armature and damping; the end-effector gets a small frictionless sphere (``contact_radius``)
 centred on the controlled frame. Elastic planes and tables become MuJoCo planes shifted by that
-radius, so that the penetration MuJoCo sees is the built-in environments' δ.
+radius, so that the penetration MuJoCo sees is the built-in environments' δ. A robot's payload is a
+body after MuJoCo's own F/T sensor, which the controller then reads (:mod:`.mujoco_payload`).
 
 The loop is the same sampled loop as :func:`forcecontrol.sim.simulation.simulate`: at each sample
 ``t_k`` read q, q̇ and the contact wrench from MuJoCo, call ``controller.step``, hold the torque
@@ -43,6 +44,7 @@ from ..sim.simulation import SimulationResult
 from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 from .compare import DIFFERENCES, compare_engines
+from .mujoco_payload import PayloadReader, add_payload_body
 from .mujoco_surfaces import add_surface_geom, quat_z_to
 from .urdf import _clean_urdf, _robot_source
 
@@ -111,6 +113,9 @@ class MujocoPlant:
         body = spec.body(frame)
         if body is None:
             raise ParameterError(f"frame {frame!r} is not a body of the MuJoCo model")
+        payload = getattr(getattr(robot, "torque_robot", robot), "payload", None)
+        if payload is not None:  # a body after the sensor site: it carries the contact sphere (engines.mujoco_payload)
+            body = add_payload_body(mujoco, spec, body, payload, task)
         tip = body.add_geom()
         tip.name = "ee_contact"
         tip.type = mujoco.mjtGeom.mjGEOM_SPHERE
@@ -122,6 +127,8 @@ class MujocoPlant:
         self._has_contact = self._add_environment(spec)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
+        #: MuJoCo's F/T sensor between the flange and the payload (None without a payload): the controller reads it
+        self.payload_reader = None if payload is None else PayloadReader(mujoco, self.model, int(robot.task_dim))
         self.ee_body = self.model.body(frame).id
         self.ee_geom = self.model.geom("ee_contact").id
         self.nq = int(self.model.nq)
@@ -318,6 +325,15 @@ class MujocoPlant:
             return -f_ee
         return -np.concatenate([f_ee, mu_ee])
 
+    def _sense(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """(h_e, reading): one array; with a payload, MuJoCo's F/T sensor (+ a spring's h_e, a joint force it misses)."""
+        if self.payload_reader is None:
+            h = self.contact_wrench()
+            return h, h
+        hm = self.payload_reader.read(self.data, np.zeros(self.model.nv) if k == 0 else None)  # at rest at the start
+        h = self.contact_wrench()  # after the reader's mj_forward: the contacts of the state at t_k
+        return h, (hm + h if self._spring is not None else hm)
+
     # -- running
     def run(
         self,
@@ -379,19 +395,18 @@ class MujocoPlant:
         Ts = self.sample_time
         mdim = refs.shape[1] // len(REFERENCE_FIELDS)
         mujoco.mj_forward(m, d)
-        h = self.contact_wrench()
-        controller.reset(Measurement(d.qpos.copy(), d.qvel.copy(), h), reference.at(0.0))
+        controller.reset(Measurement(d.qpos.copy(), d.qvel.copy(), self._sense(0)[1]), reference.at(0.0))
         status_k = None
         qpos, qvel, qfrc = d.qpos, d.qvel, d.qfrc_applied  # views of MuJoCo's arrays, fetched once
         for k in range(N + 1):
             q, qd = qpos.copy(), qvel.copy()
             x, xd = self._pose_twist()
-            h = self.contact_wrench()  # a new array, not changed after: the measurement and the log share it
+            h, hm = self._sense(k)  # new arrays, not changed after: the measurement and the log share them
             row = refs[k]
             ref = Reference(*(row[i * mdim : (i + 1) * mdim] for i in range(len(REFERENCE_FIELDS))))
-            u = np.asarray(controller.step(k * Ts, Measurement(q, qd, h), ref), dtype=float)
+            u = np.asarray(controller.step(k * Ts, Measurement(q, qd, hm), ref), dtype=float)
             logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, x, xd
-            logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, h, u
+            logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, hm, u
             if k == N:
                 break
             qfrc[:] = u
@@ -415,6 +430,8 @@ class MujocoPlant:
             "integrator": "RK4",
             "contact_radius": self.radius,
         }
+        if self.payload_reader is not None:
+            out["payload"] = self.payload_reader.describe()
         if self._has_contact:
             gid = self.model.geom("environment").id
             out.update(

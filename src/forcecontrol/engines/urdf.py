@@ -41,12 +41,7 @@ def _robot_source(robot) -> tuple[Path, str, tuple[str, ...], np.ndarray, np.nda
         raise ParameterError(
             f"the MuJoCo engine needs the built-in arm or a PinocchioRobot loaded from a URDF; got {type(robot).__name__}"
         )
-    if getattr(robot, "payload", None) is not None:
-        # the URDF does not hold it: MuJoCo would simulate the arm without it
-        raise ParameterError(
-            f"the MuJoCo engine rebuilds the robot from its URDF, which does not hold its payload ({robot.payload!r}); "
-            "use the built-in engine for a robot with a payload"
-        )
+    # a payload (robot.payload) is not in the URDF: MujocoPlant adds it as a body (engines.mujoco_payload)
     from ..robots.urdf_check import check_urdf
 
     check_urdf(path)  # the file may have changed since Pinocchio read it: MuJoCo reads it again
