@@ -265,9 +265,11 @@ def run_command(
     animate: Annotated[
         bool, typer.Option("--animate", help="also write an animation (GIF) of each case: the arm, the environment, the force")
     ] = False,
+    view3d: Annotated[bool, typer.Option("--view3d", help="also write view3d.html: a scrubbable 3-D view of each case "
+                                         "(the robot's meshes, the contact surface, the force arrow; 'view3d' extra)")] = False,
     set_: SetOption = None,
 ) -> None:
-    """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations."""
+    """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations, 3-D views."""
     # first: the figure process loads matplotlib on another core while this one loads the simulator;
     # leaving the block by any error stops it
     with render_process.start() if figure else render_process.FigureProcess(None) as figures:
@@ -277,13 +279,17 @@ def run_command(
 
         compile_notice()
         if data is DataFormat.auto:  # the run's folder keeps what 'report' reads; no folder, no files
-            data = DataFormat.csv if figure or animate else DataFormat.none
+            data = DataFormat.csv if figure or animate or view3d else DataFormat.none
         try:
+            if view3d:  # the extra before the simulation: a clear error first
+                from ..viz.view3d import meshcat_bundle
+
+                meshcat_bundle()
             sets = parse_sets(set_)
             scn, set_notes = apply_sets(load_scenario(scenario), sets)
             for text in set_notes:
                 say_note(text)
-            writes = figure or animate or data is not DataFormat.none
+            writes = figure or animate or view3d or data is not DataFormat.none
             folder, note = prepare_output(out, _slug(scn.name), force) if writes else (Path(), None)
             say_note(note)
             if json_out:
@@ -295,7 +301,7 @@ def run_command(
                 ) as bar:
                     task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
                     run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
-        except ForceControlError as exc:
+        except (ForceControlError, ImportError) as exc:
             _fail(exc)
             return
         if figure:
@@ -311,6 +317,7 @@ def run_command(
                 run.files[f"animation:{label}"] = str(p)
         except ForceControlError as exc:
             _fail(exc)
+    view_notes = _view3d_cases(run, folder) if view3d else []
     if data is not DataFormat.none:
         for c in run.cases:
             d, m = c.result.save(folder / f"{_slug(scn.name)}-{_slug(c.label)}", format=data.value)
@@ -319,7 +326,7 @@ def run_command(
     if json_out:
         doc = run.to_json()
         doc["set"] = sets  # the keys --set changed (in every case), {} when none
-        more = [*set_notes, *([note] if note else [])]
+        more = [*set_notes, *([note] if note else []), *view_notes]
         if more:
             doc["notes"] = [*doc.get("notes", []), *more]
         print_json(doc)
@@ -350,6 +357,29 @@ def _animate_cases(run, folder: Path, stem: str, quiet: bool = False) -> list[tu
                                progress=lambda done, total, task=task: bar.update(task, completed=done, total=total))
             out.append((c.label, path))
     return out
+
+
+def _view3d_cases(run, folder: Path) -> list[str]:
+    """Each case's 3-D view in the run folder (:func:`forcecontrol.viz.view3d.view3d_name`), recorded in
+    ``run.files``; what is not drawn is said on stderr and returned (for ``--json``'s notes)."""
+    from ..scenarios import build_case
+    from ..viz.view3d import view3d_name, write_view3d
+
+    labels = [c.label for c in run.cases]
+    notes = []
+    with err_console.status(escape(f"writing the 3-D view of {len(labels)} case(s)")):
+        try:
+            for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
+                parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
+                path, said = write_view3d(c.result, parts["robot"], parts["environment"],
+                                          inside(folder, view3d_name(labels, i)), title=f"{run.scenario.name}: {c.label}")
+                run.files[f"view3d:{c.label}"] = str(path)
+                notes += [f"view3d {c.label}: {n}" for n in said]
+        except (ForceControlError, ImportError) as exc:
+            _fail(exc)
+    for n in notes:
+        say_note(n)
+    return notes
 
 
 def _print_summary(run, sets: dict[str, Any] | None = None) -> None:

@@ -322,6 +322,26 @@ class ScenarioRun:
         df.attrs["units"] = {col: "" if col == "case" else unit(col) for col in df.columns}
         return df
 
+    def view3d(self, path: str | Path | None = None, *, case: int = 0) -> Any:
+        """Write case ``case``'s 3-D view (as ``run --view3d``) to ``path`` (default: the temporary folder's
+        ``view3d-<scenario>-<case>.html``). Returns the path; in a notebook an ``IPython.display.HTML`` of it.
+        Raises ImportError without the ``view3d`` extra, ParameterError for an unknown case."""
+        import tempfile
+
+        from ..core.paths import safe_name
+        from ..errors import ParameterError
+        from ..viz.view3d import notebook_view, write_view3d
+        from . import build_case  # the package's API at call time (build imports this module)
+
+        if isinstance(case, bool) or not isinstance(case, int) or not 0 <= case < len(self.cases):
+            raise ParameterError(f"case must be an index in [0, {len(self.cases) - 1}]; got {case!r}")
+        c, name = self.cases[case], safe_name(self.scenario.name)
+        out = Path(path) if path is not None else \
+            Path(tempfile.gettempdir()) / f"view3d-{name}-{safe_name(c.label, str(case))}.html"
+        parts = build_case(self.scenario.cases[case], where=f"{self.scenario.source}: [[case]] #{case + 1}")
+        return notebook_view(write_view3d(c.result, parts["robot"], parts["environment"], out,
+                                          title=f"{self.scenario.name}: {c.label}")[0])
+
     def to_json(self) -> dict[str, Any]:
         """The ``--json`` contract: scenario, cases (label, final, peak_contact_force_norm, ...).
 

@@ -320,7 +320,9 @@ def write_report(source: str | Path, out: str | Path | None = None) -> Path:
         scenarios = sorted({str(info.get("scenario", "")) for _, info in runs} - {""})
         title = f"Run of {', '.join(scenarios) or source.name}: {len(runs)} case(s)"
         intro = f"Folder <code>{html.escape(str(source))}</code>; time responses of each saved case."
-        page = _page(title, intro, [("", run_figure(runs))])
+        from ..viz.view3d import with_views  # the folder's 3-D views (run --view3d), embedded
+
+        page = with_views(_page(title, intro, [("", run_figure(runs))]), source, out)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(page, encoding="utf-8")
