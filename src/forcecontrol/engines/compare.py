@@ -22,6 +22,8 @@ DIFFERENCES = (
     "the built-in one at the frame's origin (planes are shifted by the radius so the penetrations agree)",
     "chapter arm: the rotor coupling k_r2 I_m2 = 1 kg m^2 of b12 has no MuJoCo counterpart (transients only)",
     "integration: MuJoCo RK4 with the constraint solver vs the built-in RK4 on the unconstrained ODE",
+    "payload: MuJoCo's F/T sensor reads the acceleration at t_k with the last torque held; the built-in payload sensor "
+    "forms q'' by backward differences of q (1.5 a on the sample after a step a): sample-level readings differ",
 )
 
 
