@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-import tomllib
 from importlib.resources import files
 
 import numpy as np
 import pytest
+import tomllib
 
 from forcecontrol.analysis.friction import (
     estimated_normal_error,
