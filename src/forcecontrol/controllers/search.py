@@ -76,9 +76,8 @@ class SpiralSearchController(SpatialHybridController):
         reference = super()._frame_step(err, o_e, v_e, h, reference)
         t = self._now
         self._t = max(self._t, t)
-        if self._hold is not None:  # found: x_d held where the tip was
-            zero = np.zeros_like(np.asarray(reference.velocity, dtype=np.float64))
-            return Reference(self._hold.copy(), zero, zero, reference.force, reference.force_rate, reference.force_accel)
+        if self._hold is not None:
+            return reference
         if t + 0.5 * self.sample_time < self.search_start:
             return reference
         if self._origin is None:
@@ -101,6 +100,9 @@ class SpiralSearchController(SpatialHybridController):
     def step(self, t: float, measurement: Any, reference: Reference) -> np.ndarray:
         """The hybrid's torques for this sample (the detector runs inside, on the tip's position)."""
         self._now = float(t)
+        if self._hold is not None:  # found: x_d held where the tip was (the pose error is formed from it)
+            zero = np.zeros_like(np.asarray(reference.velocity, dtype=np.float64))
+            reference = Reference(self._hold.copy(), zero, zero, reference.force, reference.force_rate, reference.force_accel)
         return super().step(t, measurement, reference)
 
     @property

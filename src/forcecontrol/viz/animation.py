@@ -1,12 +1,14 @@
 """Motion you can see: an animation of a run (matplotlib.animation; matplotlib is imported inside).
 
 The planar arm is drawn as its two links in the base frame, with the environment (a plane's
-surface, hatched on the environment's side, or a rigid plane constraint) and the contact force
+surface, hatched on the environment's side, a rigid plane constraint, or a curved surface's contour:
+a circle, a height field's profile, :mod:`forcecontrol.viz.surface_mesh`) and the contact force
 as an arrow at the tip. The arrow is ``h_e``, the force the end-effector exerts **on** the
 environment (the chapter's sense), so it points into the surface while pushing.
 
 6-D robots (the Panda through Pinocchio) are drawn as a 3-D stick figure through their joint
-origins (``robot.joint_positions``) with the table, if any, and the force arrow. MuJoCo's offscreen
+origins (``robot.joint_positions``) with the table, if any (or the patch of a sphere, a cylinder or a
+height field around the tool's path), and the force arrow. MuJoCo's offscreen
 renderer works headless here (``MUJOCO_GL=egl``), but the library's MuJoCo model is built without
 the robot's meshes (:mod:`forcecontrol.engines.mujoco` strips visual geometry), so a rendered
 frame would show nothing of the arm; the stick figure needs no graphics stack at all.
@@ -179,6 +181,13 @@ class _Planar:
                                              colors="0.6", linewidths=0.6, zorder=0))
             ax.set_xlim(lo[0], hi[0])
             ax.set_ylim(lo[1], hi[1])
+        from .surface_mesh import surface_patch
+
+        curve = surface_patch(environment, pts[:, -1], 1.5 * float((hi - lo).max()), 181)
+        if curve is not None:  # a circle or a height-field profile: the surface itself, not a plane
+            ax.plot(curve[:, 0], curve[:, 1], color="0.3", lw=1.5, zorder=1)
+            ax.set_xlim(lo[0], hi[0])
+            ax.set_ylim(lo[1], hi[1])
         (self.path,) = ax.plot([], [], color="#0072B2", lw=0.8, alpha=0.7, label="tip path")
         (self.links,) = ax.plot([], [], "-o", color="k", lw=3, ms=6, mfc="w", zorder=3)
         self.arrow = None
@@ -226,6 +235,12 @@ class _Spatial:
             U, V = np.meshgrid(s, s)
             X, Y, Z = (c0[k] + U * u[k] + V * v[k] for k in range(3))
             ax.plot_surface(X, Y, Z, color="0.7", alpha=0.35, linewidth=0)
+        from .surface_mesh import surface_patch
+
+        patch = surface_patch(environment, pts[:, -1], 0.5 * half)
+        if patch is not None:  # a sphere, a cylinder or a height field: the surface itself around the tool's path
+            ax.plot_surface(patch[..., 0], patch[..., 1], patch[..., 2], color="0.7", alpha=0.45, linewidth=0.2,
+                            edgecolor="0.5")
         (self.path,) = ax.plot([], [], [], color="#0072B2", lw=0.8)
         (self.links,) = ax.plot([], [], [], "-o", color="k", lw=2.5, ms=4, mfc="w")
         (self.force,) = ax.plot([], [], [], color="#D55E00", lw=2.5)
