@@ -24,6 +24,7 @@ ONE_WORKER = {
     "test_surface_following_6d.py", "test_rigid.py", "test_monitor.py", "test_problem_9_10.py", "test_journeys.py",
     "test_cli_replay.py", "test_journeys_files.py", "test_python_parity.py", "test_render_process.py",
     "test_ergonomics.py", "test_plotting.py", "test_animation.py", "test_vendor_data.py", "test_replay_frames.py",
+    "test_view3d.py", "test_view3d_browser.py",
 }
 
 

@@ -107,6 +107,37 @@ def test_urdf_meshes_embedded(panda_view):
         assert content in embedded, f
 
 
+def _primitives(text: str) -> tuple[list[tuple[str, str]], list[int]]:
+    """(material, index list) of every triangle set of a COLLADA text, sorted; the primitive count per geometry."""
+    ns = {"c": "http://www.collada.org/2005/11/COLLADASchema"}
+    root = ET.fromstring(text)
+    prims, counts = [], []
+    for g in root.findall("c:library_geometries/c:geometry", ns):
+        mine = [e for e in g.find("c:mesh", ns) if e.tag.endswith(("}triangles", "}polylist"))]
+        counts.append(len(mine))
+        prims += [(e.get("material"), " ".join(e.find("c:p", ns).text.split())) for e in mine]
+    return sorted(prims), counts
+
+
+def test_ur5_multi_material_meshes_split():
+    """The UR5's COLLADA meshes with two materials in one mesh (which meshcat's merge would lose) are embedded
+    split, one material per geometry, with the same triangle sets; the Panda's single-material files unchanged."""
+    from forcecontrol.robots.pinocchio import example_robot_data_dir, ur5
+    from forcecontrol.viz.view3d_scene import urdf_visuals, visual_objects
+
+    visuals = urdf_visuals(ur5().urdf_path, {"example-robot-data": example_robot_data_dir().parent})
+    split = 0
+    for v, cmd in zip(visuals, visual_objects(visuals, "/r")):
+        original, embedded = v.mesh.read_text(encoding="utf-8"), cmd["object"]["object"]["data"]
+        want, counts = _primitives(original)
+        got, got_counts = _primitives(embedded)
+        assert got == want, v.mesh.name
+        if max(counts) > 1 and len(counts) > 1:
+            split += 1
+            assert set(got_counts) == {1} and len(got_counts) == sum(counts)
+    assert split == 4  # shoulder, upperarm, wrist1, wrist2
+
+
 def test_links_drawn_at_pinocchio_frame_placements(panda_view):
     """The transform sent for the hand link (the end-effector's body) and every other link equals Pinocchio's
     frame placement (a model built here from the URDF, forwardKinematics + updateFramePlacements) at q(t)."""
@@ -174,8 +205,8 @@ def test_scenario_run_view3d_returns_the_path(planar_view):
 
 
 def test_surfaces_drawn():
-    """Sphere, cylinder, height field and plane give one surface object of the right kind and size; a spring
-    has no surface and the note says so."""
+    """Sphere, cylinder, height field and plane give one surface object of the right kind and size, friction on a
+    sphere draws the sphere; a spring has no surface and the note says so."""
     from forcecontrol.environments import ElasticPlane, LinearSpring
     from forcecontrol.environments.surfaces import ElasticCylinder, ElasticSphere, HeightField
     from forcecontrol.viz.view3d_scene import surface_objects
@@ -194,6 +225,10 @@ def test_surfaces_drawn():
     T = np.array(cmd["object"]["object"]["matrix"]).reshape(4, 4).T
     thick = cmd["object"]["geometries"][0]["height"]
     assert np.allclose(T[:3, 3], [1.0 + 0.5 * thick, 0.5, 0.0])  # the wall's face on x = 1, the body on the +x side
+    from forcecontrol.environments.friction import FrictionalContact
+
+    (cmd,), note = surface_objects(FrictionalContact(ElasticSphere([0.5, 0.0, 0.1], 0.3, 1e4), 0.3, 0.2), c, 0.5, "/x")
+    assert note is None and cmd["object"]["geometries"][0]["radius"] == 0.3  # friction on a sphere: the sphere
     cmds, note = surface_objects(LinearSpring(np.eye(2) * 1e3, [1.0, 0.0]), c, 0.5, "/x")
     assert cmds == [] and "LinearSpring has no surface" in note
 

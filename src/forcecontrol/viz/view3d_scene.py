@@ -235,6 +235,8 @@ def mesh_file(path: Path, scale: Any, rgba: Any, matrix: np.ndarray) -> dict[str
                            "matrix": column_major(np.asarray(matrix, dtype=float) @ S)}
     if fmt in ("dae", "obj"):
         obj["data"] = read_text_limited(path, "mesh file", MAX_MESH_BYTES)
+        if fmt == "dae":
+            obj["data"] = split_collada(obj["data"])
     elif fmt == "stl":
         obj["data"] = {"__base64__": base64.b64encode(read_bytes_limited(path, "mesh file", MAX_MESH_BYTES)).decode()}
     else:
@@ -245,6 +247,57 @@ def mesh_file(path: Path, scale: Any, rgba: Any, matrix: np.ndarray) -> dict[str
         out["materials"] = [mat]
         obj["material"] = mat["uuid"]
     return out
+
+
+_COLLADA = "http://www.collada.org/2005/11/COLLADASchema"
+_PRIMITIVES = ("triangles", "polylist", "polygons", "trifans", "tristrips")
+
+
+def split_collada(text: str) -> str:
+    """A COLLADA file whose geometries each have one material, drawing the same triangles.
+
+    meshcat's viewer merges the meshes of a file into one geometry with one material group per mesh, so a
+    file with several meshes, one of them with several materials (``<triangles>`` elements: the UR5's
+    shoulder, upper arm and wrists), loses that mesh's drawing. Such a mesh is split here into one
+    ``<geometry>`` per ``<triangles>`` (sharing copies of its vertex sources) and its instances into one
+    ``<instance_geometry>`` each. Any other file is returned unchanged (the same text).
+    """
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError:
+        return text  # the viewer reports it
+    tag = lambda name: f"{{{_COLLADA}}}{name}"  # noqa: E731
+    lib = root.find(tag("library_geometries"))
+    if lib is None or len(root.findall(f".//{tag('instance_geometry')}")) < 2:
+        return text
+    parts: dict[str, list[str]] = {}
+    for geom in list(lib.findall(tag("geometry"))):
+        mesh = geom.find(tag("mesh"))
+        prims = [] if mesh is None else [e for e in mesh if e.tag in {tag(p) for p in _PRIMITIVES}]
+        if len(prims) < 2:
+            continue
+        gid = geom.get("id", "")
+        parts[gid] = []
+        for k, prim in enumerate(prims):
+            piece = ET.Element(geom.tag, {**geom.attrib, "id": f"{gid}-part{k}", "name": f"{geom.get('name', gid)}-part{k}"})
+            m = ET.SubElement(piece, tag("mesh"))
+            m.extend(e for e in mesh if e.tag not in {tag(p) for p in _PRIMITIVES})  # type: ignore[union-attr]
+            m.append(prim)
+            lib.append(piece)
+            parts[gid].append(f"#{gid}-part{k}")
+        lib.remove(geom)
+    if not parts:
+        return text
+    for parent in root.iter():
+        for i, inst in reversed(list(enumerate(parent))):
+            if inst.tag == tag("instance_geometry") and inst.get("url", "").lstrip("#") in parts:
+                parent.remove(inst)
+                for j, url in enumerate(parts[inst.get("url", "").lstrip("#")]):
+                    copy = ET.fromstring(ET.tostring(inst))
+                    copy.set("url", url)
+                    parent.insert(i + j, copy)
+    ET.register_namespace("", _COLLADA)
+    return ET.tostring(root, encoding="unicode")
 
 
 def set_object(path: str, obj: dict[str, Any]) -> dict[str, Any]:
@@ -302,8 +355,13 @@ def surface_objects(environment: Any, centre: np.ndarray, size: float, prefix: s
     env = environment
     if env is None:
         return [], None
+    for _ in range(8):  # a wrapper (friction on a surface) draws the surface it wraps
+        inner = getattr(env, "surface", None)
+        if inner is None or inner is env:
+            break
+        env = inner
     source = getattr(env, "constraint", env)  # a rigid environment holds its constraint
-    name = type(env).__name__
+    name = type(environment).__name__
     planar = int(getattr(env, "dim", getattr(env, "space", 3)) or 3) == 2 or np.asarray(
         getattr(source, "point", getattr(source, "center", np.zeros(3)))).size == 2
     thick = 0.02 * size
