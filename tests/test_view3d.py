@@ -269,3 +269,33 @@ def test_cli_writes_the_view_and_the_report_embeds_it(tmp_path):
     assert res.exit_code == 0, res.output
     report = (view.parent / "report.html").read_text(encoding="utf-8")
     assert '<iframe src="view3d.html"' in report and '<a href="view3d.html">' in report
+
+
+def test_notebook_gets_the_view_in_an_iframe(tmp_path, monkeypatch):
+    """In a Jupyter kernel (its shell class), the page is returned as an IPython HTML object holding the whole
+    page in an iframe's srcdoc (escaped); elsewhere the path."""
+    IPython = pytest.importorskip("IPython")
+    from forcecontrol.viz.view3d import notebook_view
+
+    page = tmp_path / "v.html"
+    page.write_text('<p title="a&b">x</p>', encoding="utf-8")
+    assert notebook_view(page) == page
+    ZMQInteractiveShell = type("ZMQInteractiveShell", (), {})
+    monkeypatch.setattr(IPython, "get_ipython", lambda: ZMQInteractiveShell())
+    shown = notebook_view(page)
+    assert type(shown).__name__ == "HTML" and 'srcdoc="&lt;p title=&quot;a&amp;b&quot;&gt;x&lt;/p&gt;"' in shown.data
+
+
+def test_cli_several_cases_one_view_each(tmp_path):
+    """Example 9.2's two cases give view3d-<case>.html each, listed under view3d:<case>."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    res = CliRunner().invoke(app, ["run", "example-9.2", "--set", "duration=0.1", "--view3d", "--no-figure", "--json",
+                                   "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    files = json.loads(res.stdout[res.stdout.index("{"):])["files"]
+    views = {k: Path(v).name for k, v in files.items() if k.startswith("view3d:")}
+    assert views == {"view3d:k_x = 1e4 N/m": "view3d-k_x-1e4-N-m.html", "view3d:k_x = 1e3 N/m": "view3d-k_x-1e3-N-m.html"}
+    assert all((tmp_path / "example-9.2" / name).is_file() for name in views.values())

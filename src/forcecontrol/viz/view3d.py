@@ -315,7 +315,7 @@ def notebook_view(path: str | Path, height: int = 520) -> Any:
     from IPython.display import HTML  # type: ignore[import-not-found]
 
     doc = html.escape(Path(path).read_text(encoding="utf-8"), quote=True)
-    return HTML(f'<iframe srcdoc="{doc}" style="width:100%;height:{int(height)}px;border:0"></iframe>')
+    return HTML(f'<div><iframe srcdoc="{doc}" style="width:100%;height:{int(height)}px;border:0"></iframe></div>')
 
 
 _TEMPLATE = """<!DOCTYPE html>
