@@ -1,0 +1,196 @@
+"""A compiled 6-D closed loop: impedance on the desired frame (9.30), (9.35) with a serial arm on an elastic table.
+
+The loop of :func:`forcecontrol.sim.simulation.simulate` (``engine="python"``) for a
+:class:`~forcecontrol.controllers.spatial.SpatialImpedanceController` (XYZ Euler error on the
+desired frame), a :class:`~forcecontrol.environments.spatial.Table` or
+:class:`~forcecontrol.environments.spatial.ConstantWrench`, an ideal sensor, and a robot whose
+dynamics :mod:`forcecontrol.robots.compiled_tree` compiles (a serial revolute/prismatic chain:
+the Panda, the UR arms), written as one compiled function:
+
+per sample k: the arm's terms (:func:`~forcecontrol.robots.compiled_tree.tree_terms`), the true
+wrench, the controller's own compiled law
+(:func:`~forcecontrol.laws.spatial.spatial_impedance_torque`), the logs, then RK4 with ``nsub``
+sub-steps and the torque held, each stage ``B q̈ = u − n − Jᵀ h_e`` solved by Cholesky (the Python
+engine uses Pinocchio's ABA: equal to round-off).
+
+Nothing crosses between Python and compiled code inside the run. This is the compiled loop the
+benchmark ``benchmarks/bench_6d_vs_cpp.py`` measures against the same loop in C++; it is not yet
+what ``simulate`` or the scenarios run (they keep the Python engine for 6-D arms).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from ..controllers.base import REFERENCE_FIELDS
+from ..errors import ParameterError
+from ..laws.spatial import spatial_impedance_torque
+from ..robots.compiled_tree import chol_solve, compile_tree, tree_terms
+
+__all__ = ["impedance_loop", "run_impedance_loop", "env_params"]
+
+#: environment kinds of the loop: 0 a constant wrench, 1 an elastic table.
+CONSTANT, TABLE = 0, 1
+
+
+@njit(cache=True, inline="always")
+def _wrench(env_kind, env_p, o, v, h):  # pragma: no cover - compiled
+    """h_e of the environment (same arithmetic as ``Table.wrench`` / ``ConstantWrench.wrench``)."""
+    if env_kind == 0:
+        for i in range(6):
+            h[i] = env_p[i]
+        return
+    for i in range(6):
+        h[i] = 0.0
+    n0, n1, n2 = env_p[3], env_p[4], env_p[5]
+    delta = n0 * (env_p[0] - o[0]) + n1 * (env_p[1] - o[1]) + n2 * (env_p[2] - o[2])
+    if delta <= 0.0:
+        return
+    mag = env_p[6] * delta - env_p[7] * (n0 * v[0] + n1 * v[1] + n2 * v[2])
+    if mag > 0.0:
+        h[0], h[1], h[2] = -mag * n0, -mag * n1, -mag * n2
+
+
+@njit(cache=True)
+def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
+                   env_kind, env_p, refs, Md_inv, K_D, K_P, posture, k_n, d_n, has_posture, thr, lmax,
+                   q0, qd0, Ts, nsub, max_qd, Q, QD, H, U):  # pragma: no cover - compiled
+    """The sampled loop; fills Q, Q̇, H (true wrench), U row by row. Returns (status, last_row).
+
+    Status: 0 ok, 1 non-finite state (or B not positive definite), 2 runaway joint speed,
+    4 non-finite torque (the law's NaN at an Euler singularity included).
+    """
+    n = kind.shape[0]
+    N = Q.shape[0] - 1
+    ws = np.empty((n + 1, 64))
+    R_e = np.empty((3, 3))
+    o_e = np.empty(3)
+    J = np.empty((6, n))
+    Jdq = np.empty(6)
+    B = np.empty((n, n))
+    nv = np.empty(n)
+    L = np.empty((n, n))
+    r = np.empty(n)
+    h = np.empty(6)
+    v = np.empty(3)
+    q = q0.copy()
+    qd = qd0.copy()
+    qs = np.empty(n)
+    vs = np.empty(n)
+    a = np.empty((4, n))
+    vk = np.empty((4, n))
+    dt = Ts / nsub
+    for k in range(N + 1):
+        tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
+                   q, qd, True, True, R_e, o_e, J, Jdq, B, nv, ws)
+        for i in range(3):
+            s = 0.0
+            for j in range(n):
+                s += J[i, j] * qd[j]
+            v[i] = s
+        _wrench(env_kind, env_p, o_e, v, h)
+        row = refs[k]
+        u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, row[0:6], row[6:12], row[12:18],
+                                                 Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
+        for i in range(n):
+            Q[k, i] = q[i]
+            QD[k, i] = qd[i]
+            U[k, i] = u[i]
+        for i in range(6):
+            H[k, i] = h[i]
+        for i in range(n):
+            if not math.isfinite(u[i]):
+                return 4, k
+        if k == N:
+            break
+        for _ in range(nsub):
+            for st in range(4):
+                # the stage's state: (q, q̇) + c dt (q̇_prev-stage velocity, q̈_prev)
+                if st == 0:
+                    for i in range(n):
+                        qs[i] = q[i]
+                        vs[i] = qd[i]
+                else:
+                    c = 0.5 * dt if st < 3 else dt
+                    for i in range(n):
+                        qs[i] = q[i] + c * vk[st - 1, i]
+                        vs[i] = qd[i] + c * a[st - 1, i]
+                for i in range(n):
+                    vk[st, i] = vs[i]
+                tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
+                           qs, vs, True, False, R_e, o_e, J, Jdq, B, nv, ws)
+                for i in range(3):
+                    s = 0.0
+                    for j in range(n):
+                        s += J[i, j] * vs[j]
+                    v[i] = s
+                _wrench(env_kind, env_p, o_e, v, h)
+                for i in range(n):
+                    s = u[i] - nv[i]
+                    for j in range(6):
+                        s -= J[j, i] * h[j]
+                    r[i] = s
+                if not chol_solve(B, r, L, a[st]):
+                    return 1, k
+            for i in range(n):
+                q[i] += dt / 6.0 * (vk[0, i] + 2.0 * vk[1, i] + 2.0 * vk[2, i] + vk[3, i])
+                qd[i] += dt / 6.0 * (a[0, i] + 2.0 * a[1, i] + 2.0 * a[2, i] + a[3, i])
+        for i in range(n):
+            if not (math.isfinite(q[i]) and math.isfinite(qd[i])):
+                return 1, k
+            if abs(qd[i]) > max_qd:
+                return 2, k
+    return 0, N
+
+
+def env_params(environment: Any) -> tuple[int, np.ndarray]:
+    """(kind, parameters) of a Table ([point, normal, k, c]) or a ConstantWrench ([h_e]).
+
+    Raises:
+        ParameterError: another environment (the loop supports these two).
+    """
+    name = type(environment).__name__
+    if name == "Table":
+        p = np.concatenate([environment.point, environment.normal, [environment.stiffness, environment.damping]])
+        return TABLE, np.ascontiguousarray(p, dtype=np.float64)
+    if name == "ConstantWrench":
+        return CONSTANT, np.ascontiguousarray(environment.value, dtype=np.float64)
+    raise ParameterError(f"the compiled 6-D loop supports a Table or a ConstantWrench environment; got {name}")
+
+
+def run_impedance_loop(robot: Any, environment: Any, controller: Any, reference: Any, q0: Any, duration: float,
+                       substeps: int, max_qd: float = 100.0) -> dict[str, Any]:
+    """Run :func:`impedance_loop` for a robot, an environment, a SpatialImpedanceController and a reference signal.
+
+    Returns a dict with ``status``, ``last_row``, ``t``, ``q``, ``qd``, ``wrench``, ``torque``
+    (the logs of ``simulate``'s result, same rows).
+
+    Raises:
+        ParameterError: the controller is not a compiled SpatialImpedanceController (XYZ Euler, desired
+            frame), the environment not a Table/ConstantWrench, or the robot not a serial chain.
+    """
+    if type(controller).__name__ != "SpatialImpedanceController" or not controller.compiled:
+        raise ParameterError("the compiled 6-D loop runs a SpatialImpedanceController with orientation='euler' "
+                             f"and frame='desired'; got {type(controller).__name__}")
+    tree = compile_tree(robot)
+    env_kind, env_p = env_params(environment)
+    Ts = float(controller.sample_time)
+    N = int(round(duration / Ts))
+    refs = np.ascontiguousarray(reference.sample(np.arange(N + 1) * Ts), dtype=np.float64)
+    m = refs.shape[1] // len(REFERENCE_FIELDS)
+    if m != 6:
+        raise ParameterError(f"the compiled 6-D loop needs a 6-D reference; got m = {m}")
+    post, k_n, d_n, has = controller._post
+    s = controller.singularity
+    n = tree.n
+    Q, QD, U, H = np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, 6))
+    status, last = impedance_loop(*tree.arrays(), env_kind, env_p, refs, controller._Md_inv, controller.damping,
+                                  controller.stiffness, post, float(k_n), float(d_n), bool(has), float(s.threshold),
+                                  float(s.max_damping), np.array(q0, dtype=np.float64), np.zeros(n), Ts, int(substeps),
+                                  float(max_qd), Q, QD, H, U)
+    return {"status": int(status), "last_row": int(last), "t": np.arange(N + 1) * Ts, "q": Q, "qd": QD, "wrench": H, "torque": U}
+

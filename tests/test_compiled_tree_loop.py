@@ -1,0 +1,87 @@
+"""The compiled 6-D loop (sim/loop_tree.py) against the Python engine's simulate, and the C++ baseline's skip rule."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pinocchio")
+
+from forcecontrol.controllers.spatial import SpatialImpedanceController  # noqa: E402
+from forcecontrol.environments.spatial import ConstantWrench, SpatialSpring, Table  # noqa: E402
+from forcecontrol.errors import ForceControlError, ParameterError  # noqa: E402
+from forcecontrol.robots.pinocchio import PANDA_READY, panda, ur5  # noqa: E402
+from forcecontrol.sim.loop_tree import run_impedance_loop  # noqa: E402
+from forcecontrol.sim.simulation import simulate  # noqa: E402
+from forcecontrol.spatial import rotation_to_euler_xyz  # noqa: E402
+from forcecontrol.trajectories import Setpoint  # noqa: E402
+
+MD = np.diag([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
+KP = np.diag([400.0, 400.0, 400.0, 10.0, 10.0, 10.0])
+KD = np.diag(2 * 0.7 * np.sqrt(np.diag(MD) * np.diag(KP)))
+
+
+def _panda_table():
+    robot = panda()
+    R, p = robot.frame_pose(PANDA_READY)
+    ref = Setpoint(np.concatenate([p - [0.0, 0.0, 0.02], rotation_to_euler_xyz(R)]))
+    ctrl = SpatialImpedanceController(robot, MD, KD, KP, posture=PANDA_READY)
+    return robot, Table(p, (0.0, 0.0, 1.0), 5000.0, 50.0), ctrl, ref, PANDA_READY
+
+
+def test_panda_on_a_table_equals_the_python_engine():
+    """Panda impedance pressing into a table: q, wrench and torque equal simulate(engine='python')'s to 1e-9 (RK4 x 2)."""
+    robot, env, ctrl, ref, q0 = _panda_table()
+    res = simulate(robot, env, ctrl, ref, q0=q0, duration=0.15, substeps=2, engine="python")
+    out = run_impedance_loop(robot, env, ctrl, ref, q0, 0.15, 2)
+    assert out["status"] == 0 and out["q"].shape == res.q.shape
+    assert np.max(np.abs(out["q"] - res.q)) < 1e-9
+    assert np.max(np.abs(out["qd"] - res.qd)) < 1e-7
+    assert np.max(np.abs(out["wrench"] - res.wrench)) < 1e-6
+    assert np.max(np.abs(out["torque"] - res.torque)) < 1e-6
+    assert res.wrench[-1, 2] < -1.0  # in contact (h_e is the force the tool exerts on the table)
+
+
+def test_ur5_under_a_constant_wrench_equals_the_python_engine():
+    """UR5 (6 DOF, no posture) under a constant wrench with a moving-free setpoint: equal to the Python engine to 1e-9."""
+    robot = ur5()
+    q0 = np.array([0.3, -1.2, 1.5, -1.8, -1.5, 0.4])
+    R, p = robot.frame_pose(q0)
+    ref = Setpoint(np.concatenate([p + [0.01, 0.0, 0.0], rotation_to_euler_xyz(R) + [0.05, 0.0, 0.0]]))
+    ctrl = SpatialImpedanceController(robot, MD, KD, KP)
+    env = ConstantWrench([3.0, -2.0, 1.0, 0.1, 0.2, -0.1])
+    res = simulate(robot, env, ctrl, ref, q0=q0, duration=0.1, substeps=1, engine="python")
+    out = run_impedance_loop(robot, env, ctrl, ref, q0, 0.1, 1)
+    assert out["status"] == 0
+    assert np.max(np.abs(out["q"] - res.q)) < 1e-9
+
+
+def test_unsupported_parts_are_refused():
+    """Another environment is refused with a library error naming what the compiled loop supports."""
+    robot, _env, ctrl, ref, q0 = _panda_table()
+    spring = SpatialSpring(np.eye(6) * 100.0, rest_position=np.zeros(3))
+    with pytest.raises(ParameterError, match="Table or a ConstantWrench") as exc:
+        run_impedance_loop(robot, spring, ctrl, ref, q0, 0.01, 1)
+    assert isinstance(exc.value, ForceControlError)
+
+
+def _bench():
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_6d_vs_cpp.py"
+    spec = importlib.util.spec_from_file_location("bench_6d_vs_cpp", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["bench_6d_vs_cpp"] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_benchmark_skips_the_cpp_baseline_when_the_build_fails(tmp_path, monkeypatch, capsys):
+    """Without a compiler the benchmark's build returns None and says why on stderr (never raises)."""
+    bench = _bench()
+    monkeypatch.setattr(bench, "BINARY", tmp_path / "missing")
+    monkeypatch.setenv("PATH", str(tmp_path))  # no g++, no python on PATH
+    assert bench.build() is None
+    assert "C++ baseline skipped" in capsys.readouterr().err
