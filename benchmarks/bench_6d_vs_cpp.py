@@ -25,6 +25,9 @@ a few minutes on a busy machine): ``benchmarks/cpp/build.sh`` (needs g++ and, be
 wheels, Eigen's headers: ``pip install 'cmeel-eigen>=3.4.1'``). Without them the benchmark says
 so on stderr and times the two library loops only.
 
+Then the built-in scenario ``panda-admittance-contact`` (admittance (9.37)), Python engine against
+the compiled loop (the C++ program has no admittance law: no C++ ratio there).
+
 Run: ``python benchmarks/bench_6d_vs_cpp.py [--repeats 5] [--profile]`` (``--profile`` adds the
 table of where the Python engine's time goes: calls per sample and per-call costs).
 """
@@ -144,6 +147,32 @@ def profile_python_engine(robot, env, ctrl, ref, q0, duration: float = 0.2) -> N
         print(f"{name[:58]:<58} {nc / N:12.1f} {tt / nc * 1e6:11.2f} {tt / N * 1e6:13.1f}")
 
 
+def scenario_rows(repeats: int, duration: float = 0.5) -> dict[str, float]:
+    """The built-in scenario panda-admittance-contact: Python engine vs the compiled loop (no C++ port of admittance)."""
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    parts = build_case(load_scenario("panda-admittance-contact").cases[0])
+    robot, env, ctrl, ref, q0, nsub = (parts[k] for k in ("robot", "environment", "controller", "reference", "q0", "substeps"))
+    N = int(round(duration / ctrl.sample_time)) + 1
+    py = lambda: simulate(robot, env, ctrl, ref, q0=q0, duration=duration, substeps=nsub, engine="python")  # noqa: E731
+    comp = lambda: run_impedance_loop(robot, env, ctrl, ref, q0, duration, nsub)  # noqa: E731
+    res, out = py(), comp()
+    t_py, t_c = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        py()
+        t_py.append((time.perf_counter() - t0) / N * 1e6)
+        t0 = time.perf_counter()
+        comp()
+        t_c.append((time.perf_counter() - t0) / N * 1e6)
+    ratios = [p / c for p, c in zip(t_py, t_c)]
+    print(f"\npanda-admittance-contact ({duration} s, RK4 x {nsub}): Python engine {statistics.median(t_py):.1f} us/step "
+          f"({min(t_py):.1f}-{max(t_py):.1f}), compiled loop {statistics.median(t_c):.1f} ({min(t_c):.1f}-{max(t_c):.1f}); "
+          f"speed-up {statistics.median(ratios):.1f}x ({min(ratios):.1f}-{max(ratios):.1f}); "
+          f"max |dq| {np.max(np.abs(out['q'] - res.q)):.1e} rad")
+    return {"scenario_python_us": statistics.median(t_py), "scenario_compiled_us": statistics.median(t_c)}
+
+
 def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
     robot, env, ctrl, ref, q0 = case()
     N = int(round(DURATION / TS)) + 1
@@ -190,6 +219,7 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
                    ratio_python_cpp=statistics.median(ratios_py), dq_cpp=d_cpp)
     else:
         print("C++ baseline skipped (see stderr): no ratio against C++", file=sys.stderr)
+    out.update(scenario_rows(repeats))
     if profile:
         profile_python_engine(robot, env, ctrl, ref, q0)
     return out

@@ -1,4 +1,4 @@
-"""The compiled 6-D loop (sim/loop_tree.py) against the Python engine's simulate, and the C++ baseline's skip rule."""
+"""The compiled 6-D loop (sim/loop_tree.py; impedance, admittance) against the Python engine; the C++ baseline's skip rule."""
 
 from __future__ import annotations
 
@@ -58,6 +58,21 @@ def test_ur5_under_a_constant_wrench_equals_the_python_engine():
     out = run_impedance_loop(robot, env, ctrl, ref, q0, 0.1, 1)
     assert out["status"] == 0
     assert np.max(np.abs(out["q"] - res.q)) < 1e-9
+
+
+def test_panda_admittance_contact_scenario_equals_the_python_engine():
+    """The built-in scenario panda-admittance-contact (admittance (9.37), table, RK4 x 2): equal to the Python engine to 1e-9."""
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    parts = build_case(load_scenario("panda-admittance-contact").cases[0])
+    robot, env, ctrl, ref, q0 = parts["robot"], parts["environment"], parts["controller"], parts["reference"], parts["q0"]
+    res = simulate(robot, env, ctrl, ref, q0=q0, duration=0.2, substeps=parts["substeps"], engine="python")
+    out = run_impedance_loop(robot, env, ctrl, ref, q0, 0.2, parts["substeps"])
+    assert out["status"] == 0
+    assert np.max(np.abs(out["q"] - res.q)) < 1e-9
+    assert np.max(np.abs(out["wrench"] - res.wrench)) < 1e-6
+    assert np.max(np.abs(out["torque"] - res.torque)) < 1e-6
+    assert res.wrench[-1, 2] < -1.0
 
 
 def test_unsupported_parts_are_refused():

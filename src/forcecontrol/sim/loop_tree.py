@@ -1,15 +1,18 @@
-"""A compiled 6-D closed loop: impedance on the desired frame (9.30), (9.35) with a serial arm on an elastic table.
+"""A compiled 6-D closed loop: impedance (9.35) or admittance (9.37) with a serial arm on an elastic table.
 
 The loop of :func:`forcecontrol.sim.simulation.simulate` (``engine="python"``) for a
 :class:`~forcecontrol.controllers.spatial.SpatialImpedanceController` (XYZ Euler error on the
-desired frame), a :class:`~forcecontrol.environments.spatial.Table` or
+desired frame) or an :class:`~forcecontrol.controllers.admittance.AdmittanceController` (the
+compliant frame (9.37) advanced by the controller's exact discretisation, tracked by the motion
+loop), a :class:`~forcecontrol.environments.spatial.Table` or
 :class:`~forcecontrol.environments.spatial.ConstantWrench`, an ideal sensor, and a robot whose
 dynamics :mod:`forcecontrol.robots.compiled_tree` compiles (a serial revolute/prismatic chain:
 the Panda, the UR arms), written as one compiled function:
 
 per sample k: the arm's terms (:func:`~forcecontrol.robots.compiled_tree.tree_terms`), the true
 wrench, the controller's own compiled law
-(:func:`~forcecontrol.laws.spatial.spatial_impedance_torque`), the logs, then RK4 with ``nsub``
+(:func:`~forcecontrol.laws.spatial.spatial_impedance_torque`; for admittance after the compliant
+frame, :func:`compliant_frame_arrays`), the logs, then RK4 with ``nsub``
 sub-steps and the torque held, each stage ``B q̈ = u − n − Jᵀ h_e`` solved by Cholesky (the Python
 engine uses Pinocchio's ABA: equal to round-off).
 
@@ -28,10 +31,11 @@ from numba import njit
 
 from ..controllers.base import REFERENCE_FIELDS
 from ..errors import ParameterError
-from ..laws.spatial import spatial_impedance_torque
+from ..laws.spatial import _c3, _R_xyz, spatial_impedance_torque
 from ..robots.compiled_tree import chol_solve, compile_tree, tree_terms
+from ..spatial.closed_form import EULER_SINGULARITY_TOL
 
-__all__ = ["impedance_loop", "run_impedance_loop", "env_params"]
+__all__ = ["impedance_loop", "run_impedance_loop", "env_params", "compliant_frame_arrays"]
 
 #: environment kinds of the loop: 0 a constant wrench, 1 an elastic table.
 CONSTANT, TABLE = 0, 1
@@ -56,10 +60,55 @@ def _wrench(env_kind, env_p, o, v, h):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _euler_xyz(R, out):  # pragma: no cover - compiled
+    """XYZ Euler angles of R into out (``spatial.closed_form.rotation_to_euler_xyz``, its singular branch included)."""
+    s2 = min(1.0, max(-1.0, R[0, 2]))
+    c2 = math.hypot(R[0, 0], R[0, 1])
+    if c2 < EULER_SINGULARITY_TOL:
+        out[0], out[1], out[2] = math.atan2(R[2, 1], R[1, 1]), math.asin(s2), 0.0
+    else:
+        out[0], out[1], out[2] = math.atan2(-R[1, 2], R[2, 2]), math.atan2(s2, c2), math.atan2(-R[0, 1], R[0, 0])
+
+
+@njit(cache=True)
+def compliant_frame_arrays(pos, vel, acc, z, zd, zdd, pos_t, vel_t, acc_t):  # pragma: no cover - compiled
+    """The compliant frame (pose, twist, acceleration) from z̃, z̃̇, z̃̈ (9.37) and the desired frame.
+
+    The formulas of :func:`forcecontrol.controllers.admittance.compliant_frame`, on arrays.
+    """
+    R_d = _R_xyz(pos[3:])
+    w_d = vel[3:].copy()
+    wd_dot = acc[3:].copy()
+    p, pd, pdd = -z[:3], -zd[:3], -zdd[:3]
+    phi, phid, phidd = -z[3:], -zd[3:], -zdd[3:]
+    Rp = R_d @ p
+    Rpd = R_d @ pd
+    c1, s1 = math.cos(phi[0]), math.sin(phi[0])
+    c2, s2 = math.cos(phi[1]), math.sin(phi[1])
+    T = np.array([[1.0, 0.0, s2], [0.0, c1, -s1 * c2], [0.0, s1, c1 * c2]])
+    d1, d2 = phid[0], phid[1]
+    Tdot = np.array([[0.0, 0.0, c2 * d2], [0.0, -s1 * d1, -c1 * c2 * d1 + s1 * s2 * d2],
+                     [0.0, c1 * d1, -s1 * c2 * d1 - c1 * s2 * d2]])
+    wrel = R_d @ (T @ phid)
+    R_t = R_d @ _R_xyz(phi)
+    pos_t[:3] = pos[:3] + Rp
+    _euler_xyz(R_t, pos_t[3:])
+    vel_t[:3] = vel[:3] + _c3(w_d, Rp) + Rpd
+    vel_t[3:] = w_d + wrel
+    acc_t[:3] = acc[:3] + _c3(wd_dot, Rp) + _c3(w_d, _c3(w_d, Rp)) + 2.0 * _c3(w_d, Rpd) + R_d @ pdd
+    acc_t[3:] = wd_dot + _c3(w_d, wrel) + R_d @ (Tdot @ phid + T @ phidd)
+
+
+@njit(cache=True)
 def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
                    env_kind, env_p, refs, Md_inv, K_D, K_P, posture, k_n, d_n, has_posture, thr, lmax,
-                   q0, qd0, Ts, nsub, max_qd, Q, QD, H, U):  # pragma: no cover - compiled
+                   q0, qd0, Ts, nsub, max_qd, Q, QD, H, U, adm, Mt_inv, K_Dt, K_Pt, Ad, Gd):  # pragma: no cover - compiled
     """The sampled loop; fills Q, Q̇, H (true wrench), U row by row. Returns (status, last_row).
+
+    ``adm`` false: impedance (9.35) with M_d⁻¹, K_D, K_P. ``adm`` true: admittance (9.37), the
+    compliant frame's state ``[z̃; z̃̇]`` from 0, advanced each sample by ``Ad x + Gd h_e^d`` (the
+    controller's exact discretisation), tracked by the motion loop (M_d⁻¹ = I, K_D, K_P the motion
+    gains, no h_e^d term); ``Mt_inv, K_Dt, K_Pt`` give z̃̈.
 
     Status: 0 ok, 1 non-finite state (or B not positive definite), 2 runaway joint speed,
     4 non-finite torque (the law's NaN at an Euler singularity included).
@@ -84,6 +133,9 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
     a = np.empty((4, n))
     vk = np.empty((4, n))
     dt = Ts / nsub
+    xa = np.zeros(12)
+    h_d = np.empty(6)
+    pos_t, vel_t, acc_t = np.empty(6), np.empty(6), np.empty(6)
     for k in range(N + 1):
         tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
                    q, qd, True, True, R_e, o_e, J, Jdq, B, nv, ws)
@@ -94,8 +146,18 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
             v[i] = s
         _wrench(env_kind, env_p, o_e, v, h)
         row = refs[k]
-        u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, row[0:6], row[6:12], row[12:18],
-                                                 Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
+        if adm:
+            RdT = _R_xyz(row[3:6]).T.copy()
+            h_d[:3] = RdT @ h[:3]
+            h_d[3:] = RdT @ h[3:]
+            zdd = Mt_inv @ (h_d - K_Dt @ xa[6:] - K_Pt @ xa[:6])
+            compliant_frame_arrays(row[0:6], row[6:12], row[12:18], xa[:6], xa[6:], zdd, pos_t, vel_t, acc_t)
+            u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, pos_t, vel_t, acc_t,
+                                                     Md_inv, K_D, K_P, False, posture, k_n, d_n, has_posture, thr, lmax)
+            xa = Ad @ xa + Gd @ h_d
+        else:
+            u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, row[0:6], row[6:12], row[12:18],
+                                                     Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
         for i in range(n):
             Q[k, i] = q[i]
             QD[k, i] = qd[i]
@@ -164,18 +226,21 @@ def env_params(environment: Any) -> tuple[int, np.ndarray]:
 
 def run_impedance_loop(robot: Any, environment: Any, controller: Any, reference: Any, q0: Any, duration: float,
                        substeps: int, max_qd: float = 100.0) -> dict[str, Any]:
-    """Run :func:`impedance_loop` for a robot, an environment, a SpatialImpedanceController and a reference signal.
+    """Run :func:`impedance_loop` for a robot, an environment, a SpatialImpedanceController or an
+    AdmittanceController (its compliant frame from rest, as after ``reset``) and a reference signal.
 
     Returns a dict with ``status``, ``last_row``, ``t``, ``q``, ``qd``, ``wrench``, ``torque``
     (the logs of ``simulate``'s result, same rows).
 
     Raises:
-        ParameterError: the controller is not a compiled SpatialImpedanceController (XYZ Euler, desired
-            frame), the environment not a Table/ConstantWrench, or the robot not a serial chain.
+        ParameterError: the controller is not a compiled SpatialImpedanceController/AdmittanceController
+            (XYZ Euler, desired frame), the environment not a Table/ConstantWrench, or the robot not a serial chain.
     """
-    if type(controller).__name__ != "SpatialImpedanceController" or not controller.compiled:
-        raise ParameterError("the compiled 6-D loop runs a SpatialImpedanceController with orientation='euler' "
-                             f"and frame='desired'; got {type(controller).__name__}")
+    name = type(controller).__name__
+    if name not in ("SpatialImpedanceController", "AdmittanceController") or not controller.compiled:
+        raise ParameterError("the compiled 6-D loop runs a SpatialImpedanceController or an AdmittanceController with "
+                             f"orientation='euler' (and frame='desired'); got {name}")
+    adm = name == "AdmittanceController"
     tree = compile_tree(robot)
     env_kind, env_p = env_params(environment)
     Ts = float(controller.sample_time)
@@ -188,9 +253,17 @@ def run_impedance_loop(robot: Any, environment: Any, controller: Any, reference:
     s = controller.singularity
     n = tree.n
     Q, QD, U, H = np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, 6))
-    status, last = impedance_loop(*tree.arrays(), env_kind, env_p, refs, controller._Md_inv, controller.damping,
-                                  controller.stiffness, post, float(k_n), float(d_n), bool(has), float(s.threshold),
-                                  float(s.max_damping), np.array(q0, dtype=np.float64), np.zeros(n), Ts, int(substeps),
-                                  float(max_qd), Q, QD, H, U)
+    if adm:
+        gains = (np.eye(6), controller.motion_damping, controller.motion_stiffness)
+        extra = (controller._Mt_inv, controller.damping, controller.stiffness, controller._Ad, controller._Gd)
+    else:
+        gains = (controller._Md_inv, controller.damping, controller.stiffness)
+        z6 = np.zeros((6, 6))
+        extra = (z6, z6, z6, np.zeros((12, 12)), np.zeros((12, 6)))
+    extra = tuple(np.ascontiguousarray(a, dtype=np.float64) for a in extra)
+    gains = tuple(np.ascontiguousarray(a, dtype=np.float64) for a in gains)
+    status, last = impedance_loop(*tree.arrays(), env_kind, env_p, refs, *gains, post, float(k_n), float(d_n), bool(has),
+                                  float(s.threshold), float(s.max_damping), np.array(q0, dtype=np.float64), np.zeros(n), Ts,
+                                  int(substeps), float(max_qd), Q, QD, H, U, adm, *extra)
     return {"status": int(status), "last_row": int(last), "t": np.arange(N + 1) * Ts, "q": Q, "qd": QD, "wrench": H, "torque": U}
 
