@@ -299,3 +299,23 @@ def test_cli_several_cases_one_view_each(tmp_path):
     views = {k: Path(v).name for k, v in files.items() if k.startswith("view3d:")}
     assert views == {"view3d:k_x = 1e4 N/m": "view3d-k_x-1e4-N-m.html", "view3d:k_x = 1e3 N/m": "view3d-k_x-1e3-N-m.html"}
     assert all((tmp_path / "example-9.2" / name).is_file() for name in views.values())
+
+
+def test_urdf_robot_without_visuals_drawn_as_its_joints():
+    """A URDF robot whose file has no <visual> (the chapter's arm through Pinocchio) is drawn as links between its
+    joints, says so, and the arrow sits at the tip of the closed form (a1 = a2 = 1 m)."""
+    from types import SimpleNamespace
+
+    from forcecontrol.robots.pinocchio import chapter_arm
+    from forcecontrol.viz.view3d import build_scene
+
+    t = np.linspace(0.0, 1.0, 101)
+    q = np.column_stack([0.3 + 0.5 * t, 1.2 - 0.4 * t])
+    f = np.column_stack([10.0 * t, np.zeros_like(t)])
+    scene = build_scene(SimpleNamespace(t=t, q=q, wrench=f, wrench_measured=f), chapter_arm(), None)
+    assert any("has no visuals" in n for n in scene.notes)
+    tips = scene.tracks["/forcecontrol/force"][:, :3, 3]
+    qs = q[frame_indices(t, 30.0, 1.0, 400)]
+    want = np.column_stack([np.cos(qs[:, 0]) + np.cos(qs.sum(1)), np.sin(qs[:, 0]) + np.sin(qs.sum(1)), 0 * qs[:, 0]])
+    assert np.allclose(tips, want, atol=1e-9)
+    assert "/forcecontrol/robot/link1" in scene.tracks

@@ -208,19 +208,16 @@ def build_scene(result: Any, robot: Any, environment: Any, *, fps: float = 30.0,
         tool = np.array([np.asarray(robot.frame_pose(q)[1], dtype=float) for q in qs])
     if links is None or not tracks:
         w = 0.06 * reach
-        for i in range(pts.shape[1] - 1):
-            L = float(np.linalg.norm(pts[0, i + 1] - pts[0, i]))
-            if L < 1e-9:
-                continue
-            grey = (0.25, 0.25, 0.28, 1.0) if i % 2 else (0.85, 0.45, 0.1, 1.0)
-            body = box((L, w, w), grey, _homogeneous(np.eye(3), (0.5 * L, 0, 0)))
-            commands.append(set_object(f"{ROBOT}/link{i + 1}/body", body))
-            joint = cylinder(0.8 * w, 1.3 * w, (0.1, 0.1, 0.1, 1.0)) if planar else sphere(0.7 * w, (0.1, 0.1, 0.1, 1.0))
-            commands.append(set_object(f"{ROBOT}/link{i + 1}/joint", joint))
+        segments = [i for i in range(pts.shape[1] - 1) if float(np.linalg.norm(pts[0, i + 1] - pts[0, i])) >= 1e-9]
         frames = [_stick_links(p) for p in pts]
-        for i in range(pts.shape[1] - 1):
-            if float(np.linalg.norm(pts[0, i + 1] - pts[0, i])) >= 1e-9:
-                tracks[f"{ROBOT}/link{i + 1}"] = np.array([f[i] for f in frames])
+        for j, i in enumerate(segments):  # link j + 1 between two joints that do not coincide
+            L = float(np.linalg.norm(pts[0, i + 1] - pts[0, i]))
+            grey = (0.25, 0.25, 0.28, 1.0) if j % 2 else (0.85, 0.45, 0.1, 1.0)
+            body = box((L, w, w), grey, _homogeneous(np.eye(3), (0.5 * L, 0, 0)))
+            commands.append(set_object(f"{ROBOT}/link{j + 1}/body", body))
+            joint = cylinder(0.8 * w, 1.3 * w, (0.1, 0.1, 0.1, 1.0)) if planar else sphere(0.7 * w, (0.1, 0.1, 0.1, 1.0))
+            commands.append(set_object(f"{ROBOT}/link{j + 1}/joint", joint))
+            tracks[f"{ROBOT}/link{j + 1}"] = np.array([f[i] for f in frames])
         tool = pts[:, -1]
     wrench = np.asarray(getattr(result, "wrench_measured", result.wrench), dtype=float)
     if wrench.shape != np.asarray(result.wrench).shape or not np.all(np.isfinite(wrench[idx, : min(3, wrench.shape[1])])):
