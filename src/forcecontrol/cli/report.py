@@ -20,8 +20,9 @@ def report_command(
 ) -> None:
     """Write one self-contained interactive HTML report (plotly, no network needed to view it).
 
-    A run folder gives the time responses of every case; a sweep gives maps of the metrics over
-    the swept parameters with the analytic sampled-loop stability boundary where the analysis has one.
+    A run folder gives the time responses of every case (and embeds its 3-D views, 'run --view3d'); a sweep
+    gives maps of the metrics over the swept parameters with the analytic sampled-loop stability boundary
+    where the analysis has one.
     Needs the 'workbench' extra (plotly).
     """
     from ..errors import ForceControlError, OutputError
