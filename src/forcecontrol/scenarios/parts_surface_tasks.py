@@ -31,7 +31,14 @@ def _bump_field(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
     td = int(ctx["robot"].task_dim)
     if td not in (3, 6):
         raise ParameterError(f"bump-field is a 3-D surface (a 3-D or 6-D task); got a {td}-dimensional task")
-    field = BumpField(p["origin"], p["spacing"], p["shape"], p["base"], p["amplitude"], p["wavelength"], p["crest"],
+    size = np.asarray(p["size"], dtype=np.float64)
+    if size.shape != (2,) or np.any(size <= 0):
+        raise ParameterError(f"size must be the grid's positive extent (x, y) [m]; got {p['size']!r}")
+    if not p["spacing"] > 0 or np.any(size / p["spacing"] > 2000):
+        raise ParameterError(f"spacing must be positive and give at most 2001 samples per side; got {p['spacing']!r} for size "
+                             f"{size.tolist()}")
+    shape = [max(int(math.ceil(v / p["spacing"] - 1e-9)) + 1, 4) for v in size]  # samples covering the size
+    field = BumpField(p["origin"], p["spacing"], shape, p["base"], p["amplitude"], p["wavelength"], p["crest"],
                       p["dips"], stiffness=p["stiffness"], damping=p["damping"], task_dim=td if td == 6 else None)
     return _with_friction(field, p)
 
@@ -41,7 +48,8 @@ register_environment(
     {
         "origin": Field("vector", True, low=-100.0, high=100.0, doc="the grid's first point (x, y) [m]"),
         "spacing": Field("number", True, low=0.0, high=100.0, doc="the grid step along x and y [m], > 0"),
-        "shape": Field("vector", True, low=4.0, high=2000.0, doc="samples along x and y (integers >= 4)"),
+        "size": Field("vector", True, low=0.0, high=100.0,
+                      doc="the grid's extent (x, y) [m] (the contact uses the formula; the grid samples it)"),
         "base": Field("number", True, low=-100.0, high=100.0, doc="the mean height [m]"),
         "amplitude": Field("number", default=0.0, low=-1.0, high=1.0, doc="A of the bumps [m]"),
         "wavelength": Field("number", default=1.0, low=0.0, high=100.0, doc="L of the bumps [m]"),
@@ -124,7 +132,9 @@ def spiral_reference(center: Any, pitch: float, radius: float, speed: float, sta
         if f.shape != (pos.shape[1],):
             raise ParameterError(f"force must have {pos.shape[1]} components; got {f.shape[0] if f.ndim else 1}")
         h = np.broadcast_to(f, pos.shape).copy()
-    return SampledReference(times, pos, h, interpolation="linear", velocity=vel, acceleration=acc)
+    ref = SampledReference(times, pos, h, interpolation="linear", velocity=vel, acceleration=acc)
+    ref.spiral_path = {"center": c.copy(), "pitch": float(pitch), "radius": float(radius)}
+    return ref
 
 
 def _spiral(p: dict[str, Any], ctx: dict[str, Any]) -> SampledReference:
@@ -195,7 +205,9 @@ def wipe_line_reference(start: Any, end: Any, speed: float, start_time: float = 
     force = np.zeros_like(pos)
     force[:, 0] = normal_force
     zero = np.zeros_like(pos)
-    return SampledReference(times, pos, force, interpolation="linear", velocity=zero, acceleration=zero)
+    ref = SampledReference(times, pos, force, interpolation="linear", velocity=zero, acceleration=zero)
+    ref.wipe_path = {"start": a[:3].copy(), "end": b[:3].copy(), "speed": float(speed), "normal_force": float(normal_force)}
+    return ref
 
 
 def _wipe_line(p: dict[str, Any], ctx: dict[str, Any]) -> SampledReference:
@@ -293,11 +305,70 @@ def _hole_metric(key: str):
     return fn
 
 
-def _register_metrics() -> None:
-    from .checks import register_metric
+# ----------------------------------------------------------------------------- analyses
+
+
+def _wipe_applies(parts: dict[str, Any]) -> bool:
+    env = parts["environment"]
+    return (hasattr(getattr(env, "surface", env), "path_curvature") and hasattr(parts["reference"], "wipe_path")
+            and getattr(parts["controller"], "frame", None) is not None)
+
+
+def _wipe_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """The first-order bound of analysis/surface_following.py at the largest normal curvature of the bump field
+    under the wiped line (sampled every mm), at the line's speed, with the controller's gains and filter."""
+    from ..analysis.surface_following import path_following_bound
+
+    env, ctl, ref = parts["environment"], parts["controller"], parts["reference"]
+    field = getattr(env, "surface", env)
+    path = ref.wipe_path
+    a, b = path["start"], path["end"]
+    direction = (b - a)[:2]
+    n = max(int(np.linalg.norm(b - a) / 1e-3), 2) + 1
+    kappa = [field.path_curvature(p[0], p[1], direction) for p in np.linspace(a, b, n)]
+    est = ctl.frame
+    out = path_following_bound(path["normal_force"], path["speed"], kappa, field.stiffness, float(ctl.force_stiffness[0, 0]),
+                               float(ctl.force_damping[0, 0]), est.time_constant,
+                               stiffness_estimate=1.0 / float(ctl.compliance[0, 0]), sample_time=est.sample_time)
+    return {"path_curvature_max": float(np.max(np.abs(kappa))), "estimate_lag": out.lag, "normal_force_bound": out.bound,
+            "curvature_error": out.curvature_error, "lag_error": out.lag_error}
+
+
+def _search_applies(parts: dict[str, Any]) -> bool:
+    env = parts["environment"]
+    return hasattr(parts["controller"], "search_normal") and hasattr(getattr(env, "surface", env), "dips")
+
+
+def _search_analysis(parts: dict[str, Any]) -> dict[str, Any]:
+    """Where the nearest dip is felt: within w √(2 ln(d/threshold)) of its centre (a drop of the surface larger than
+    the threshold, the tool following it under force control); its distance from the search's start; with a spiral
+    reference, whether the spiral passes within that radius (its reach and its pitch: a first-order statement,
+    the tool's lag behind x_d ignored)."""
+    env, ctl = parts["environment"], parts["controller"]
+    field = getattr(env, "surface", env)
+    if not len(field.dips):
+        return {}
+    start = parts["robot"].frame_pose(parts["q0"])[1]
+    rows = field.dips
+    dist = np.hypot(rows[:, 0] - start[0], rows[:, 1] - start[1])
+    i = int(np.argmin(dist))
+    depth, width = float(rows[i, 2]), float(rows[i, 3])
+    felt = width * math.sqrt(2.0 * math.log(depth / ctl.threshold)) if depth > ctl.threshold else 0.0
+    out: dict[str, Any] = {"hole_distance": float(dist[i]), "hole_detection_radius": felt}
+    spiral = getattr(parts["reference"], "spiral_path", None)
+    if spiral is not None:  # found for sure when the felt disc is within the spiral's reach and wider than its pitch
+        r = float(np.hypot(rows[i, 0] - spiral["center"][0], rows[i, 1] - spiral["center"][1]))
+        out["hole_in_reach"] = bool(r - felt <= spiral["radius"] and spiral["pitch"] <= 2.0 * felt)
+    return out
+
+
+def _register() -> None:
+    from .checks import register_analysis, register_metric
 
     for key in ("hole_found", "hole_time", "hole_x", "hole_y", "hole_z"):
         register_metric(key, _hole_metric(key))
+    register_analysis(_wipe_applies, _wipe_analysis)
+    register_analysis(_search_applies, _search_analysis)
 
 
-_register_metrics()
+_register()
