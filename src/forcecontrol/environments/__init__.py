@@ -3,6 +3,7 @@
 from .base import Environment
 from .elastic import ElasticPlane, LinearSpring
 from .friction import FrictionalContact
+from .mesh import ElasticMesh
 from .rigid import (
     CircleConstraint,
     HolonomicConstraint,
@@ -31,5 +32,6 @@ __all__ = [
     "ElasticSphere",
     "ElasticCylinder",
     "HeightField",
+    "ElasticMesh",
     "FrictionalContact",
 ]

@@ -293,7 +293,8 @@ def load_scenario(source: str | Path | dict[str, Any]) -> Scenario:
 
 
 def _resolve_reference_files(data: dict[str, Any], folder: Path) -> None:
-    """A relative ``[reference] file`` (and a case's ``reference.file``) is relative to the scenario file's folder."""
+    """A relative ``[reference] file`` (and a case's ``reference.file``), and a mesh's ``[environment] file``, are relative
+    to the scenario file's folder."""
 
     def fix(value: Any) -> Any:
         if isinstance(value, str) and value and not Path(value).is_absolute():
@@ -303,6 +304,9 @@ def _resolve_reference_files(data: dict[str, Any], folder: Path) -> None:
     ref = data.get("reference")
     if isinstance(ref, dict) and "file" in ref:
         ref["file"] = fix(ref["file"])
+    env = data.get("environment") if isinstance(data.get("environment"), dict) else {}
+    if env.get("type") == "mesh" and "file" in env:  # a mesh's file too (a height field's: the working folder)
+        env["file"] = fix(env["file"])
     cases = data.get("case")
     for case in cases if isinstance(cases, list) else []:  # a malformed [[case]] is reported by the loader
         if not isinstance(case, dict):
@@ -311,6 +315,11 @@ def _resolve_reference_files(data: dict[str, Any], folder: Path) -> None:
             case["reference"]["file"] = fix(case["reference"]["file"])
         if "reference.file" in case:
             case["reference.file"] = fix(case["reference.file"])
+        cenv = case.get("environment") if isinstance(case.get("environment"), dict) else {}
+        if cenv.get("type", case.get("environment.type", env.get("type"))) == "mesh":
+            for holder, key in ((cenv, "file"), (case, "environment.file")):
+                if key in holder:
+                    holder[key] = fix(holder[key])
 
 
 def _get_dotted(cfg: dict[str, Any], key: str) -> Any:

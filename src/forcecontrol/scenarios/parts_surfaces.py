@@ -1,7 +1,8 @@
 """Registrations of curved surfaces, friction and an arc reference (issue 31).
 
-Environments ``elastic-sphere`` (a circle for the planar arm), ``elastic-cylinder``, ``height-field``
-and ``frictional-plane``; each takes the friction keys ``static``, ``kinetic``, ``viscous``,
+Environments ``elastic-sphere`` (a circle for the planar arm), ``elastic-cylinder``, ``height-field``,
+``mesh`` (STL/OBJ/PLY, its ``file`` relative to the scenario file) and ``frictional-plane``; each takes
+the friction keys ``static``, ``kinetic``, ``viscous``,
 ``stick_stiffness``, ``stick_damping``, ``stick_speed`` (friction is on when ``static`` or ``kinetic``
 is given: :class:`~forcecontrol.environments.friction.FrictionalContact`). Reference ``arc``: x_d along
 a circular arc at a constant tangential speed (for tracing a contour).
@@ -14,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..environments import ElasticCylinder, ElasticPlane, ElasticSphere, FrictionalContact, HeightField
+from ..environments import ElasticCylinder, ElasticMesh, ElasticPlane, ElasticSphere, FrictionalContact, HeightField
 from ..errors import ParameterError
 from ..trajectories import SampledReference
 from .schema import Field, register_controller, register_environment, register_reference
@@ -119,6 +120,20 @@ register_environment(
     },
     _height_field,
     "one-sided elastic height field (cubic spline over a grid), optional friction",
+)
+
+register_environment(
+    "mesh",
+    {
+        "file": Field("str", True, doc="STL, OBJ or PLY triangle mesh; relative to the scenario file"),
+        "scale": Field("number", default=1.0, low=0.0, high=1e3, doc="vertex coordinates times this [m per file unit]"),
+        "offset": Field("vector", low=-100.0, high=100.0, doc="added to the vertices after scale [m] (default 0)"),
+        **_ELASTIC,
+        **FRICTION_FIELDS,
+    },
+    lambda p, ctx: _with_friction(ElasticMesh.from_file(p["file"], p["stiffness"], p["damping"], scale=p["scale"],
+                                                        offset=p["offset"], task_dim=_task_dim(ctx)), p),
+    "one-sided elastic triangle mesh (closest point, normal = the distance's gradient), optional friction",
 )
 
 register_environment(
