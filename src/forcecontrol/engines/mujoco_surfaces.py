@@ -1,10 +1,23 @@
 """Curved surfaces in the MuJoCo engine: an :class:`~forcecontrol.environments.surfaces.ElasticSphere` or
-:class:`~forcecontrol.environments.surfaces.ElasticCylinder` as MuJoCo's sphere or cylinder geom.
+:class:`~forcecontrol.environments.surfaces.ElasticCylinder` as MuJoCo's sphere or cylinder geom, a closed convex
+:class:`~forcecontrol.environments.mesh.ElasticMesh` as MuJoCo's mesh geom.
 
 The geom's radius is the surface's less the end-effector sphere's (``contact_radius``), so that the
 penetration MuJoCo sees between the two spheres (or the sphere and the cylinder) is the surface's δ
 at the controlled frame's origin; the contact force acts along the line of centres, the surface's
 normal. The stiffness and damping are calibrated like the plane's (:meth:`MujocoPlant._calibrate`).
+
+A mesh: MuJoCo collides with a mesh's convex hull (GJK/EPA, one contact), so only a closed convex mesh is
+taken (a non-convex one is refused: its hull would be a different surface). The geom is the mesh eroded by
+``contact_radius`` (each face's plane moved inwards by it: the half-spaces' intersection), so that the
+penetration MuJoCo sees is the mesh's δ wherever the closest point is inside a face (near an edge the
+eroded solid's rounded offset differs from the polyhedron by at most r (1 − cos(θ/2)), θ the dihedral).
+
+Not modelled, refused by name: MuJoCo's height field. Its collision treats the field as a union of
+triangular prisms and returns one contact per prism the tool's sphere overlaps (measured at 1 mm depth
+with a 1 cm sphere: 2 contacts on a 2-cm grid, 7 on a 1-cm grid, 16 on a 5-mm grid, some through the
+prisms' side walls), each of which MuJoCo's soft contact turns into a full surface spring: the force is a
+multiple of k δ, not an independent check of the built-in field.
 """
 
 from __future__ import annotations
@@ -30,33 +43,72 @@ def quat_z_to(direction: np.ndarray) -> list[float]:
     return [math.cos(ang / 2), *(math.sin(ang / 2) * ax / s)]
 
 
+def _eroded_convex(env: Any, r: float) -> np.ndarray:
+    """The vertices of the closed convex mesh ``env`` eroded by r [m] (its face planes moved inwards by r)."""
+    from scipy.spatial import ConvexHull, HalfspaceIntersection
+
+    V, F = env.vertices, env.faces
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
+    hull = ConvexHull(V) if env.closed else None
+    if hull is None or volume < hull.volume * (1.0 - 1e-6):
+        why = "not closed" if hull is None else f"not convex (volume {volume:.6g} m^3, its convex hull's {hull.volume:.6g} m^3)"
+        raise ParameterError(
+            f"the MuJoCo engine collides with a mesh's convex hull: the mesh must be closed and convex; this one is {why}; "
+            "run the built-in engine"
+        )
+    n = env.face_normals
+    offs = np.einsum("ij,ij->i", n, a) - r  # n·x <= b − r
+    inner = V.mean(axis=0)
+    margin = float(np.min(offs - n @ inner))
+    if not margin > 1e-9:
+        raise ParameterError(f"the mesh is thinner than twice contact_radius = {r} m (its centroid lies {margin + r:.3g} m "
+                             "inside the nearest face): MuJoCo cannot hold it")
+    pts = HalfspaceIntersection(np.hstack([n, -offs[:, None]]), inner).intersections
+    return pts[ConvexHull(pts).vertices]
+
+
 def add_surface_geom(plant: Any, spec: Any, env: Any) -> bool:
     """Add the environment geom for ``env`` to ``spec``: a sphere (for the planar arm, the circle is the sphere's cut
-    by the arm's plane z = 0) or a cylinder, its radius less the end-effector sphere's. Returns True (a contact)."""
+    by the arm's plane z = 0), a cylinder, their radius less the end-effector sphere's, or a closed convex mesh eroded
+    by it. Returns True (a contact)."""
+    from ..environments.mesh import ElasticMesh
     from ..environments.surfaces import ElasticCylinder, ElasticSphere
 
     mujoco = plant._mujoco
     if env.dim != plant.robot.task_dim:
         raise ParameterError(f"the environment is {env.dim}-dimensional, the robot's task {plant.robot.task_dim}-dimensional")
-    if not isinstance(env, (ElasticSphere, ElasticCylinder)):
+    if not isinstance(env, (ElasticSphere, ElasticCylinder, ElasticMesh)):
+        reason = (" (MuJoCo's height-field collision gives one soft contact per prism the tool overlaps: a multiple of "
+                  "the surface's force; see engines/mujoco_surfaces.py)") if type(env).__name__ == "HeightField" else ""
         raise ParameterError(
-            f"the MuJoCo engine models ElasticSphere and ElasticCylinder surfaces; got {type(env).__name__}"
+            f"the MuJoCo engine models ElasticSphere and ElasticCylinder surfaces; got {type(env).__name__}{reason} "
+            "(it also models a closed convex ElasticMesh); run the built-in engine"
         )
-    if env.radius <= plant.radius:
-        raise ParameterError(f"the surface's radius must exceed contact_radius = {plant.radius} m; got {env.radius} m")
     g = spec.worldbody.add_geom()
     g.name = "environment"
-    if isinstance(env, ElasticSphere):
-        g.type = mujoco.mjtGeom.mjGEOM_SPHERE
-        g.pos = np.pad(env.center, (0, 3 - env.space))
-        g.size = [env.radius - plant.radius, 0.0, 0.0]
-    else:  # ElasticCylinder
-        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        g.pos = env.point
-        g.size = [env.radius - plant.radius, 5.0, 0.0]  # 10 m long: infinite for the tool
-        g.quat = quat_z_to(env.axis)
     plant._k_env, plant._c_env = float(env.stiffness), float(env.damping)
-    plant._probe_depth = env.radius - plant.radius  # calibration: the probe touches the geom's side (its local x)
+    if isinstance(env, ElasticMesh):
+        pts = _eroded_convex(env, plant.radius)
+        mesh = spec.add_mesh()
+        mesh.name = "environment_mesh"
+        mesh.uservert = pts.ravel().tolist()
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = "environment_mesh"
+        plant._probe_depth = 0.0  # calibration: the probe sits inside the solid (any contact row gives the ratios)
+    else:
+        if env.radius <= plant.radius:
+            raise ParameterError(f"the surface's radius must exceed contact_radius = {plant.radius} m; got {env.radius} m")
+        if isinstance(env, ElasticSphere):
+            g.type = mujoco.mjtGeom.mjGEOM_SPHERE
+            g.pos = np.pad(env.center, (0, 3 - env.space))
+            g.size = [env.radius - plant.radius, 0.0, 0.0]
+        else:  # ElasticCylinder
+            g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+            g.pos = env.point
+            g.size = [env.radius - plant.radius, 5.0, 0.0]  # 10 m long: infinite for the tool
+            g.quat = quat_z_to(env.axis)
+        plant._probe_depth = env.radius - plant.radius  # calibration: the probe touches the geom's side (its local x)
     g.condim = 1
     g.solimp = [plant.impedance, plant.impedance, 1e-6, 0.5, 2.0]
     g.solref = [-1.0, -1.0]  # set by _calibrate
