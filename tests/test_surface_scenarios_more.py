@@ -13,7 +13,7 @@ from forcecontrol.analysis.surface_following import path_following_bound
 from forcecontrol.environments.heightfield_extra import BumpField
 from forcecontrol.scenarios import load_scenario, run_scenario
 from forcecontrol.scenarios.build import build_case
-from forcecontrol.scenarios.parts_surface_tasks import spiral_reference
+from forcecontrol.scenarios.parts_surface_tasks import spiral_reference, wipe_line_reference
 
 TS = 1e-3
 
@@ -197,3 +197,61 @@ def test_animation_draws_the_curved_surface_not_a_plane():
     assert len(lines[1]) == len(lines[0]) + 1
     xy = np.asarray(lines[1][0].get_xydata())
     assert max(abs(env2.signed_distance(p)) for p in xy) < 1e-9
+
+
+# ----------------------------------------------------------------------------- refusals
+
+
+@pytest.mark.parametrize(("build", "match"), [
+    (lambda: BumpField([0, 0], 0.01, [3, 10], 0.0, stiffness=1e4), "shape must be two integers >= 4"),
+    (lambda: BumpField([0, 0], 0.01, [10, 10], 0.0, crest=[0, 0, 0], stiffness=1e4), r"crest must be \(x, y\)"),
+    (lambda: BumpField([0, 0], 0.01, [10, 10], 0.0, dips=[[0, 0, 1e-3, 0.0]], stiffness=1e4), "dips must be rows"),
+    (lambda: BumpField([0, 0], 0.01, [10, 10], 0.0, dips=[1, 2, 3], stiffness=1e4), "dips must be rows"),
+    (lambda: BumpField([0, 0], 0.01, [10, 10], 0.0, wavelength=0.0, stiffness=1e4), "wavelength must be"),
+    (lambda: spiral_reference([0, 0], 0.005, 0.01, 0.05), "center must have 3 components"),
+    (lambda: spiral_reference([0, 0, 0], 0.0, 0.01, 0.05), "pitch, radius, speed and accel_time must be positive"),
+    (lambda: spiral_reference([0, 0, 0], 1e-6, 100.0, 1e-3), r"the spiral .* takes .* s; at most 10000 s"),
+    (lambda: spiral_reference([0, 0, 0], 0.005, 0.01, 0.05, orientation=[0, 0, 0], force=[1, 2]), "force must have 6"),
+    (lambda: wipe_line_reference(np.zeros(3), np.ones(3), 0.05), r"start and end must be poses \(6,\)"),
+    (lambda: wipe_line_reference(np.zeros(6), np.zeros(6), 0.05), "end must differ from start"),
+    (lambda: wipe_line_reference(np.zeros(6), np.ones(6), 0.0), "speed and accel_time must be positive"),
+    (lambda: wipe_line_reference(np.zeros(6), np.r_[100.0, 0, 0, 0, 0, 0], 1e-9), r"the line .* takes .* s; at most"),
+])
+def test_surface_task_parts_refuse_bad_values(build, match):
+    """BumpField, the spiral and the wipe line refuse bad values with a ParameterError naming the parameter."""
+    from forcecontrol.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=match):
+        build()
+
+
+@pytest.mark.parametrize(("table", "key", "value", "match"), [
+    ("environment", "size", [0.08], r"size must be the grid's positive extent"),
+    ("environment", "spacing", 1e-9, "spacing must be positive and give at most 2001 samples"),
+    ("controller", "normal", [0.0, 0.0, 0.0], "normal must be a non-zero 3-vector"),
+    ("controller", "threshold", 0.0, "threshold must be"),
+    ("reference", "center_offset", [0.0, 0.0], "center_offset must have 3 components"),
+])
+def test_search_scenario_refuses_bad_keys(table, key, value, match):
+    """panda-spiral-search with a bad key: a ScenarioError naming the table, the key and the value's problem."""
+    from importlib.resources import files
+
+    import tomllib
+
+    from forcecontrol.errors import ScenarioError
+
+    data = tomllib.loads((files("forcecontrol.scenarios") / "panda-spiral-search.toml").read_text(encoding="utf-8"))
+    data.pop("case")
+    data[table][key] = value
+    with pytest.raises(ScenarioError, match=match):
+        load_scenario(data)
+
+
+def test_hole_metrics_need_the_search_controller():
+    """Asking a non-search scenario for hole_found is refused, naming the metric and what it needs."""
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios.checks import METRICS
+
+    parts = build_case(load_scenario("panda-wipe-heightfield").cases[0])
+    with pytest.raises(ScenarioError, match="metric 'hole_found' needs the spatial-hybrid-search controller"):
+        METRICS["hole_found"](None, parts, 0.1)

@@ -24,6 +24,9 @@ from .schema import Field, register_controller, register_environment, register_r
 
 __all__ = ["spiral_reference", "wipe_line_reference"]
 
+#: the longest spiral or line [s] (its samples every few ms stay in memory).
+MAX_PATH_TIME = 1e4
+
 
 def _bump_field(p: dict[str, Any], ctx: dict[str, Any]) -> Any:
     from ..environments.heightfield_extra import BumpField
@@ -96,6 +99,8 @@ def spiral_reference(center: Any, pitch: float, radius: float, speed: float, sta
     cruise = max(length / speed - accel_time, 0.0)
     v = speed if cruise > 0.0 else length / accel_time
     total = cruise + 2.0 * accel_time
+    if not total <= MAX_PATH_TIME:
+        raise ParameterError(f"the spiral ({length:.4g} m at {speed:.4g} m/s) takes {total:.4g} s; at most {MAX_PATH_TIME:g} s")
     t = np.linspace(0.0, total, max(int(total / 0.002), 100) + 1)
     up, down = np.clip(t / accel_time, 0.0, 1.0), np.clip((total - t) / accel_time, 0.0, 1.0)
     ds = v * np.minimum(up, down)
@@ -194,6 +199,8 @@ def wipe_line_reference(start: Any, end: Any, speed: float, start_time: float = 
     cruise = max(length / speed - accel_time, 0.0)
     v = speed if cruise > 0.0 else length / accel_time
     total = cruise + 2.0 * accel_time
+    if not total <= MAX_PATH_TIME:
+        raise ParameterError(f"the line ({length:.4g} m at {speed:.4g} m/s) takes {total:.4g} s; at most {MAX_PATH_TIME:g} s")
     t = np.linspace(0.0, total, max(int(total / 0.005), 50) + 1)
     ds = v * np.minimum(np.clip(t / accel_time, 0.0, 1.0), np.clip((total - t) / accel_time, 0.0, 1.0))
     s = np.concatenate([[0.0], np.cumsum(0.5 * (ds[1:] + ds[:-1]) * np.diff(t))])
