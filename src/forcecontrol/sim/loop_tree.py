@@ -35,7 +35,7 @@ from ..laws.spatial import _c3, _R_xyz, spatial_impedance_torque
 from ..robots.compiled_tree import chol_solve, compile_tree, tree_terms
 from ..spatial.closed_form import EULER_SINGULARITY_TOL
 
-__all__ = ["impedance_loop", "run_impedance_loop", "env_params", "compliant_frame_arrays"]
+__all__ = ["impedance_loop", "run_tree_loop", "run_impedance_loop", "tree_loop_support", "env_params", "compliant_frame_arrays"]
 
 #: environment kinds of the loop: 0 a constant wrench, 1 an elastic table.
 CONSTANT, TABLE = 0, 1
@@ -102,8 +102,14 @@ def compliant_frame_arrays(pos, vel, acc, z, zd, zdd, pos_t, vel_t, acc_t):  # p
 @njit(cache=True)
 def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
                    env_kind, env_p, refs, Md_inv, K_D, K_P, posture, k_n, d_n, has_posture, thr, lmax,
-                   q0, qd0, Ts, nsub, max_qd, Q, QD, H, U, adm, Mt_inv, K_Dt, K_Pt, Ad, Gd):  # pragma: no cover - compiled
-    """The sampled loop; fills Q, Q̇, H (true wrench), U row by row. Returns (status, last_row).
+                   q0, qd0, Ts, nsub, max_qd, Q, QD, H, U, adm, Mt_inv, K_Dt, K_Pt, Ad, Gd,
+                   xa, bias, noise, alpha, X, XD, HM):  # pragma: no cover - compiled
+    """The sampled loop; fills Q, Q̇, H (true wrench), U, X (``[o_e; φ_e]``), Ẋ (twist), H_m row by row.
+
+    The law reads the measured wrench ``h_m`` (bias + noise, first-order low-pass α, as the
+    simple :class:`~forcecontrol.sensors.ForceSensor` of ``simulate``); the plant the true one.
+    Returns (status, last_row, λ² of the last law call); ``xa`` (12,) is the compliant frame's
+    state (admittance), advanced in place.
 
     ``adm`` false: impedance (9.35) with M_d⁻¹, K_D, K_P. ``adm`` true: admittance (9.37), the
     compliant frame's state ``[z̃; z̃̇]`` from 0, advanced each sample by ``Ad x + Gd h_e^d`` (the
@@ -111,7 +117,8 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
     gains, no h_e^d term); ``Mt_inv, K_Dt, K_Pt`` give z̃̈.
 
     Status: 0 ok, 1 non-finite state (or B not positive definite), 2 runaway joint speed,
-    4 non-finite torque (the law's NaN at an Euler singularity included).
+    3 non-finite torque (the Python engine's SingularityError: an Euler representation singularity
+    or a singular Jacobian).
     """
     n = kind.shape[0]
     N = Q.shape[0] - 1
@@ -133,8 +140,9 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
     a = np.empty((4, n))
     vk = np.empty((4, n))
     dt = Ts / nsub
-    xa = np.zeros(12)
     h_d = np.empty(6)
+    hm = np.zeros(6)
+    lam2 = 0.0
     pos_t, vel_t, acc_t = np.empty(6), np.empty(6), np.empty(6)
     for k in range(N + 1):
         tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
@@ -145,28 +153,39 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
                 s += J[i, j] * qd[j]
             v[i] = s
         _wrench(env_kind, env_p, o_e, v, h)
+        for i in range(6):
+            raw = h[i] + bias[i] + noise[k, i]
+            hm[i] = raw if k == 0 else hm[i] + alpha * (raw - hm[i])
         row = refs[k]
         if adm:
             RdT = _R_xyz(row[3:6]).T.copy()
-            h_d[:3] = RdT @ h[:3]
-            h_d[3:] = RdT @ h[3:]
+            h_d[:3] = RdT @ hm[:3]
+            h_d[3:] = RdT @ hm[3:]
             zdd = Mt_inv @ (h_d - K_Dt @ xa[6:] - K_Pt @ xa[:6])
             compliant_frame_arrays(row[0:6], row[6:12], row[12:18], xa[:6], xa[6:], zdd, pos_t, vel_t, acc_t)
-            u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, pos_t, vel_t, acc_t,
-                                                     Md_inv, K_D, K_P, False, posture, k_n, d_n, has_posture, thr, lmax)
-            xa = Ad @ xa + Gd @ h_d
+            u, lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, hm, pos_t, vel_t, acc_t,
+                                                    Md_inv, K_D, K_P, False, posture, k_n, d_n, has_posture, thr, lmax)
+            xa[:] = Ad @ xa + Gd @ h_d
         else:
-            u, _lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, h, row[0:6], row[6:12], row[12:18],
-                                                     Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
+            u, lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, hm, row[0:6], row[6:12], row[12:18],
+                                                    Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
         for i in range(n):
             Q[k, i] = q[i]
             QD[k, i] = qd[i]
             U[k, i] = u[i]
+        for i in range(3):
+            X[k, i] = o_e[i]
+        _euler_xyz(R_e, X[k, 3:])
         for i in range(6):
+            s = 0.0
+            for j in range(n):
+                s += J[i, j] * qd[j]
+            XD[k, i] = s
             H[k, i] = h[i]
+            HM[k, i] = hm[i]
         for i in range(n):
             if not math.isfinite(u[i]):
-                return 4, k
+                return 3, k, lam2
         if k == N:
             break
         for _ in range(nsub):
@@ -197,16 +216,16 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
                         s -= J[j, i] * h[j]
                     r[i] = s
                 if not chol_solve(B, r, L, a[st]):
-                    return 1, k
+                    return 1, k, lam2
             for i in range(n):
                 q[i] += dt / 6.0 * (vk[0, i] + 2.0 * vk[1, i] + 2.0 * vk[2, i] + vk[3, i])
                 qd[i] += dt / 6.0 * (a[0, i] + 2.0 * a[1, i] + 2.0 * a[2, i] + a[3, i])
         for i in range(n):
             if not (math.isfinite(q[i]) and math.isfinite(qd[i])):
-                return 1, k
+                return 1, k, lam2
             if abs(qd[i]) > max_qd:
-                return 2, k
-    return 0, N
+                return 2, k, lam2
+    return 0, N, lam2
 
 
 def env_params(environment: Any) -> tuple[int, np.ndarray]:
@@ -224,46 +243,95 @@ def env_params(environment: Any) -> tuple[int, np.ndarray]:
     raise ParameterError(f"the compiled 6-D loop supports a Table or a ConstantWrench environment; got {name}")
 
 
-def run_impedance_loop(robot: Any, environment: Any, controller: Any, reference: Any, q0: Any, duration: float,
-                       substeps: int, max_qd: float = 100.0) -> dict[str, Any]:
-    """Run :func:`impedance_loop` for a robot, an environment, a SpatialImpedanceController or an
-    AdmittanceController (its compliant frame from rest, as after ``reset``) and a reference signal.
+_LAWS = ("SpatialImpedanceController", "AdmittanceController")
+_ENVS = ("Table", "ConstantWrench")
 
-    Returns a dict with ``status``, ``last_row``, ``t``, ``q``, ``qd``, ``wrench``, ``torque``
-    (the logs of ``simulate``'s result, same rows).
 
-    Raises:
-        ParameterError: the controller is not a compiled SpatialImpedanceController/AdmittanceController
-            (XYZ Euler, desired frame), the environment not a Table/ConstantWrench, or the robot not a serial chain.
+def tree_loop_support(robot: Any, environment: Any, controller: Any, sensor: Any = None) -> str | None:
+    """None when :func:`run_tree_loop` runs this combination, else why not (one sentence).
+
+    Runs: a serial revolute/prismatic arm (:func:`~forcecontrol.robots.compiled_tree.tree_support`)
+    with ``task="pose"``, a Table or ConstantWrench, a SpatialImpedanceController (frame
+    ``"desired"``) or an AdmittanceController with XYZ Euler angles (exactly these classes, not
+    subclasses such as the variable-gain ones), and the simple ForceSensor.
     """
     name = type(controller).__name__
-    if name not in ("SpatialImpedanceController", "AdmittanceController") or not controller.compiled:
-        raise ParameterError("the compiled 6-D loop runs a SpatialImpedanceController or an AdmittanceController with "
-                             f"orientation='euler' (and frame='desired'); got {name}")
-    adm = name == "AdmittanceController"
+    if name not in _LAWS or not getattr(controller, "compiled", False):
+        return f"the controller is a {name} (compiled 6-D loop: {' or '.join(_LAWS)} with orientation='euler')"
+    if type(environment).__name__ not in _ENVS:
+        return f"the environment is a {type(environment).__name__} (compiled 6-D loop: {' or '.join(_ENVS)})"
+    if getattr(robot, "task", None) != "pose":
+        return "the robot's task is not 'pose'"
+    if sensor is not None and not getattr(sensor, "compiled_ok", False):
+        return f"the sensor is a {type(sensor).__name__} (compiled 6-D loop: the simple ForceSensor)"
+    from ..robots.compiled_tree import tree_support
+
+    return tree_support(robot)
+
+
+def run_tree_loop(robot: Any, environment: Any, controller: Any, refs: np.ndarray, bias: np.ndarray, noise: np.ndarray,
+                  alpha: float, q0: np.ndarray, qd0: np.ndarray, Ts: float, nsub: int, max_qd: float,
+                  logs: dict[str, np.ndarray], state: np.ndarray | None = None) -> tuple[int, int]:
+    """Run :func:`impedance_loop` into ``simulate``'s logs (q, qd, x, xd, wrench, wrench_measured, torque).
+
+    The controller's compliant-frame state (admittance) starts from ``state`` (default: the
+    controller's own, as after ``reset``) and is left where the run ended, like the Python engine's;
+    ``controller.last_damping`` is the last sample's λ². Returns (status, last_row).
+
+    Raises:
+        ParameterError: :func:`tree_loop_support` names a part the loop does not run.
+    """
+    why = tree_loop_support(robot, environment, controller)
+    if why is not None:
+        raise ParameterError(f"the compiled 6-D loop cannot run this case: {why}")
+    adm = type(controller).__name__ == "AdmittanceController"
     tree = compile_tree(robot)
     env_kind, env_p = env_params(environment)
-    Ts = float(controller.sample_time)
-    N = int(round(duration / Ts))
-    refs = np.ascontiguousarray(reference.sample(np.arange(N + 1) * Ts), dtype=np.float64)
-    m = refs.shape[1] // len(REFERENCE_FIELDS)
-    if m != 6:
-        raise ParameterError(f"the compiled 6-D loop needs a 6-D reference; got m = {m}")
     post, k_n, d_n, has = controller._post
     s = controller.singularity
-    n = tree.n
-    Q, QD, U, H = np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, n)), np.empty((N + 1, 6))
     if adm:
         gains = (np.eye(6), controller.motion_damping, controller.motion_stiffness)
         extra = (controller._Mt_inv, controller.damping, controller.stiffness, controller._Ad, controller._Gd)
+        xa = np.array(controller.state if state is None else state, dtype=np.float64)
     else:
         gains = (controller._Md_inv, controller.damping, controller.stiffness)
         z6 = np.zeros((6, 6))
         extra = (z6, z6, z6, np.zeros((12, 12)), np.zeros((12, 6)))
-    extra = tuple(np.ascontiguousarray(a, dtype=np.float64) for a in extra)
-    gains = tuple(np.ascontiguousarray(a, dtype=np.float64) for a in gains)
-    status, last = impedance_loop(*tree.arrays(), env_kind, env_p, refs, *gains, post, float(k_n), float(d_n), bool(has),
-                                  float(s.threshold), float(s.max_damping), np.array(q0, dtype=np.float64), np.zeros(n), Ts,
-                                  int(substeps), float(max_qd), Q, QD, H, U, adm, *extra)
-    return {"status": int(status), "last_row": int(last), "t": np.arange(N + 1) * Ts, "q": Q, "qd": QD, "wrench": H, "torque": U}
+        xa = np.zeros(12)
+    f = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    status, last, lam2 = impedance_loop(
+        *tree.arrays(), env_kind, env_p, f(refs), *(f(g) for g in gains), f(post), float(k_n), float(d_n), bool(has),
+        float(s.threshold), float(s.max_damping), f(q0), f(qd0), float(Ts), int(nsub), float(max_qd),
+        logs["q"], logs["qd"], logs["wrench"], logs["torque"], adm, *(f(e) for e in extra),
+        xa, f(bias), f(noise), float(alpha), logs["x"], logs["xd"], logs["wrench_measured"],
+    )
+    if adm:
+        controller.state[:] = xa
+    controller.last_damping = float(lam2)
+    return int(status), int(last)
 
+
+def run_impedance_loop(robot: Any, environment: Any, controller: Any, reference: Any, q0: Any, duration: float,
+                       substeps: int, max_qd: float = 100.0) -> dict[str, Any]:
+    """:func:`run_tree_loop` from rest at q0 with an ideal sensor and the compliant frame at rest (the benchmark's entry).
+
+    Returns a dict with ``status``, ``last_row``, ``t`` and the logs ``q``, ``qd``, ``x``, ``xd``,
+    ``wrench``, ``wrench_measured``, ``torque`` (the rows of ``simulate``'s result).
+
+    Raises:
+        ParameterError: a part the compiled loop does not run (:func:`tree_loop_support`), or a reference that is not 6-D.
+    """
+    Ts = float(controller.sample_time)
+    N = int(round(duration / Ts))
+    t = np.arange(N + 1) * Ts
+    refs = np.ascontiguousarray(reference.sample(t), dtype=np.float64)
+    if refs.shape[1] != 6 * len(REFERENCE_FIELDS):
+        m = refs.shape[1] // len(REFERENCE_FIELDS)
+        raise ParameterError(f"the compiled 6-D loop needs a 6-D reference; got a {m}-D one")
+    n = int(robot.nq)
+    logs = {k: np.full((N + 1, n if k in ("q", "qd", "torque") else 6), np.nan)
+            for k in ("q", "qd", "x", "xd", "wrench", "wrench_measured", "torque")}
+    status, last = run_tree_loop(robot, environment, controller, refs, np.zeros(6), np.zeros((N + 1, 6)), 1.0,
+                                 np.array(q0, dtype=np.float64), np.zeros(n), Ts, int(substeps), float(max_qd), logs,
+                                 state=np.zeros(12))
+    return {"status": status, "last_row": last, "t": t, **logs}

@@ -17,6 +17,10 @@ stage: ``B q̈ + C q̇ + F q̇ + τ_f(q̇) + g = u − Jᵀ h_e``.
 ``engine="compiled"`` runs the same loop compiled with Numba for the chapter's arm and the
 built-in environments and controllers (the control laws are the very same compiled functions);
 ``engine="auto"`` picks it when it applies. The two engines agree to round-off (tested).
+For a 6-D serial arm (Panda, UR) with a SpatialImpedanceController or AdmittanceController on a
+Table or ConstantWrench, ``engine="compiled"`` runs :mod:`forcecontrol.sim.loop_tree` (about 10x
+the Python engine's speed once compiled; its first run compiles for tens of seconds, so
+``"auto"`` keeps the Python engine for 6-D arms).
 """
 
 from __future__ import annotations
@@ -172,11 +176,18 @@ def simulate(
         and controller.compiled_law is not None
         and sensor.compiled_ok
     )
+    tree_ok, why_6d = False, ""  # 6-D arms: sim/loop_tree.py, on request only (its first run compiles for tens of seconds)
+    if engine == "compiled" and not compiled_ok and actuator is None and m == 6:
+        from .loop_tree import tree_loop_support
+
+        why_6d = tree_loop_support(robot, environment, controller, sensor) or ""
+        tree_ok = compiled_ok = not why_6d
     if engine == "compiled" and not compiled_ok:
         raise ParameterError(
             "engine='compiled' needs the built-in planar arm, a built-in environment and a "
             f"built-in controller (and the simple ForceSensor); got {type(robot).__name__}, "
             f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
+            + (f"; for a 6-D arm: {why_6d}" if why_6d else "")
         )
     if actuator is not None:
         if engine == "compiled":
@@ -220,7 +231,11 @@ def simulate(
         "versions": _versions(),
         **(metadata or {}),
     }
-    if use_compiled:
+    if use_compiled and tree_ok:
+        from .loop_tree import run_tree_loop
+
+        status, k = run_tree_loop(robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs)
+    elif use_compiled:
         from .loop import planar_loop
 
         status, k = planar_loop(controller.compiled_law)(
