@@ -6,13 +6,15 @@ error, null-space posture, variable damped least squares; M_d, K_D, K_P of ``ben
 the desired frame 2 cm below an elastic table (k = 5·10³ N/m, c = 50 N s/m) that touches the
 tool at the start, gravity, 0.5 s at Ts = 1 ms, RK4 with 2 sub-steps (the Panda scenarios').
 
-Three implementations of that loop, timed in turns (``--repeats`` rounds; medians and spreads):
+Implementations of that loop, timed in turns (``--repeats`` rounds; medians and spreads):
 
 * ``library (Python engine)``: :func:`forcecontrol.sim.simulation.simulate` with
   ``engine="python"`` (what ``forcecontrol run`` does for 6-D arms today);
 * ``library (compiled loop)``: :func:`forcecontrol.sim.loop_tree.run_impedance_loop`, the same
   loop as one Numba function on :mod:`forcecontrol.robots.compiled_tree`'s dynamics and the
   controller's own compiled law;
+* ``simulate(engine="compiled")``: the same compiled loop through ``simulate`` (its checks, the
+  contact-mode check of the log afterwards: up to 256 samples in contact);
 * ``C++``: ``benchmarks/cpp/panda_impedance.cpp``, the same loop written against Pinocchio's C++
   API (computeAllTerms for the law, ABA per RK4 stage), built with ``-O3 -march=native``.
 
@@ -178,11 +180,12 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
     N = int(round(DURATION / TS)) + 1
     py = lambda: simulate(robot, env, ctrl, ref, q0=q0, duration=DURATION, substeps=NSUB, engine="python")  # noqa: E731
     comp = lambda: run_impedance_loop(robot, env, ctrl, ref, q0, DURATION, NSUB)  # noqa: E731
-    res_py, res_c = py(), comp()  # warm: compiles the law and the loop (cached on disk afterwards)
+    sim_c = lambda: simulate(robot, env, ctrl, ref, q0=q0, duration=DURATION, substeps=NSUB, engine="compiled")  # noqa: E731
+    res_py, res_c, res_sc = py(), comp(), sim_c()  # warm: compiles the law and the loop (cached on disk afterwards)
     if res_c["status"] != 0:
         raise RuntimeError(f"the compiled loop stopped with status {res_c['status']} at row {res_c['last_row']}")
     binary = build()
-    t_py, t_c, t_cpp, t_cpp_best = [], [], [], []
+    t_py, t_c, t_sc, t_cpp, t_cpp_best = [], [], [], [], []
     q_cpp = None
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -191,6 +194,9 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
         t0 = time.perf_counter()
         comp()
         t_c.append((time.perf_counter() - t0) / N * 1e6)
+        t0 = time.perf_counter()
+        sim_c()
+        t_sc.append((time.perf_counter() - t0) / N * 1e6)
         if binary is not None:
             (med, best), q_cpp = run_cpp(binary, robot, env, ctrl, ref, q0, 3)
             t_cpp.append(med)
@@ -202,9 +208,12 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
     print(f"Panda impedance on an elastic table, {DURATION} s at {TS * 1e3:g} ms, RK4 x {NSUB}; {repeats} rounds")
     line("library, Python engine", t_py)
     line("library, compiled loop", t_c)
-    out = {"python_us": statistics.median(t_py), "compiled_us": statistics.median(t_c)}
+    line("simulate(engine='compiled')", t_sc)
+    out = {"python_us": statistics.median(t_py), "compiled_us": statistics.median(t_c),
+           "simulate_compiled_us": statistics.median(t_sc)}
     fz = res_py.wrench[-1, 2]
-    print(f"max |q_compiled - q_python| = {np.max(np.abs(res_c['q'] - res_py.q)):.2e} rad   f_z(end) = {fz:.4f} N")
+    print(f"max |q_compiled - q_python| = {np.max(np.abs(res_c['q'] - res_py.q)):.2e} rad   f_z(end) = {fz:.4f} N"
+          f"   (simulate compiled: {np.max(np.abs(res_sc.q - res_py.q)):.2e})")
     if t_cpp:
         line("C++ on Pinocchio", t_cpp)
         assert q_cpp is not None
