@@ -30,7 +30,8 @@ so on stderr and times the two library loops only.
 Then the built-in scenario ``panda-admittance-contact`` (admittance (9.37)), Python engine against
 the compiled loop (the C++ program has no admittance law: no C++ ratio there).
 
-Run: ``python benchmarks/bench_6d_vs_cpp.py [--repeats 5] [--profile]`` (``--profile`` adds the
+Run: ``python benchmarks/bench_6d_vs_cpp.py [--repeats 5] [--profile] [--robot ur5]`` (``--robot ur5``:
+the same loop on the UR5, 6 DOF, no null-space posture) (``--profile`` adds the
 table of where the Python engine's time goes: calls per sample and per-call costs).
 """
 
@@ -51,7 +52,7 @@ import numpy as np
 from forcecontrol.controllers.spatial import SpatialImpedanceController
 from forcecontrol.environments.spatial import Table
 from forcecontrol.robots.compiled_tree import compile_tree
-from forcecontrol.robots.pinocchio import PANDA_READY, panda
+from forcecontrol.robots.pinocchio import PANDA_READY, panda, ur5
 from forcecontrol.sim.loop_tree import run_impedance_loop
 from forcecontrol.sim.simulation import simulate
 from forcecontrol.spatial import rotation_to_euler_xyz
@@ -67,14 +68,17 @@ KD = np.diag(2 * 0.7 * np.sqrt(np.diag(MD) * np.diag(KP)))
 DURATION, TS, NSUB = 0.5, 1e-3, 2
 
 
-def case():
-    """(robot, environment, controller, reference, q0) of the benchmark's loop."""
-    robot = panda()
-    q0 = PANDA_READY.copy()
+UR5_Q0 = np.array([0.3, -1.2, 1.5, -1.8, -1.5, 0.4])
+
+
+def case(robot_name: str = "panda"):
+    """(robot, environment, controller, reference, q0) of the benchmark's loop (``"panda"`` or ``"ur5"``, no posture: 6 DOF)."""
+    robot = panda() if robot_name == "panda" else ur5()
+    q0 = PANDA_READY.copy() if robot_name == "panda" else UR5_Q0.copy()
     R, p = robot.frame_pose(q0)
     x_d = np.concatenate([p - np.array([0.0, 0.0, 0.02]), rotation_to_euler_xyz(R)])
     env = Table(p, (0.0, 0.0, 1.0), 5000.0, 50.0)
-    ctrl = SpatialImpedanceController(robot, MD, KD, KP, posture=q0, sample_time=TS)
+    ctrl = SpatialImpedanceController(robot, MD, KD, KP, posture=q0 if robot.nq > 6 else None, sample_time=TS)
     return robot, env, ctrl, Setpoint(x_d), q0
 
 
@@ -175,8 +179,8 @@ def scenario_rows(repeats: int, duration: float = 0.5) -> dict[str, float]:
     return {"scenario_python_us": statistics.median(t_py), "scenario_compiled_us": statistics.median(t_c)}
 
 
-def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
-    robot, env, ctrl, ref, q0 = case()
+def main(repeats: int = 5, profile: bool = False, robot_name: str = "panda") -> dict[str, float]:
+    robot, env, ctrl, ref, q0 = case(robot_name)
     N = int(round(DURATION / TS)) + 1
     py = lambda: simulate(robot, env, ctrl, ref, q0=q0, duration=DURATION, substeps=NSUB, engine="python")  # noqa: E731
     comp = lambda: run_impedance_loop(robot, env, ctrl, ref, q0, DURATION, NSUB)  # noqa: E731
@@ -205,7 +209,7 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
     def line(name, ts):
         print(f"{name:<34} {statistics.median(ts):9.1f} us/step  (min {min(ts):.1f}, max {max(ts):.1f})")
 
-    print(f"Panda impedance on an elastic table, {DURATION} s at {TS * 1e3:g} ms, RK4 x {NSUB}; {repeats} rounds")
+    print(f"{robot_name} impedance on an elastic table, {DURATION} s at {TS * 1e3:g} ms, RK4 x {NSUB}; {repeats} rounds")
     line("library, Python engine", t_py)
     line("library, compiled loop", t_c)
     line("simulate(engine='compiled')", t_sc)
@@ -228,7 +232,8 @@ def main(repeats: int = 5, profile: bool = False) -> dict[str, float]:
                    ratio_python_cpp=statistics.median(ratios_py), dq_cpp=d_cpp)
     else:
         print("C++ baseline skipped (see stderr): no ratio against C++", file=sys.stderr)
-    out.update(scenario_rows(repeats))
+    if robot_name == "panda":
+        out.update(scenario_rows(repeats))
     if profile:
         profile_python_engine(robot, env, ctrl, ref, q0)
     return out
@@ -238,5 +243,6 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--robot", choices=("panda", "ur5"), default="panda")
     a = ap.parse_args()
-    main(a.repeats, a.profile)
+    main(a.repeats, a.profile, a.robot)
