@@ -111,3 +111,77 @@ def test_scenario_file_mesh_refused_in_mujoco_names_the_file(tmp_path):
     path.write_text(path.read_text().replace('file = "ball.stl"', 'file = "square.obj"'))
     with pytest.raises(ParameterError, match="not closed"):
         fc.scenario(str(path)).run(engine="mujoco")
+
+
+ARM = fc.PlanarTwoLink()
+Q0 = ARM.inverse_kinematics([1.0, 0.6])  # the tip on the undeformed plane y = 0.6 (as in test_friction)
+KP, KD, MD = 4000.0, 400.0, 10.0
+F_N = 1e4 * KP * 0.01 / (KP + 1e4)  # pressed 1 cm below: K_P (0.01 − δ) = k δ
+
+
+def _frictional_plane(mu_s=0.5, mu_k=0.3):
+    from forcecontrol.environments.friction import FrictionalContact
+
+    return FrictionalContact(fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], 1e4), mu_s, mu_k, stick_stiffness=1e5,
+                             stick_damping=200.0)
+
+
+def test_mujoco_sliding_friction_is_kinetic_coefficient_times_normal_force():
+    """MuJoCo's friction (μ = μ_k, elliptic cone) on a flat plane while sliding at 0.125 m/s: tangential/normal force
+    = μ_k within 1e-9 (the cone's projection; built-in engine: 1 %), the normal force the closed-form spring balance
+    within 0.5 % (MuJoCo's soft cone raises it: measured 0.06 %), K_P times the lag = μ_k f_n within 1 %; the note
+    on stderr and in the metadata says what differs (no static coefficient)."""
+    from forcecontrol.engines.mujoco import MujocoPlant
+    from forcecontrol.engines.mujoco_surfaces import MujocoFrictionNote
+
+    with pytest.warns(MujocoFrictionNote, match="no static coefficient \\(static = 0.5 not modelled"):
+        plant = MujocoPlant(ARM, _frictional_plane())
+    ref = fc.LinearPath([1.0, 0.59], [1.2, 0.59], duration=2.0, start_time=0.5)
+    r = plant.run(fc.ImpedanceController(ARM, MD, KD, KP), ref, q0=Q0, duration=2.5)
+    cruise = (r.t > 1.2) & (r.t < 2.0)
+    fn = -r.wrench[cruise, 1]
+    assert np.all(r.xd[cruise, 0] > 0.12)
+    np.testing.assert_allclose(r.wrench[cruise, 0], 0.3 * fn, rtol=1e-9)
+    np.testing.assert_allclose(fn, F_N, rtol=5e-3)
+    lag = ref.sample(r.t[cruise])[:, 0] - r.x[cruise, 0]
+    np.testing.assert_allclose(KP * lag, 0.3 * fn, rtol=0.01)
+    assert r.metadata["environment"]["type"] == "frictional-contact"
+    assert any("MuJoCo's friction is Coulomb with μ = kinetic = 0.3" in n for n in r.metadata["engine_notes"])
+
+
+def test_mujoco_friction_note_is_in_the_json_warnings():
+    """A scenario with friction on engine='mujoco' lists the friction note among the case's --json warnings."""
+    scn = fc.scenario({
+        "name": "mj-friction", "duration": 0.05, "sample_time": 0.001, "settle_window": 0.05,
+        "robot": {"model": "chapter-arm", "q0": [float(q) for q in Q0]},
+        "environment": {"type": "frictional-plane", "point": [0.0, 0.6], "normal": [0.0, 1.0], "stiffness": 1e4,
+                        "static": 0.5, "kinetic": 0.3},
+        "controller": {"type": "impedance", "inertia": MD, "damping": KD, "stiffness": KP},
+        "reference": {"type": "setpoint", "position": [1.0, 0.59]},
+    })
+    with pytest.warns(UserWarning, match="MuJoCo's friction"):
+        out = scn.run(engine="mujoco").to_json()
+    notes = [w for w in out["cases"][0]["warnings"] if w["kind"] == "engine-note"]
+    assert notes and "no static coefficient" in notes[0]["text"]
+
+
+@pytest.mark.parametrize(("spacing", "least"), [(0.02, 2), (0.005, 10)])
+def test_why_height_fields_are_refused_mujoco_hfield_gives_one_contact_per_prism(spacing, least):
+    """The reason the MuJoCo engine refuses a HeightField, measured on MuJoCo itself: a 1 cm sphere 1 mm deep on a
+    flat hfield gets several contacts (one per overlapped prism, some tilted through the prisms' walls), whose depths
+    sum to more than the 1 mm a single surface spring would see."""
+    spec = mujoco.MjSpec()
+    n = int(round(0.2 / spacing)) + 1
+    spec.add_hfield(name="hf", size=[0.1, 0.1, 1e-3, 0.05], nrow=n, ncol=n, userdata=[0.0] * (n * n))
+    g = spec.worldbody.add_geom()
+    g.type, g.hfieldname = mujoco.mjtGeom.mjGEOM_HFIELD, "hf"
+    body = spec.worldbody.add_body(pos=[0.0123, 0.0071, 0.01 - 1e-3])
+    body.add_freejoint()
+    s = body.add_geom()
+    s.type, s.size, s.mass, s.condim = mujoco.mjtGeom.mjGEOM_SPHERE, [0.01, 0, 0], 1.0, 1
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    depths = [-float(d.contact[i].dist) for i in range(d.ncon)]
+    assert d.ncon >= least
+    assert max(depths) == pytest.approx(1e-3, abs=1e-9) and sum(depths) > 1.2e-3

@@ -273,13 +273,15 @@ def test_compiled_dispatcher_circle_matches_the_class():
 
 
 def test_mujoco_refuses_friction_and_height_fields_by_name():
-    """MuJoCo's frictionless contacts refuse a FrictionalContact, and a height field, naming what is not modelled."""
+    """MuJoCo models a FrictionalContact with its own friction, saying how it differs (tests/test_mujoco_surfaces_more.py:
+    μ_k f_n while sliding); a height field is refused, naming what is not modelled."""
     pytest.importorskip("mujoco")
     from forcecontrol.engines.mujoco import MujocoPlant
+    from forcecontrol.engines.mujoco_surfaces import MujocoFrictionNote
     from forcecontrol.environments import FrictionalContact
 
     circle = ElasticSphere(CENTER, RADIUS, K_ENV)
-    with pytest.raises(ParameterError, match="frictionless.*FrictionalContact"):
+    with pytest.warns(MujocoFrictionNote, match="no static coefficient"):
         MujocoPlant(ARM, FrictionalContact(circle, 0.3, 0.2))
     with pytest.raises(ParameterError, match="models ElasticSphere and ElasticCylinder surfaces; got HeightField"):
         MujocoPlant(ARM, HeightField(np.linspace(0.0, 0.1, 8), [0.5], 0.1, 1e4))

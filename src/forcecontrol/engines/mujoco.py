@@ -45,7 +45,7 @@ from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 from .compare import DIFFERENCES, compare_engines
 from .mujoco_payload import PayloadReader, add_payload_body
-from .mujoco_surfaces import add_surface_geom, quat_z_to
+from .mujoco_surfaces import add_friction, add_surface_geom, quat_z_to
 from .urdf import _clean_urdf, _robot_source
 
 __all__ = ["MujocoPlant", "simulate_mujoco", "compare_engines", "DIFFERENCES"]
@@ -132,7 +132,7 @@ class MujocoPlant:
         self.ee_body = self.model.body(frame).id
         self.ee_geom = self.model.geom("ee_contact").id
         self.nq = int(self.model.nq)
-        self._frictionless = int(mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS)
+        self._frictionless = getattr(self, "_contact_row", int(mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS))
         self._scheduled_R = math.nan
         if self._has_contact:
             self._calibrate()
@@ -156,11 +156,8 @@ class MujocoPlant:
             # a passive force MuJoCo evaluates at every integrator stage (see _spring_passive)
             self._spring = (np.asarray(env.stiffness), np.asarray(env.damping), np.asarray(env.rest_position))
             return False
-        if getattr(env, "stateful", False):
-            raise ParameterError(
-                f"the MuJoCo engine's contacts are frictionless (condim 1): it does not model {type(env).__name__}; "
-                "compare the surface without friction, or run the built-in engine"
-            )
+        if getattr(env, "stateful", False):  # FrictionalContact: MuJoCo's friction on its surface (mujoco_surfaces)
+            return add_friction(self, spec, env, self._add_environment)
         if isinstance(env, ElasticSurface):  # a sphere or a cylinder: MuJoCo's primitive geom
             return add_surface_geom(self, spec, env)
         if isinstance(env, (ElasticPlane, Table)):
@@ -211,7 +208,7 @@ class MujocoPlant:
             if use_velocity:
                 probe.qvel[:] = np.linspace(0.3, -0.2, m.nv)
             mujoco.mj_forward(m, probe)
-            rows = [i for i in range(probe.nefc) if probe.efc_type[i] == mujoco.mjtConstraint.mjCNSTR_CONTACT_FRICTIONLESS]
+            rows = [i for i in range(probe.nefc) if probe.efc_type[i] == self._frictionless]  # a contact's normal row
             if not rows:  # pragma: no cover - the probe always touches
                 raise RuntimeError("MuJoCo calibration found no contact")
             i = rows[0]
@@ -379,6 +376,7 @@ class MujocoPlant:
             "duration": float(duration),
             "substeps": self.substeps,
             "mujoco": self.describe(),
+            "engine_notes": list(getattr(self, "notes", [])),  # e.g. how MuJoCo's friction differs (mujoco_surfaces)
         }
         result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)  # type: ignore[arg-type]
         if status_k is not None:

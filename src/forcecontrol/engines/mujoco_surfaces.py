@@ -18,6 +18,18 @@ triangular prisms and returns one contact per prism the tool's sphere overlaps (
 with a 1 cm sphere: 2 contacts on a 2-cm grid, 7 on a 1-cm grid, 16 on a 5-mm grid, some through the
 prisms' side walls), each of which MuJoCo's soft contact turns into a full surface spring: the force is a
 multiple of k δ, not an independent check of the built-in field.
+
+Friction (a :class:`~forcecontrol.environments.friction.FrictionalContact`, :func:`add_friction`): MuJoCo's Coulomb
+friction on the same contact (condim 3, the *elliptic* cone: the friction force is projected onto
+|f_t| <= μ f_n, so while sliding it is μ f_n exactly, in the sliding direction), μ = the kinetic coefficient
+μ_k. MuJoCo's friction is a soft constraint too: its rows get the contact's solref damping (at least
+:data:`FRICTION_MIN_DAMPING`) and a regulariser :data:`FRICTION_IMPRATIO` times smaller than the normal
+row's, so that while sliding it saturates at μ_k f_n (measured: the ratio 0.3 to 1e-12 at 0.125 m/s); it is not
+the built-in stick/slip state: MuJoCo has no static coefficient (μ_s is not modelled: a tool pulled with more than
+μ_k f_n slides), and the bristle (stick_stiffness, stick_damping, stick_speed)
+and the viscous coefficient b are not modelled either. The elliptic cone's projection also raises the
+normal force a little while sliding (measured 0.06 % with 1 N s/m). :class:`MujocoFrictionNote` says so
+on stderr and in the run's ``--json`` warnings.
 """
 
 from __future__ import annotations
@@ -29,7 +41,16 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["add_surface_geom", "quat_z_to"]
+#: MuJoCo's impratio with friction: the friction rows' regulariser this many times smaller than the normal row's.
+FRICTION_IMPRATIO = 1e4
+#: the least solref damping with friction [N s/m] (MuJoCo's friction rows resist the sliding speed through it).
+FRICTION_MIN_DAMPING = 1.0
+
+
+class MujocoFrictionNote(UserWarning):
+    """MuJoCo's friction differs from the built-in stick/slip model (no static coefficient, no bristle)."""
+
+__all__ = ["add_surface_geom", "add_friction", "quat_z_to", "MujocoFrictionNote", "FRICTION_IMPRATIO", "FRICTION_MIN_DAMPING"]
 
 
 def quat_z_to(direction: np.ndarray) -> list[float]:
@@ -113,3 +134,42 @@ def add_surface_geom(plant: Any, spec: Any, env: Any) -> bool:
     g.solimp = [plant.impedance, plant.impedance, 1e-6, 0.5, 2.0]
     g.solref = [-1.0, -1.0]  # set by _calibrate
     return True
+
+
+def friction_note(env: Any, damping_raised: bool) -> str:
+    """What MuJoCo does differently from the built-in FrictionalContact ``env`` (one sentence per difference)."""
+    parts = [f"MuJoCo's friction is Coulomb with μ = kinetic = {env.mu_k:g} (elliptic cone, soft): no static coefficient "
+             f"(static = {env.mu_s:g} not modelled: a pull between μ_k f_n and μ_s f_n slides instead of sticking), "
+             "no stick/slip state"]
+    if env.viscous > 0:
+        parts.append(f"viscous = {env.viscous:g} N s/m not modelled")
+    if damping_raised:
+        parts.append(f"the contact damping raised to {FRICTION_MIN_DAMPING:g} N s/m (MuJoCo's friction acts through it)")
+    return "; ".join(parts)
+
+
+def add_friction(plant: Any, spec: Any, env: Any, add_surface: Any) -> bool:
+    """Add a FrictionalContact ``env``: its surface through ``add_surface(spec)`` (the plant's own builder, with
+    ``plant.environment`` the surface meanwhile), then MuJoCo's friction on it (see the module's text). The note
+    goes to stderr (:class:`MujocoFrictionNote`) and to ``plant.notes``."""
+    import warnings
+
+    mujoco = plant._mujoco
+    plant.environment = env.surface
+    try:
+        contact = add_surface(spec)
+    finally:
+        plant.environment = env
+    raised = plant._c_env < FRICTION_MIN_DAMPING
+    plant._c_env = max(plant._c_env, FRICTION_MIN_DAMPING)
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = FRICTION_IMPRATIO
+    for g in spec.geoms:
+        if g.name in ("environment", "ee_contact"):
+            g.condim = 3
+            g.friction = [env.mu_k, 0.0, 0.0]
+    plant._contact_row = int(mujoco.mjtConstraint.mjCNSTR_CONTACT_ELLIPTIC)  # the normal row of an elliptic contact
+    note = friction_note(env, raised)
+    plant.notes = [*getattr(plant, "notes", []), note]
+    warnings.warn(note, MujocoFrictionNote, stacklevel=4)
+    return contact

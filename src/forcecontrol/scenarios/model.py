@@ -372,7 +372,8 @@ class ScenarioRun:
                     "engine": c.result.metadata.get("engine"),
                     # what stderr said about the case (summary.case_warnings), and the run's notes (settle_window)
                     "warnings": case_warnings(c) + [{"kind": "settle-window", "t": None, "text": str(n)}
-                                                    for n in c.result.metadata.get("run_notes") or ()],
+                                                    for n in c.result.metadata.get("run_notes") or ()]
+                    + [{"kind": "engine-note", "t": None, "text": str(n)} for n in c.result.metadata.get("engine_notes") or ()],
                     "events": case_events(c),
                 }
                 for c in self.cases
