@@ -185,3 +185,21 @@ def test_why_height_fields_are_refused_mujoco_hfield_gives_one_contact_per_prism
     depths = [-float(d.contact[i].dist) for i in range(d.ncon)]
     assert d.ncon >= least
     assert max(depths) == pytest.approx(1e-3, abs=1e-9) and sum(depths) > 1.2e-3
+
+
+def test_mujoco_zero_friction_is_the_frictionless_contact_without_a_note():
+    """static = kinetic = 0 (a scenario that only wants the friction logs): MuJoCo builds the frictionless contact
+    (condim 1), warns nothing, and its run equals the bare surface's run exactly."""
+    import warnings
+
+    from forcecontrol.engines.mujoco import MujocoPlant
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plant = MujocoPlant(ARM, _frictional_plane(0.0, 0.0))
+    assert int(plant.model.geom("environment").condim) == 1 and not getattr(plant, "notes", [])
+    bare = MujocoPlant(ARM, fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], 1e4))
+    ref = fc.LinearPath([1.0, 0.59], [1.05, 0.59], duration=0.2, start_time=0.05)
+    a, b = (p.run(fc.ImpedanceController(ARM, MD, KD, KP), ref, q0=Q0, duration=0.3) for p in (plant, bare))
+    np.testing.assert_array_equal(a.wrench, b.wrench)
+    assert a.metadata["engine_notes"] == []

@@ -151,7 +151,8 @@ def friction_note(env: Any, damping_raised: bool) -> str:
 def add_friction(plant: Any, spec: Any, env: Any, add_surface: Any) -> bool:
     """Add a FrictionalContact ``env``: its surface through ``add_surface(spec)`` (the plant's own builder, with
     ``plant.environment`` the surface meanwhile), then MuJoCo's friction on it (see the module's text). The note
-    goes to stderr (:class:`MujocoFrictionNote`) and to ``plant.notes``."""
+    goes to stderr (:class:`MujocoFrictionNote`) and to ``plant.notes``. All coefficients zero: the frictionless
+    contact (condim 1), no note."""
     import warnings
 
     mujoco = plant._mujoco
@@ -160,6 +161,8 @@ def add_friction(plant: Any, spec: Any, env: Any, add_surface: Any) -> bool:
         contact = add_surface(spec)
     finally:
         plant.environment = env
+    if env.mu_s == 0.0 and env.mu_k == 0.0 and env.viscous == 0.0:  # no friction at all: the frictionless contact
+        return contact
     raised = plant._c_env < FRICTION_MIN_DAMPING
     plant._c_env = max(plant._c_env, FRICTION_MIN_DAMPING)
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
