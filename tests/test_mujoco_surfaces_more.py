@@ -197,7 +197,7 @@ def test_mujoco_zero_friction_is_the_frictionless_contact_without_a_note():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         plant = MujocoPlant(ARM, _frictional_plane(0.0, 0.0))
-    assert int(plant.model.geom("environment").condim) == 1 and not getattr(plant, "notes", [])
+    assert int(plant.model.geom("environment").condim[0]) == 1 and not getattr(plant, "notes", [])
     bare = MujocoPlant(ARM, fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], 1e4))
     ref = fc.LinearPath([1.0, 0.59], [1.05, 0.59], duration=0.2, start_time=0.05)
     a, b = (p.run(fc.ImpedanceController(ARM, MD, KD, KP), ref, q0=Q0, duration=0.3) for p in (plant, bare))
