@@ -7,7 +7,8 @@ The robot is rebuilt in MuJoCo from the same URDF (visual and collision meshes d
 joints made fixed, static bodies kept so the controlled frame exists), with the joints'
 armature and damping; the end-effector gets a small frictionless sphere (``contact_radius``)
 centred on the controlled frame. Elastic planes and tables become MuJoCo planes shifted by that
-radius, so that the penetration MuJoCo sees is the built-in environments' δ. A robot's payload is a
+radius, so that the penetration MuJoCo sees is the built-in environments' δ (curved surfaces, convex
+meshes and friction: :mod:`.mujoco_surfaces`). A robot's payload is a
 body after MuJoCo's own F/T sensor, which the controller then reads (:mod:`.mujoco_payload`).
 
 The loop is the same sampled loop as :func:`forcecontrol.sim.simulation.simulate`: at each sample
