@@ -255,3 +255,13 @@ def test_hole_metrics_need_the_search_controller():
     parts = build_case(load_scenario("panda-wipe-heightfield").cases[0])
     with pytest.raises(ScenarioError, match="metric 'hole_found' needs the spatial-hybrid-search controller"):
         METRICS["hole_found"](None, parts, 0.1)
+
+
+def test_surface_task_quantities_have_units():
+    """The wipe's and the search's analysis quantities and metrics carry SI units (the flags hole_found/hole_in_reach none)."""
+    from forcecontrol.scenarios.units import unit
+
+    want = {"path_curvature_max": "1/m", "estimate_lag": "rad", "normal_force_bound": "N", "curvature_error": "N",
+            "lag_error": "N", "steady_fx": "N", "steady_fz": "N", "hole_distance": "m", "hole_detection_radius": "m",
+            "hole_time": "s", "hole_x": "m", "hole_y": "m", "hole_z": "m"}
+    assert {k: unit(k) for k in want} == want

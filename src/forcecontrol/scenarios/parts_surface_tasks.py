@@ -337,8 +337,12 @@ def _wipe_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     out = path_following_bound(path["normal_force"], path["speed"], kappa, field.stiffness, float(ctl.force_stiffness[0, 0]),
                                float(ctl.force_damping[0, 0]), est.time_constant,
                                stiffness_estimate=1.0 / float(ctl.compliance[0, 0]), sample_time=est.sample_time)
+    # at rest after the line (the estimate converged, λ = λ_d exactly): the tip where x_d's offset lies along the
+    # normal (the S_v servo's error zero), i.e. on the normal through the foot of x_d, pressing λ_d along it
+    nu = field.geometry(np.asarray(b, dtype=np.float64))[2]
+    steady = {f"steady_{axis}": float(-path["normal_force"] * nu[i]) for i, axis in enumerate(("fx", "fy", "fz"))}
     return {"path_curvature_max": float(np.max(np.abs(kappa))), "estimate_lag": out.lag, "normal_force_bound": out.bound,
-            "curvature_error": out.curvature_error, "lag_error": out.lag_error}
+            "curvature_error": out.curvature_error, "lag_error": out.lag_error, **steady}
 
 
 def _search_applies(parts: dict[str, Any]) -> bool:
@@ -362,6 +366,12 @@ def _search_analysis(parts: dict[str, Any]) -> dict[str, Any]:
     depth, width = float(rows[i, 2]), float(rows[i, 3])
     felt = width * math.sqrt(2.0 * math.log(depth / ctl.threshold)) if depth > ctl.threshold else 0.0
     out: dict[str, Any] = {"hole_distance": float(dist[i]), "hole_detection_radius": felt}
+    # at rest (held where the hole was found, or at the spiral's end): λ = λ_d exactly along the fixed normal; the
+    # lateral force (a dip's slope) is not predicted, so only a normal along z gives a settled axis to compare
+    n = ctl.search_normal
+    if abs(abs(float(n[2])) - 1.0) < 1e-12:
+        h_d = np.asarray(parts["reference"].at(0.0).force, dtype=np.float64)[:3]
+        out["steady_fz"] = float(n[2] * (n @ h_d))
     spiral = getattr(parts["reference"], "spiral_path", None)
     if spiral is not None:  # found for sure when the felt disc is within the spiral's reach and wider than its pitch
         r = float(np.hypot(rows[i, 0] - spiral["center"][0], rows[i, 1] - spiral["center"][1]))

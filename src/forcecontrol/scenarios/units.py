@@ -34,6 +34,8 @@ _NAMED = {
     "servo_loop_phase_margin": "deg", "servo_loop_least_damped_omega_n": "rad/s", "servo_loop_least_damped_zeta": "-",
     "servo_loop_force_per_penetration": "N/m",
     "rate": "Hz", "servo_bandwidth": "rad/s", "servo_damping": "-", "delay_cycles": "cycles", "lowpass_cutoff": "Hz",
+    "path_curvature_max": "1/m", "estimate_lag": "rad", "normal_force_bound": "N", "curvature_error": "N", "lag_error": "N",
+    "hole_distance": "m", "hole_detection_radius": "m", "hole_time": "s", "hole_x": "m", "hole_y": "m", "hole_z": "m",
 }
 _JOINT = re.compile(r"^(q|qd|u|uc)\d+$")
 _JOINT_UNITS = {"q": "rad", "qd": "rad/s", "u": "N m", "uc": "N m"}
