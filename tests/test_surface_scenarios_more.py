@@ -265,3 +265,17 @@ def test_surface_task_quantities_have_units():
             "lag_error": "N", "steady_fx": "N", "steady_fz": "N", "hole_distance": "m", "hole_detection_radius": "m",
             "hole_time": "s", "hole_x": "m", "hole_y": "m", "hole_z": "m"}
     assert {k: unit(k) for k in want} == want
+
+
+def test_search_ended_before_its_start_says_so():
+    """A run shorter than the search's start says the search did not start (not a misleading 'no drop')."""
+    from importlib.resources import files
+
+    import tomllib
+
+    data = tomllib.loads((files("forcecontrol.scenarios") / "panda-spiral-search.toml").read_text(encoding="utf-8"))
+    data.pop("case")
+    data["duration"] = 0.1
+    with pytest.warns(UserWarning, match=r"hole not found: the run ended at t = 0\.1000 s, before the search's start at 0\.3 s"):
+        res = run_scenario(load_scenario(data)).cases[0].result
+    assert [e["event"] for e in res.events] == ["hole not found"]

@@ -114,8 +114,13 @@ class SpiralSearchController(SpatialHybridController):
                      "detail": f"tip at [{p[0]:.5f}, {p[1]:.5f}, {p[2]:.5f}] m dropped more than {1e3 * self.threshold:.2f} mm"}]
         if self._t <= 0.0:
             return []
-        text = (f"hole not found: no drop of more than {1e3 * self.threshold:.2f} mm along the normal by t = {self._t:.4f} s "
-                f"(largest {1e3 * self._max_drop:.2f} mm; x_d went {1e3 * self._reach:.1f} mm from the search's start)")
+        if self._origin is None:
+            text = (f"hole not found: the run ended at t = {self._t:.4f} s, before the search's start at "
+                    f"{self.search_start:.4g} s")
+        else:
+            text = (f"hole not found: no drop of more than {1e3 * self.threshold:.2f} mm along the normal by t = "
+                    f"{self._t:.4f} s (largest {1e3 * self._max_drop:.2f} mm; x_d went {1e3 * self._reach:.1f} mm from "
+                    "the search's start)")
         if not self._warned:
             self._warned = True
             warnings.warn(f"{type(self).__name__}: {text}", SearchNote, stacklevel=2)
