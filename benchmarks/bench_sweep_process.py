@@ -1,0 +1,141 @@
+"""A whole ``forcecontrol sweep`` process against the plain hand-written scalar Numba loop, in one session.
+
+Issue 33 item 3 measures the planar sweep as a whole process (preparation, kernel, metrics and
+files together), with one worker and a warm Numba cache, in arm-steps per second (one control
+sample of one case), against the plain scalar loop of ``bench_plain_numba.py`` (Example 9.2's
+impedance control (9.30)-(9.31) written by hand from the arm's data) run in this same process.
+
+The sweep: Example 9.2's case 1 (impedance with force measurement, 4 s at 1 ms), the plane's
+stiffness over ``logspace(3, 5, K)`` and the damping over ``linspace(300, 700, D)`` (K·D cases;
+default 100 x 100 = 10⁴). Each repetition measures the plain loop, then the CLI process
+(``forcecontrol sweep ... --workers 1 --no-figure``, wall time of the subprocess, so Python's
+start-up and imports count too), so the ratio of each repetition is taken on a machine in the
+same state; the table reports the median and the spread (min-max) of the ratios.
+
+``--breakdown`` also splits one in-process run: ``prepare_sweep`` (validate and build every
+case), :func:`forcecontrol.sweep.run_block` over the same blocks (packing, kernel, metrics, rows)
+and the rest of ``run_sweep`` (table, Parquet parts and the final file).
+
+Run: ``python benchmarks/bench_sweep_process.py [--k 100] [--d 100] [--reps 3] [--breakdown]``;
+prints a table, asserts nothing. Target (issue 33 item 3): the process at least 2x the plain loop.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_plain_numba import plain_loop  # noqa: E402  (the baseline: written from the arm's data, not the library)
+
+import forcecontrol as fc  # noqa: E402
+from forcecontrol.sim.simulation import choose_substeps  # noqa: E402
+
+
+def _steps(table) -> int:
+    """Control samples actually simulated (a diverged case stops at its last sample)."""
+    ok = table["status"] == "ok"
+    early = np.round(table.loc[~ok, "diverged_at"] / 1e-3).astype(int)
+    return int(table.loc[ok, "samples"].sum() + early.sum())
+
+
+def _plain_rate(reps: int = 3) -> float:
+    """Arm-steps/s of the plain scalar loop on Example 9.2's case (k = 1e4 N/m, 4 s at 1 ms)."""
+    arm = fc.PlanarTwoLink()
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    k, Ts, N = 1e4, 1e-3, 4000
+    nsub = choose_substeps(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], k), q0, Ts)
+    args = (q0, np.array([1.1, 0.1]), k, 100.0, 500.0, 2500.0, N, Ts, nsub)
+    plain_loop(*args)  # compile
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        plain_loop(*args)
+    return reps * N / (time.perf_counter() - t0)
+
+
+def _cli(k: int, d: int, out: Path) -> tuple[float, dict]:
+    cmd = [
+        "forcecontrol", "sweep", "example-9.2", "--case", "1",
+        "-p", f"environment.stiffness=logspace(3,5,{k})", "-p", f"controller.damping=linspace(300,700,{d})",
+        "--workers", "1", "--no-figure", "--json", "--overwrite", "--out", str(out),
+    ]
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    return time.perf_counter() - t0, json.loads(p.stdout)
+
+
+def _breakdown(k: int, d: int, tmp: Path) -> None:
+    from forcecontrol.sweep import SweepDefinition, prepare_sweep, run_block, run_sweep
+    from forcecontrol.sweep.run import _blocks
+
+    defn = SweepDefinition.from_options(
+        {"environment.stiffness": f"logspace(3, 5, {k})", "controller.damping": f"linspace(300, 700, {d})"}, cases=["1"],
+    )
+    t0 = time.perf_counter()
+    prep = prepare_sweep("example-9.2", defn)
+    t_prep = time.perf_counter() - t0
+    blocks = _blocks(prep.jobs, 1, None)
+    t0 = time.perf_counter()
+    steps = 0
+    for b in blocks:
+        steps += sum(r["_steps"] for r in run_block(b, 0.02, 0.05))
+    t_block = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run_sweep(prep, tmp / "in-process.parquet", workers=1)
+    t_sweep = time.perf_counter() - t0
+    total = t_prep + t_sweep
+    print(f"\nin-process breakdown ({prep.n_cases} cases, {steps:,} arm-steps, {len(blocks)} blocks):")
+    for what, t in (("prepare_sweep (validate, build every case)", t_prep),
+                    ("run_block over the blocks (pack, kernel, metrics, rows)", t_block),
+                    ("rest of run_sweep (table, Parquet parts, final file)", t_sweep - t_block),
+                    ("prepare_sweep + run_sweep", total)):
+        print(f"  {what:<58} {t:>7.2f} s {100 * t / total:>5.1f} %")
+    print(f"  kernel-side rate (run_block): {steps / t_block:.3g} arm-steps/s; whole: {steps / total:.3g}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--k", type=int, default=100, help="stiffness values")
+    ap.add_argument("--d", type=int, default=100, help="damping values")
+    ap.add_argument("--reps", type=int, default=3, help="repetitions (plain loop then process, each)")
+    ap.add_argument("--breakdown", action="store_true", help="also split one in-process run into its parts")
+    args = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="fc-bench-process-"))
+    try:
+        _cli(2, 2, tmp / "warm.parquet")  # a warm cache: the kernel compiles (if at all) here, not in the timings
+        import pandas as pd
+
+        plains, procs, ratios = [], [], []
+        for rep in range(args.reps):
+            plain = _plain_rate()
+            out = tmp / f"sweep-{rep}.parquet"  # a new file each time: the same file would resume, not run
+            dt, js = _cli(args.k, args.d, out)
+            steps = _steps(pd.read_parquet(out))
+            plains.append(plain)
+            procs.append(steps / dt)
+            ratios.append(steps / dt / plain)
+            print(f"plain loop {plain:.3g} arm-steps/s; process {js['cases']} cases, {steps:,} arm-steps in {dt:.2f} s "
+                  f"(sweep's own 'seconds' {js['seconds']:.2f}): {steps / dt:.3g} arm-steps/s; ratio {steps / dt / plain:.2f}x")
+        print(f"\ncores: {os.cpu_count()}, repetitions: {args.reps}")
+        for what, v in (("plain scalar loop  ", plains), ("whole sweep process", procs)):
+            print(f"{what}: median {statistics.median(v):.3g} arm-steps/s (min {min(v):.3g}, max {max(v):.3g})")
+        print(f"process / plain    : median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}, max {max(ratios):.2f}); "
+              f"target >= 2.00x: {'met' if statistics.median(ratios) >= 2.0 else 'NOT met'}")
+        if args.breakdown:
+            _breakdown(args.k, args.d, tmp)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
