@@ -46,7 +46,7 @@ def test_vendor_example_runs_from_its_file(tmp_path, name, bounces, settles, f_z
     proc = forcecontrol(tmp_path, "run", name, "--json")
     doc = json.loads(proc.stdout)
     assert_figure(tmp_path / doc["files"]["figure"])
-    assert "ConfigNote" in proc.stderr and config in proc.stderr
+    assert "note: " in proc.stderr and config in proc.stderr and "ConfigNote" not in proc.stderr
     cases = {c["label"]: c for c in doc["cases"]}
     assert set(cases) == {bounces, settles} and doc["all_checks_pass"] is True
     for c in cases.values():
@@ -72,7 +72,7 @@ def test_issue_177_runs_from_its_file(tmp_path):
     proc = forcecontrol(tmp_path, "run", "fzi_issue_177.toml", "--json")
     doc = json.loads(proc.stdout)
     assert_figure(tmp_path / doc["files"]["figure"])
-    assert "ConfigNote" in proc.stderr and "servo" in proc.stderr
+    assert "note: " in proc.stderr and "servo" in proc.stderr and "ConfigNote" not in proc.stderr
     cases = {c["label"]: c for c in doc["cases"]}
     assert set(cases) == {"reported", "reporter's error_scale 0.002", "proposed"}
     assert any(w["kind"] == "servo-limit" for w in cases["reported"]["warnings"])

@@ -137,12 +137,41 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
     said = (where.split(": [[case]]")[0], source, tuple(notes))
     if notes and said not in _SAID:  # once per scenario file and configuration (a load and its run build it twice)
         _SAID.add(said)
-        warnings.warn(f"{where}: [controller] {kind} from {source}: " + "; ".join(notes), ConfigNote, stacklevel=2)
+        head = f"{Path(where.split(': [[case]]')[0]).name}: [controller] {kind} from {Path(source or '').name}"
+        for n in notes:  # one warning (one stderr line) per note
+            warnings.warn(ConfigNote(f"{head}: {n}"), stacklevel=2)
     return ctl
 
 
 class ConfigNote(UserWarning):
-    """What a configuration file's reader did not read, mapped or defaulted (the notes of ``read_config``)."""
+    """What a configuration file's reader did not read, mapped or defaulted (the notes of ``read_config``).
+
+    Shown as one clean ``note: ...`` line on stderr (no library file and line), kept in ``--json``'s ``warnings``."""
+
+
+def _show_config_notes() -> None:
+    """Print ConfigNote warnings as ``note: <text>`` lines; every other warning as Python prints it."""
+    previous = warnings.showwarning
+    if getattr(previous, "_config_note", False):
+        return
+
+    def show(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
+        if isinstance(category, type) and issubclass(category, ConfigNote):
+            import sys
+
+            out = sys.stderr if file is None else file
+            try:
+                out.write(f"note: {message}\n")
+            except OSError:
+                pass
+            return
+        previous(message, category, filename, lineno, file, line)
+
+    show._config_note = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
+
+
+_show_config_notes()
 
 
 _SAID: set[Any] = set()

@@ -33,6 +33,8 @@ _NAMED = {
     "servo_loop_spectral_radius": "-", "servo_loop_stability_limit": "N/m", "servo_loop_gain_margin_db": "dB",
     "servo_loop_phase_margin": "deg", "servo_loop_least_damped_omega_n": "rad/s", "servo_loop_least_damped_zeta": "-",
     "servo_loop_force_per_penetration": "N/m",
+    "environment_stiffness": "N/m", "vendor_loop_spectral_radius": "-", "vendor_loop_stability_limit": "N/m",
+    "vendor_loop_margin": "-",
     "rate": "Hz", "servo_bandwidth": "rad/s", "servo_damping": "-", "delay_cycles": "cycles", "lowpass_cutoff": "Hz",
     "path_curvature_max": "1/m", "estimate_lag": "rad", "normal_force_bound": "N", "curvature_error": "N", "lag_error": "N",
     "hole_distance": "m", "hole_detection_radius": "m", "hole_time": "s", "hole_x": "m", "hole_y": "m", "hole_z": "m",
