@@ -15,7 +15,8 @@ __all__ = ["design_command"]
 
 def design_command(
     scheme: Annotated[
-        str, typer.Argument(help="impedance, inner-position, inner-velocity, parallel, hybrid or admittance-position")
+        str, typer.Argument(help="impedance, inner-position, inner-velocity, parallel, hybrid, admittance-position, "
+                                 "or a vendor controller: fzi-compliance, fzi-force, ros2-admittance, ur-force-mode (--config)")
     ],
     k_min: Annotated[float, typer.Option("--k-min", help="lowest environment stiffness [N/m]")],
     k_max: Annotated[float, typer.Option("--k-max", help="highest environment stiffness [N/m]")],
@@ -45,7 +46,12 @@ def design_command(
     robot: Annotated[
         str, typer.Option(help="admittance-position: the --out scenario's robot: chapter-arm, ur5 or panda")
     ] = "chapter-arm",
-    out: Annotated[Path | None, typer.Option(help="write a scenario (TOML) with one case per checked stiffness")] = None,
+    config: Annotated[Path | None, typer.Option(
+        help="vendor schemes: the controller's own file (YAML, .cfg, UR script) to tune; --out writes it back")] = None,
+    solver: Annotated[str | None, typer.Option(
+        help="fzi schemes: the solver the arm runs, accumulating (default) or instantaneous (before Dec 2021)")] = None,
+    out: Annotated[Path | None, typer.Option(
+        help="write a scenario (TOML) with one case per checked stiffness; vendor schemes: the tuned --config file")] = None,
     force: Annotated[bool, typer.Option("--force", help="overwrite --out if it exists")] = False,
     json_out: Annotated[bool, typer.Option("--json", help="print one JSON object instead of a table")] = False,
 ) -> None:
@@ -55,7 +61,12 @@ def design_command(
     the sampled loop (see forcecontrol.analysis.design); --out writes a runnable scenario.
     """
     from ..errors import ForceControlError, OutputError
+    from .design_vendor import VENDOR_SCHEMES, design_vendor
 
+    if scheme in VENDOR_SCHEMES:
+        design_vendor(scheme, config, k_min, k_max, rate=rate, servo_bandwidth=servo_bandwidth, servo_damping=servo_damping,
+                      delay=delay, gain_margin=gain_margin, solver=solver, out=out, force=force, json_out=json_out)
+        return
     try:
         from ..analysis.gain_design import design_gains
         from ..errors import ParameterError
@@ -64,6 +75,9 @@ def design_command(
                       "--servo-damping": servo_damping != 0.67, "--lowpass-cutoff": lowpass_cutoff is not None,
                       "--robot": robot != "chapter-arm"}
         other_opts = {"--filter-cutoff": filter_cutoff is not None, "--arm-inertia": arm_inertia is not None}
+        if config is not None or solver is not None:
+            raise ParameterError(f"--config and --solver are for the vendor schemes ({', '.join(VENDOR_SCHEMES)}); "
+                                 f"the scheme is {scheme!r}")
         unused = [k for k, v in (other_opts if scheme == "admittance-position" else servo_opts).items() if v]
         if unused:  # an option the scheme does not read is refused, not silently ignored
             raise ParameterError(
