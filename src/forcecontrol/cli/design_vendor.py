@@ -30,6 +30,12 @@ def _floor4(x: float) -> float:
     return float(f"{math.floor(x / q) * q:.4g}")
 
 
+def _ceil4(x: float) -> float:
+    """``x`` rounded up to 4 significant digits."""
+    q = 10.0 ** (math.floor(math.log10(x)) - 3)
+    return float(f"{math.ceil(x / q - 1e-9) * q:.4g}")
+
+
 def _bisect(ok: Any, lo: float, hi: float) -> float:
     """The largest x in [lo, hi] with ok(x) (ok monotone: true below), to 1e-3 relative; lo must be ok."""
     while hi - lo > 1e-3 * hi:
@@ -69,7 +75,7 @@ def _tune(kind: str, params: dict[str, Any], servo: tuple[float, float, float, i
         while hi - lo > 1e-3 * hi:
             mid = 0.5 * (lo + hi)
             lo, hi = (lo, mid) if heavy_enough(mid) else (mid, hi)
-        return {"mass": [round(m * hi, 4) for m in mass[:3]] + mass[3:]}
+        return {"mass": [_ceil4(m * hi) for m in mass[:3]] + mass[3:]}
     s0 = float(params.get("gain_scaling", 1.0))
 
     def ok_gain(s: float) -> bool:
