@@ -88,3 +88,14 @@ def test_analyze_covers_ros2_admittance_and_ur_force_mode(tmp_path):
     doc = json.loads(forcecontrol(tmp_path, "analyze", "ur.toml", "--json").stdout)
     a = doc["cases"][0]["analysis"]
     assert "force mode" in a["vendor_loop"] and a["vendor_loop_stability_limit"] > 0
+
+
+def test_analyze_covers_the_fzi_force_controller(tmp_path):
+    """The force controller (import-config fzi_force.yaml, 10 N down on a 5 kN/m table): the FZI loop without stiffness
+    (one solver step), equilibrium force = f_d (-10 N, the force controller's closed form), margin = limit / k_e."""
+    scn = forcecontrol(tmp_path, "import-config", CONFIGS / "fzi_force.yaml").stdout
+    (tmp_path / "f.toml").write_text(scn, encoding="utf-8")
+    a = json.loads(forcecontrol(tmp_path, "analyze", "f.toml", "--json").stdout)["cases"][0]["analysis"]
+    assert "stiffness" not in a["vendor_loop"] and "1 iteration" in a["vendor_loop"]
+    assert a["steady_fz"] == pytest.approx(-10.0, rel=1e-9)
+    assert a["vendor_loop_margin"] == pytest.approx(a["vendor_loop_stability_limit"] / 5000.0, rel=1e-9)
