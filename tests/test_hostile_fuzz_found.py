@@ -400,3 +400,11 @@ def test_sweep_refuses_an_absurd_worker_count(tmp_path):
                                    "--no-figure", "--workers", "9" * 401])
     assert res.exit_code == 2 and "--workers" in res.output and "4096" in res.output, res.output
     assert not (tmp_path / "s.parquet").exists()
+
+
+@pytest.mark.parametrize("name", ["arm-unknown-circle", "panda-unknown-sphere", "panda-spiral-search"])
+@pytest.mark.parametrize("value", [0.0, -0.0])
+def test_a_zero_stiffness_estimate_is_refused_by_name(name, value):
+    """k̂ = -0.0 passed the inclusive range [0, …] and the builder divided by it (fuzz 1019, CI at 0fa85e5)."""
+    with pytest.raises(ScenarioError, match=r"stiffness_estimate"):
+        fc.scenario(name).with_({"controller.stiffness_estimate": value})

@@ -275,7 +275,7 @@ register_controller(
         "normal": Field("vector", True, low=-1e6, high=1e6, doc="the surface's normal into it, base frame (S_f; the drop)"),
         "threshold": Field("number", True, low=0.0, high=1.0, doc="the drop along the normal that finds the hole [m]"),
         "start_time": Field("number", default=0.0, low=0.0, high=1e5, doc="when the search starts (its reference height) [s]"),
-        "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
+        "stiffness_estimate": Field("number", True, low=1e-3, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m] (> 0)"),
         "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) along S_v (6, 6) [1/s²]"),
         "damping": Field("gain", True, doc="K_D of the pose servo (9.95) along S_v (6, 6) [1/s]"),
         "force_gain": Field("number", True, low=0.0, high=1e12, doc="K_Pλ of (9.82) [1/s²]"),

@@ -308,7 +308,7 @@ register_controller(
     "hybrid-estimated",
     {
         **_ESTIMATOR_FIELDS,
-        "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
+        "stiffness_estimate": Field("number", True, low=1e-3, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m] (> 0)"),
         "velocity_gain": Field("gain", True, doc="K_Pν of (9.80) [1/s]"),
         "velocity_integral_gain": Field("gain", True, doc="K_Iν of (9.80) [1/s²]"),
         "force_gain": Field("gain", True, doc="K_Pλ of (9.81) [1/s²]"),
@@ -408,7 +408,7 @@ register_controller(
     "spatial-hybrid-estimated",
     {
         **_ESTIMATOR_FIELDS,
-        "stiffness_estimate": Field("number", True, low=0.0, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m]"),
+        "stiffness_estimate": Field("number", True, low=1e-3, high=MAX_STIFFNESS, doc="k̂ = 1/ĉ along the normal [N/m] (> 0)"),
         "stiffness": Field("gain", True, doc="K_P of the pose servo (9.95) along S_v (6, 6) [1/s²]"),
         "damping": Field("gain", True, doc="K_D of the pose servo (9.95) along S_v (6, 6) [1/s]"),
         "force_gain": Field("number", True, low=0.0, high=1e12, doc="K_Pλ of (9.82) [1/s²]"),
