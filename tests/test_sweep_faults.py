@@ -308,3 +308,27 @@ def test_dask_worker_killed_mid_block_is_resubmitted(tmp_path, slow, fault_table
     fault_table.append((f"Dask worker SIGKILLed mid-block ({', '.join(kills)}; allowed-failures = 0)",
                         f"{len(messages)} block(s) lost and submitted again, e.g. '{messages[0][:60]}...'; table = local run "
                         f"({prep.n_cases} cases, each once)"))
+
+
+def test_a_block_failing_with_a_foreign_exception_is_a_sweep_error_naming_its_cases_and_resumes(tmp_path, monkeypatch, reference):
+    """A bare ``AssertionError()`` from inside a block (a dependency's assert) became the CLI's raw traceback; now a
+    SweepError names the cases and the exception, keeps the stored parts, and the same command resumes to the reference."""
+    import forcecontrol.sweep.run as sweep_run
+
+    real = sweep_run.run_block
+
+    def flaky(jobs, *band):
+        if any(j.case_id == 5 for j in jobs):
+            raise AssertionError()
+        return real(jobs, *band)
+
+    out = tmp_path / "t.parquet"
+    monkeypatch.setattr(sweep_run, "run_block", flaky)
+    with pytest.raises(SweepError, match=r"block of cases 4-7 failed inside the simulator with AssertionError: \(no message\)"):
+        run_sweep(_prep(), out, block_size=4, workers=1)
+    parts = out.with_name(out.name + ".parts")
+    assert any(p.name.startswith("part-00000000-00000003") for p in parts.iterdir())  # the block before it is kept
+    monkeypatch.setattr(sweep_run, "run_block", real)
+    res = run_sweep(_prep(), out, block_size=4, workers=1)
+    assert res.resumed == 4
+    assert res.table.equals(reference)

@@ -26,8 +26,10 @@ import hashlib
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
-__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "install_kernel_cache"]
+__all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "install_kernel_cache",
+           "identity_lock", "build_once"]
 
 CACHE_DIR: str | None = None
 _notified = False
@@ -152,13 +154,39 @@ def stable_identities() -> None:
     """
     from numba.core.registry import CPUDispatcher
 
-    # snapshots: another thread may import a module (or set a module attribute) while this runs
-    for name in sorted(m for m in list(sys.modules) if m == "forcecontrol" or m.startswith("forcecontrol.")):
-        module = sys.modules.get(name)
-        for attr, obj in sorted(list(vars(module).items()), key=lambda kv: kv[0]) if module is not None else ():
-            if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
-                if getattr(obj, "_MemoMixin__uuid", None) is None:
-                    obj._set_uuid(f"forcecontrol:{name}.{attr}")
+    with identity_lock():  # check-and-set atomic: Numba's ``_set_uuid`` asserts the uuid is unset
+        # snapshots: another thread may import a module (or set a module attribute) while this runs
+        for name in sorted(m for m in list(sys.modules) if m == "forcecontrol" or m.startswith("forcecontrol.")):
+            module = sys.modules.get(name)
+            for attr, obj in sorted(list(vars(module).items()), key=lambda kv: kv[0]) if module is not None else ():
+                if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
+                    if getattr(obj, "_MemoMixin__uuid", None) is None:
+                        obj._set_uuid(f"forcecontrol:{name}.{attr}")
+
+
+def identity_lock() -> Any:
+    """The lock under which identities are given and per-law kernels built: Numba's own compiler lock (reentrant).
+
+    A sweep runs its blocks on threads. Two threads giving identities at once (or one reading a
+    dispatcher's ``_uuid``, which draws a random one when unset, while the other sets it) tripped
+    the bare ``assert self.__uuid is None`` in Numba's ``_MemoMixin._set_uuid``: a sweep failed
+    with ``AssertionError()`` on a cold start. Numba pickles dispatchers for its cache keys while
+    holding this same lock, so holding it here also orders identities before any such pickling.
+    """
+    from numba.core.compiler_lock import global_compiler_lock
+
+    return global_compiler_lock
+
+
+def build_once(cache: dict[Any, Any], key: Any, build: Any) -> Any:
+    """``cache[key]``, built by ``build()`` on first use under :func:`identity_lock` (once, even from several threads)."""
+    value = cache.get(key)
+    if value is None:
+        with identity_lock():
+            value = cache.get(key)
+            if value is None:
+                value = cache[key] = build()
+    return value
 
 
 def _ours(py_func: object) -> bool:
@@ -230,4 +258,5 @@ def kernel_identity(dispatcher: object, identity: str) -> None:
     """Give a compiled closure (a loop built per law) its identity: its pickling uuid and its own cache files."""
     from .kernel_cache import set_identity
 
-    set_identity(dispatcher, identity)
+    with identity_lock():
+        set_identity(dispatcher, identity)

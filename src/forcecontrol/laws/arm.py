@@ -12,7 +12,7 @@ from typing import Any
 
 from numba import njit, types
 
-from ..core.numba_cache import kernel_identity, stable_identities
+from ..core.numba_cache import build_once, kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
 from .layout import REF_X_D, ref_a_d, ref_f_d, ref_fddot_d, ref_fdot_d, ref_size, ref_v_d
 
@@ -104,17 +104,18 @@ def on_arm(law: Any) -> Any:
     of a user's real-time loop (that cost one 8 ms cycle at the first contact). Inputs of another
     layout (non-contiguous views) raise TypeError, and ``Controller.step`` takes its checked path.
     """
-    step = _ON_ARM.get(law)
-    if step is None:
+    def build() -> Any:
         stable_identities()
 
         def run(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
             ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
             return ok and arm_finish(law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
 
-        step = _ON_ARM[law] = njit(_ON_ARM_SIGNATURE, cache=True)(run)
+        step = njit(_ON_ARM_SIGNATURE, cache=True)(run)
         kernel_identity(step, f"forcecontrol:laws.arm.on_arm:{law._uuid}")  # its own uuid and cache files, per law
-    return step
+        return step
+
+    return build_once(_ON_ARM, law, build)  # once, even from several threads
 
 
 _ON_ARM: dict[Any, Any] = {}

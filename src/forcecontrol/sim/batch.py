@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ..core.numba_cache import kernel_identity
+from ..core.numba_cache import build_once, kernel_identity
 from .loop import planar_loop
 from .metrics import case_metrics  # the one definition of the step-response metrics
 
@@ -45,12 +45,14 @@ def kernels(law: Any) -> tuple[Any, Any]:
     The law's loop (:func:`forcecontrol.sim.loop.planar_loop`) is a constant of these closures, so
     they are specialised per law like the loop itself.
     """
-    k = _KERNELS.get(law)
-    if k is None:
-        k = _KERNELS[law] = _make_kernels(planar_loop(law, full_log=False))
+    def build() -> tuple[Any, Any, tuple[Any, ...]]:
+        k = _make_kernels(planar_loop(law, full_log=False))
         for name, fn in zip(("case", "one", "batch"), k[2]):
             # its own identity, symbol name and cache files, per kernel and law (see core.kernel_cache)
             kernel_identity(fn, f"forcecontrol:_batch.{name}:{law._uuid}")
+        return k
+
+    k = build_once(_KERNELS, law, build)  # once, even when a sweep's threads ask together
     return k[0], k[1]
 
 

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ..core.numba_cache import kernel_identity, stable_identities
+from ..core.numba_cache import build_once, kernel_identity, stable_identities
 from .plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
 
 __all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
@@ -35,14 +35,15 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
     ``full_log=False`` (the sweeps' batch, which keeps the contact force only) every log but ``H``
     may have one row: row 0 is overwritten at each sample, the same arithmetic otherwise.
     """
-    loop = _LOOPS.get((law, full_log))
-    if loop is None:
+    def build() -> Any:
         stable_identities()
-        loop = _LOOPS[(law, full_log)] = njit(cache=True)(_make_loop(law, full_log))
+        loop = njit(cache=True)(_make_loop(law, full_log))
         tag = "" if full_log else ":h-only"
         # its own identity: found again on disk (see stable_identities), and its own cache files (per law and variant)
         kernel_identity(loop, f"forcecontrol:loop:{law._uuid}{tag}")
-    return loop
+        return loop
+
+    return build_once(_LOOPS, (law, full_log), build)  # once, even when a sweep's threads ask together
 
 
 _LOOPS: dict[Any, Any] = {}

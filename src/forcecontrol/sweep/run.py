@@ -247,7 +247,8 @@ def _run_local(blocks, workers: int, band, store) -> None:
                 pending[pool.submit(run_block, b, *band)] = b
             finished, _ = wait(list(pending), return_when=FIRST_COMPLETED)
             for f in finished:
-                store(pending.pop(f), f.result())
+                b = pending.pop(f)
+                store(b, _block_result(f, b))
     except BaseException:
         # Ctrl-C: keep what the running blocks finish, start nothing new
         for f in list(pending):
@@ -261,6 +262,23 @@ def _run_local(blocks, workers: int, band, store) -> None:
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _block_result(f: Future, block: list[CaseJob]) -> list[dict[str, Any]]:
+    """The rows of a finished block; an exception that is not the library's own becomes a :class:`SweepError` naming the cases."""
+    from ..errors import ForceControlError
+
+    try:
+        return f.result()
+    except (ForceControlError, KeyboardInterrupt):
+        raise
+    except Exception as exc:
+        ids = [j.case_id for j in block]
+        raise SweepError(
+            f"the block of cases {min(ids)}-{max(ids)} failed inside the simulator with {type(exc).__name__}: "
+            f"{str(exc) or '(no message)'}; this is a defect of forcecontrol: please report it with the command. "
+            "The cases stored so far are kept; the same command resumes"
+        ) from exc
 
 
 def _client(scheduler: Any):
