@@ -133,6 +133,8 @@ def test_spiral_search_says_not_found(search):
     assert any("hole not found" in s for s in said)
     doc = run.to_json()
     assert doc["cases"][1]["events"][0]["event"] == "hole not found"
+    assert [w["kind"] for w in doc["cases"][1]["warnings"]] == ["hole not found"]  # a warning, not only an event
+    assert not any(w["kind"] == "hole not found" for w in doc["cases"][0]["warnings"])
     assert all(c["ok"] for c in case.checks)
 
 
