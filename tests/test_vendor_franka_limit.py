@@ -178,3 +178,50 @@ def test_simulated_growth_per_cycle_is_the_contact_modes_radius():
     f = _contact_force(1e-3, 1.01 * limit, duration=0.302)
     d2 = np.abs(f[2:] - 2.0 * f[1:-1] + f[:-2])
     assert (d2[300] / d2[200]) ** (1.0 / 100) == pytest.approx(abs(z[0]), rel=1e-4)
+
+
+def _imported_scenario(tmp_path, name: str, *, stiffness: float = 5000.0, sample_time: float = 0.001):
+    """The scenario `forcecontrol import-config` writes for the shipped Franka example YAML, with the table's stiffness
+    and the sample time replaced."""
+    from importlib import resources
+    from pathlib import Path
+
+    from journeys_helpers import forcecontrol
+
+    yaml = Path(str(resources.files("forcecontrol.scenarios"))) / "configs" / "franka_cartesian_impedance.yaml"
+    text = forcecontrol(tmp_path, "import-config", yaml).stdout
+    assert "stiffness = 5000.0" in text and "sample_time = 0.001" in text
+    path = tmp_path / name
+    path.write_text(text.replace("stiffness = 5000.0", f"stiffness = {stiffness!r}")
+                    .replace("sample_time = 0.001", f"sample_time = {sample_time!r}"), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("stiffness, sample_time, verdict", [(5000.0, 1e-3, "settles"), (5e7, 1e-3, "bounces"),
+                                                              (5000.0, 2e-3, "unstable in free space")])
+def test_analyze_reports_the_franka_loop_limit_margin_and_verdict(tmp_path, stiffness, sample_time, verdict):
+    """analyze --json on the imported Franka example: the limit equals franka_stability_limit of the loop built here from
+    the Panda at q0 (1e-9), margin = limit / k_e, the verdict (5e7 N/m is beyond the 1 kHz limit 3.84e7; at 500 Hz the
+    default gains are unstable without contact), f_z at rest −K k_e δ/(K + k_e) with δ = 15 mm; units named."""
+    import json
+
+    pytest.importorskip("ruamel.yaml")
+    from journeys_helpers import forcecontrol
+
+    arm, loop = _panda_loop(sample_time)
+    limit = franka_stability_limit(loop)
+    path = _imported_scenario(tmp_path, "franka.toml", stiffness=stiffness, sample_time=sample_time)
+    proc = forcecontrol(tmp_path, "analyze", path, "--json")
+    doc = json.loads(proc.stdout)
+    a = doc["cases"][0]["analysis"]
+    assert a["vendor_loop_stability_limit"] == pytest.approx(limit, rel=1e-9)
+    assert a["vendor_loop_margin"] == pytest.approx(limit / stiffness, rel=1e-9)
+    assert a["vendor_loop_spectral_radius"] == pytest.approx(franka_spectral_radius(loop, stiffness), rel=1e-9)
+    assert a["vendor_loop_verdict"] == verdict and a["environment_stiffness"] == stiffness
+    assert a["steady_fz"] == pytest.approx(-200.0 * stiffness * 0.015 / (200.0 + stiffness), rel=1e-9)
+    assert "cartesian_impedance_example_controller" in a["vendor_loop"] and "torque-rate clamp" in a["vendor_loop"]
+    assert doc["units"]["vendor_loop_stability_limit"] == "N/m" and doc["units"]["steady_fz"] == "N"
+    assert all(c.get("analysis_skipped") is None for c in doc["cases"])
+    if verdict == "settles":
+        table = forcecontrol(tmp_path, "analyze", path).stdout
+        assert "vendor_loop_stability_limit [N/m]" in table and "no analysis applies" not in table
