@@ -69,8 +69,19 @@ def test_a_known_rotation_is_reported_as_the_angle_of_the_relative_rotation(angl
     x = a.x.copy()
     x[:, 3:6] = (R_a * turn).as_euler("XYZ")
     o = compare_signals(a, dataclasses.replace(a, x=x))["orientation"]
-    assert o["unit"] == "rad"
+    assert o["unit"] == "rad" and "caveat" not in o
     assert o["max"] == pytest.approx(angle, abs=1e-9) and o["rms"] == pytest.approx(angle, abs=1e-9)
+
+
+def test_near_the_euler_singularity_the_orientation_carries_a_caveat():
+    """A frame whose XYZ angle φ2 passes within cos φ2 = 5e-4 of π/2: the orientation entry says how far its
+    logged angles can be trusted (2 |cos φ2| = 1.0e-03 rad); the position is still compared as usual."""
+    a = _run(6, seed=9)
+    x = a.x.copy()
+    x[100, 4] = math.acos(5e-4)
+    s = compare_signals(a, dataclasses.replace(a, x=x))
+    assert "|cos φ2| = 5.0e-04 of the XYZ angles' singularity" in s["orientation"]["caveat"]
+    assert "to about 1.0e-03 rad" in s["orientation"]["caveat"] and s["position"]["norm_max"] == 0.0
 
 
 def test_relative_rotation_angle_against_scipy_on_random_pairs():

@@ -50,7 +50,8 @@ def compare_scenario(name: str, sets: dict[str, Any] | None = None) -> dict[str,
         cases.append(rep)
     said: dict[str, list[str]] = {}  # each reason once, with the cases it holds for
     for c in cases:
-        for why in dict.fromkeys(c["absent"].values()):
+        caveat = c["signals"]["orientation"].get("caveat")
+        for why in dict.fromkeys([*c["absent"].values(), *([f"orientation: {caveat}"] if caveat else [])]):
             said.setdefault(why, []).append(repr(c["label"]))
     notes += [f"{'case' if len(labels) == 1 else 'cases'} {', '.join(labels)}: {why}" for why, labels in said.items()]
     return {"scenario": scn.name, "cases": cases, "notes": notes}
@@ -127,6 +128,7 @@ def _pose_table(console: Any, report: dict[str, Any]) -> None:
             t.add_row(escape(c["label"]), stat, *(_cell(p, key, i) for i in range(len(axes))), _cell(p, f"norm_{key}"),
                       _cell(o, key) if o["compared"] else "not compared", _cell(q, f"norm_{key}"))
         said += [(c["label"], s[k]["why"]) for k in ("position", "orientation", "joint_positions") if not s[k]["compared"]]
+        said += [(c["label"], f"orientation: {s['orientation']['caveat']}")] if "caveat" in s["orientation"] else []
     console.print(t)
     _words(console, said)
 

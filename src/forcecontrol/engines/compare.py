@@ -12,6 +12,7 @@ import numpy as np
 from ..core.axes import axis_names
 from ..errors import ParameterError
 from ..sim.result import SimulationResult
+from ..spatial.closed_form import EULER_SINGULARITY_TOL
 
 __all__ = ["compare_engines", "compare_signals", "relative_rotation_angle", "DIFFERENCES", "SIGNAL_UNITS"]
 
@@ -94,10 +95,19 @@ def relative_rotation_angle(Ra: np.ndarray, Rb: np.ndarray) -> np.ndarray:
 
 def _orientation(a: SimulationResult, b: SimulationResult) -> dict[str, Any]:
     """The orientation difference of the controlled frame: 6-D logs from their XYZ angles; the chapter's planar
-    arm from φ = q₁ + q₂ (its joints turn about parallel axes); else absent (the log has no orientation)."""
+    arm from φ = q₁ + q₂ (its joints turn about parallel axes); else absent (the log has no orientation).
+
+    Near the XYZ angles' singularity (``|cos φ₂| < EULER_SINGULARITY_TOL``) a log's angles fix the frame only to
+    about ``2 |cos φ₂|`` rad (φ₃ is set to 0 there): the entry then carries a ``caveat`` saying so.
+    """
     m = a.m
     if m == 6:
-        return _angle_stats(relative_rotation_angle(_rotations(a.x[:, 3:6]), _rotations(b.x[:, 3:6])))
+        out = _angle_stats(relative_rotation_angle(_rotations(a.x[:, 3:6]), _rotations(b.x[:, 3:6])))
+        c2 = float(min(np.min(np.abs(np.cos(a.x[:, 4]))), np.min(np.abs(np.cos(b.x[:, 4])))))
+        if c2 < EULER_SINGULARITY_TOL:
+            out["caveat"] = (f"the frame comes within |cos φ2| = {c2:.1e} of the XYZ angles' singularity: the logged angles "
+                             f"fix its orientation only to about {2.0 * c2:.1e} rad there")
+        return out
     if a.metadata.get("robot") == "PlanarTwoLink" and a.q.shape[1] == 2 == b.q.shape[1]:
         d = np.sum(b.q, axis=1) - np.sum(a.q, axis=1)
         out = _angle_stats(np.abs((d + np.pi) % (2.0 * np.pi) - np.pi))
