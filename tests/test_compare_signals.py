@@ -181,3 +181,11 @@ def test_compare_planar_chapter_example_says_no_torque_and_keeps_its_contact_tab
     first = text.stdout.index("contact force, built-in simulator vs MuJoCo")
     assert first < text.stdout.index("pose of the controlled frame") < text.stdout.index(why)
     assert "torque [N m], MuJoCo − built-in: not compared" in text.stdout
+
+
+def test_compare_set_with_an_unknown_key_is_refused_before_anything_runs():
+    """`compare example-9.2 --set controller.stifness=1`: exit 2, the error names the key; no table is printed."""
+    res = _cli("example-9.2", "--set", "controller.stifness=1")
+    assert res.exit_code == 2, res.output
+    assert "--set controller.stifness=1" in " ".join(res.stderr.split()) and "unknown key 'stifness'" in res.stderr
+    assert "┏" not in res.stdout
