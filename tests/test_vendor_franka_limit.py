@@ -225,3 +225,52 @@ def test_analyze_reports_the_franka_loop_limit_margin_and_verdict(tmp_path, stif
     if verdict == "settles":
         table = forcecontrol(tmp_path, "analyze", path).stdout
         assert "vendor_loop_stability_limit [N/m]" in table and "no analysis applies" not in table
+
+
+def _free_space_wrist_speed(Ts: float, rotational_stiffness: float) -> np.ndarray:
+    """The Panda in free space (the table 0.5 m below), the target its start pose, joint 7 started at 0.1 rad/s: q̇_7."""
+    from forcecontrol.controllers.vendor import FrankaCartesianImpedanceController
+    from forcecontrol.environments.spatial import Table
+    from forcecontrol.robots.pinocchio import panda
+    from forcecontrol.sim.simulation import simulate
+    from forcecontrol.trajectories.profiles import Setpoint
+
+    arm = panda()
+    _, p = arm.frame_pose(Q0)
+    ctl = FrankaCartesianImpedanceController(arm, soft_start=False, rotational_stiffness=rotational_stiffness, sample_time=Ts)
+    res = simulate(arm, Table(p - np.array([0.0, 0.0, 0.5]), stiffness=1e4), ctl, Setpoint(arm.forward_kinematics(Q0), [0.0] * 6),
+                   q0=Q0, qd0=np.array([0.0] * 6 + [0.1]), duration=0.5)
+    return np.asarray(res.qd)[:, 6]
+
+
+def test_designed_rotational_stiffness_brackets_the_free_space_limit_at_500_hz():
+    """At 500 Hz the default rotational stiffness (10 N m/rad, D = 2 sqrt(10)) is unstable without contact (the wrist's
+    small inertia against the sampled damping); franka_design_stiffness gives the largest stable one (~9.66): at 0.95 × it
+    the wrist's oscillation dies out in simulation, at 1.05 × it grows (to the torque-rate clamp's limit cycle)."""
+    from forcecontrol.analysis.vendor_franka import franka_design_stiffness, with_stiffness
+
+    _, loop = _panda_loop(2e-3)
+    assert franka_stability_limit(loop) == 0.0 and franka_spectral_radius(loop, 0.0) > 1.0
+    k = franka_design_stiffness(loop, 0.0)
+    assert 9.0 < k < 10.0
+    rho = [franka_spectral_radius(with_stiffness(loop, f * k), 0.0) for f in (1.0, 1.001)]
+    assert rho[0] < 1.0 < rho[1]
+    below, above = _free_space_wrist_speed(2e-3, 0.95 * k), _free_space_wrist_speed(2e-3, 1.05 * k)
+    n = len(below)
+
+    def rms(x, i):
+        return float(np.sqrt(np.mean(x[i * n // 5 : (i + 1) * n // 5] ** 2)))
+
+    assert rms(below, 4) < 0.05 * rms(below, 0)
+    assert rms(above, 4) > 2.0 * rms(above, 0)
+
+
+def test_designed_stiffness_meets_the_margin_and_no_more():
+    """franka_design_stiffness with a contact: at the returned rotational stiffness the k_e limit is >= 2 k_e; 1 % above it,
+    it is below (500 Hz, k_e = 4.5e6 N/m)."""
+    from forcecontrol.analysis.vendor_franka import franka_design_stiffness, with_stiffness
+
+    _, loop = _panda_loop(2e-3)
+    k = franka_design_stiffness(loop, 4.5e6)
+    assert franka_stability_limit(with_stiffness(loop, k)) >= 9e6
+    assert franka_stability_limit(with_stiffness(loop, 1.01 * k)) < 9e6

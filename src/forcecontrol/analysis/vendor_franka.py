@@ -55,7 +55,8 @@ from scipy.linalg import expm
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["FrankaContactLoop", "franka_contact_loop", "franka_loop_matrix", "franka_spectral_radius",
-           "franka_stability_limit", "franka_contact_modes", "nyquist_stiffness", "point_mass_loop"]
+           "franka_stability_limit", "franka_contact_modes", "nyquist_stiffness", "point_mass_loop", "with_stiffness",
+           "franka_design_stiffness"]
 
 
 @dataclass(frozen=True)
@@ -207,4 +208,54 @@ def franka_stability_limit(loop: FrankaContactLoop, k_min: float = 1.0, k_max: f
     while hi - lo > rtol * hi:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if franka_spectral_radius(loop, mid) < 1.0 else (lo, mid)
+    return lo
+
+
+def with_stiffness(loop: FrankaContactLoop, value: float, axes: str = "rotational") -> FrankaContactLoop:
+    """The loop with K = ``value`` on the ``"translational"`` (rows 0-2) or ``"rotational"`` (rows 3-5) axes and D = 2 sqrt(K)
+    there, as the example controller sets its damping."""
+    import dataclasses
+
+    rows = {"translational": slice(0, 3), "rotational": slice(3, 6)}.get(axes)
+    if rows is None or np.asarray(loop.stiffness).shape != (6,):
+        raise ParameterError(f"axes must be 'translational' or 'rotational' on a 6-D loop; got {axes!r} on "
+                             f"{np.asarray(loop.stiffness).shape[0]} rows")
+    if not (value >= 0 and math.isfinite(value)):
+        raise ParameterError(f"{axes} stiffness must be a finite number >= 0; got {value!r}")
+    K, D = np.array(loop.stiffness, dtype=np.float64), np.array(loop.damping, dtype=np.float64)
+    K[rows], D[rows] = value, 2.0 * math.sqrt(value)
+    return dataclasses.replace(loop, stiffness=K, damping=D)
+
+
+def franka_design_stiffness(loop: FrankaContactLoop, environment_stiffness: float, margin: float = 2.0,
+                            axes: str = "rotational", upper: float = 1e4, rtol: float = 1e-4) -> float:
+    """The largest stiffness on ``axes`` (D = 2 sqrt(K) with it) at which the loop's k_e limit is at least ``margin`` times
+    ``environment_stiffness`` (0: stable in free space), by bisection; ``upper`` when every K up to it keeps the margin.
+
+    Assumes the limit falls as K rises (checked at the ends, not in between). At a low rate it is the sampled
+    damping against the wrist's small inertia (D T_s / I < 2 of a free inertia) that bounds the rotational stiffness.
+
+    Raises:
+        ParameterError: even K = 0 on these axes does not reach the margin (the other axes or the rate limit it).
+    """
+    if not (margin >= 1.0 and environment_stiffness >= 0):
+        raise ParameterError(f"margin must be >= 1 and environment_stiffness >= 0 [N/m]; got {margin!r}, "
+                             f"{environment_stiffness!r}")
+    target = margin * environment_stiffness
+
+    def ok(k: float) -> bool:
+        lp = with_stiffness(loop, k, axes)
+        if target == 0.0:
+            return franka_spectral_radius(lp, 0.0) < 1.0
+        return franka_stability_limit(lp, k_max=10.0 * target) >= target
+
+    if not ok(0.0):
+        raise ParameterError(f"no {axes} stiffness >= 0 keeps the loop stable up to {target:g} N/m at "
+                             f"{1.0 / loop.sample_time:g} Hz (the other axes or the rate limit it)")
+    if ok(upper):
+        return upper
+    lo, hi = 0.0, upper
+    while hi - lo > rtol * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
