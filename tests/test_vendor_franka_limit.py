@@ -202,7 +202,8 @@ def _imported_scenario(tmp_path, name: str, *, stiffness: float = 5000.0, sample
 def test_analyze_reports_the_franka_loop_limit_margin_and_verdict(tmp_path, stiffness, sample_time, verdict):
     """analyze --json on the imported Franka example: the limit equals franka_stability_limit of the loop built here from
     the Panda at q0 (1e-9), margin = limit / k_e, the verdict (5e7 N/m is beyond the 1 kHz limit 3.84e7; at 500 Hz the
-    default gains are unstable without contact), f_z at rest −K k_e δ/(K + k_e) with δ = 15 mm; units named."""
+    default gains are unstable without contact), f_z at rest −K k_e δ/(K + k_e) with δ = 15 mm; units named; the advice
+    when it does not settle (the designed rotational stiffness at 500 Hz; none at 5e7 N/m)."""
     import json
 
     pytest.importorskip("ruamel.yaml")
@@ -222,7 +223,14 @@ def test_analyze_reports_the_franka_loop_limit_margin_and_verdict(tmp_path, stif
     assert "cartesian_impedance_example_controller" in a["vendor_loop"] and "torque-rate clamp" in a["vendor_loop"]
     assert doc["units"]["vendor_loop_stability_limit"] == "N/m" and doc["units"]["steady_fz"] == "N"
     assert all(c.get("analysis_skipped") is None for c in doc["cases"])
-    if verdict == "settles":
+    if verdict == "unstable in free space":  # the way out: franka_design_stiffness without contact
+        from forcecontrol.analysis.vendor_franka import franka_design_stiffness
+
+        assert f"rotational_stiffness <= {franka_design_stiffness(loop, 0.0, margin=1.0):.4g} N m/rad" in a["vendor_loop_advice"]
+    elif verdict == "bounces":  # no gain moves the contact mode below the Nyquist frequency
+        assert "no stiffness alone" in a["vendor_loop_advice"] and "Nyquist" in a["vendor_loop_advice"]
+    else:
+        assert "vendor_loop_advice" not in a
         table = forcecontrol(tmp_path, "analyze", path).stdout
         assert "vendor_loop_stability_limit [N/m]" in table and "no analysis applies" not in table
 

@@ -49,6 +49,27 @@ def _summary(loop: Any, ctl: Any) -> str:
             f"(±{ctl.delta_tau_max:g} N m per cycle) are not in the model")
 
 
+def _advice(loop: Any, k_e: float, verdict: str) -> str:
+    """Which stiffness (translational or rotational, D = 2 sqrt(K) with it) makes the loop stable at ``k_e``, or why none does."""
+    from ..analysis.vendor_franka import franka_design_stiffness
+    from ..errors import ParameterError
+
+    target = 0.0 if verdict == "unstable in free space" else k_e
+    where = "without contact" if target == 0.0 else f"at k_e = {k_e:g} N/m"
+    hints = []
+    for axes, unit in (("rotational", "N m/rad"), ("translational", "N/m")):
+        try:
+            k = franka_design_stiffness(loop, target, margin=1.0, axes=axes)
+        except ParameterError:
+            continue
+        hints.append(f"{axes}_stiffness <= {k:.4g} {unit}")
+    rate = f"{1.0 / loop.sample_time:g} Hz"
+    if not hints:
+        return (f"no stiffness alone makes the loop stable {where} at {rate}: the contact mode is past the Nyquist "
+                "frequency (a softer contact, a compliant tool or a higher rate is needed)")
+    return f"stable {where} at {rate} with " + " or ".join(hints) + " (the other gains as they are)"
+
+
 def _applies(parts: dict[str, Any]) -> bool:
     from ..robots.servo import PositionInterfaceRobot
     from .parts_servo import _normal_stiffness
@@ -68,6 +89,8 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
     loop = franka_contact_loop(robot, np.asarray(parts["q0"], dtype=float), ctl, nu,
                                contact_damping=float(getattr(env, "damping", 0.0) or 0.0))
     out: dict[str, Any] = {"vendor_loop": _summary(loop, ctl), **franka_quantities(loop, k_e)}
+    if out["vendor_loop_verdict"] != "settles":
+        out["vendor_loop_advice"] = _advice(loop, k_e, out["vendor_loop_verdict"])
     # at rest: the law's spring K (translational, along ν) in series with the surface, the target δ_t below it
     ref = parts["reference"].at(float(parts["duration"]))
     point = np.asarray(getattr(env, "point", getattr(env, "rest_position", np.zeros(3))), dtype=float)[:3]
