@@ -47,6 +47,19 @@ def inverse_dynamics(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cov
         u[0] = u0 if ok else math.nan
         u[1] = u1 if ok else math.nan
         return ok
+    return _inverse_dynamics_general(B, nv, J, Jdq, a, hc, compensate, ws, u)
+
+
+@njit(cache=True)
+def _inverse_dynamics_general(B, nv, J, Jdq, a, hc, compensate, ws, u):  # pragma: no cover - compiled
+    """:func:`inverse_dynamics` for any m and n (its general path, with the LU solve).
+
+    Compiled once as a function of its own (cached, shared by every law) rather than inlined:
+    Numba's inliner copies an inlined function's IR once per variable scope and block at each
+    level, and this path with its inlined LU solve made every law cost 1 s more to compile.
+    """
+    m = a.shape[0]
+    n = B.shape[0]
     y = ws[0:m]
     for i in range(m):
         y[i] = a[i] - Jdq[i]
