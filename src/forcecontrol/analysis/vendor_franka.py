@@ -245,9 +245,14 @@ def franka_design_stiffness(loop: FrankaContactLoop, environment_stiffness: floa
 
     def ok(k: float) -> bool:
         lp = with_stiffness(loop, k, axes)
-        if target == 0.0:
-            return franka_spectral_radius(lp, 0.0) < 1.0
-        return franka_stability_limit(lp, k_max=10.0 * target) >= target
+        if franka_spectral_radius(lp, 0.0) >= 1.0:
+            return False
+        kk = 1.0  # franka_stability_limit's scan up to the target (no bisection needed: stable at the target and below)
+        while kk < target:
+            if franka_spectral_radius(lp, kk) >= 1.0:
+                return False
+            kk *= 1.25
+        return target == 0.0 or franka_spectral_radius(lp, target) < 1.0
 
     if not ok(0.0):
         raise ParameterError(f"no {axes} stiffness >= 0 keeps the loop stable up to {target:g} N/m at "
