@@ -80,3 +80,16 @@ def test_issue_177_runs_from_its_file(tmp_path):
         assert all(w["kind"] == "config-note" for w in cases[label]["warnings"])
     z0 = ur10().frame_pose(np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0]))[1][2]
     assert 0.5 * 0.005 < cases["proposed"]["final"]["tip_position"][2] - z0 < 0.005
+
+
+def test_set_prints_each_config_note_once(tmp_path):
+    """`run fzi_issue_177.toml --set duration=0.05`: the reader's notes are said once each (--set builds the cases again
+    as '<file> (edited)'; they were printed a second time under that name), and the JSON still carries them."""
+    for f in ("fzi_issue_177.toml", "fzi_issue_177.yaml"):
+        shutil.copy(CONFIGS / f, tmp_path / f)
+    proc = forcecontrol(tmp_path, "run", "fzi_issue_177.toml", "--set", "duration=0.05", "--json")
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("note: ")]
+    assert notes, proc.stderr
+    assert len(notes) == len(set(notes)) and not any("(edited)" in n for n in notes), notes
+    doc = json.loads(proc.stdout)
+    assert all(any(w["kind"] == "config-note" for w in c["warnings"]) for c in doc["cases"])

@@ -134,10 +134,11 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
     ctl.config_source = source
     ctl.config_notes = notes
     ctl.GAINS = (*type(ctl).GAINS, "config_source", "config_notes")
-    said = (where.split(": [[case]]")[0], source, tuple(notes))
-    if notes and said not in _SAID:  # once per scenario file and configuration (a load and its run build it twice)
+    scenario_file = where.split(": [[case]]")[0].removesuffix(" (edited)")  # Scenario.with_ (--set) builds "<file> (edited)"
+    said = (scenario_file, Path(source or "").name, tuple(notes))  # the path is relative on load, absolute after --set
+    if notes and said not in _SAID:  # once per scenario file and configuration (a load, --set and the run build it again)
         _SAID.add(said)
-        head = f"{Path(where.split(': [[case]]')[0]).name}: [controller] {kind} from {Path(source or '').name}"
+        head = f"{Path(scenario_file).name}: [controller] {kind} from {Path(source or '').name}"
         for n in notes:  # one warning (one stderr line) per note
             warnings.warn(ConfigNote(f"{head}: {n}"), stacklevel=2)
     return ctl
