@@ -16,9 +16,9 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     pass
 
-from .prepare import _CAUSE_CODES, _CAUSES, MAX_JOINT_SPEED, CaseJob
+from .prepare import _CAUSE_CODES, _CAUSES, MAX_JOINT_SPEED, CaseJob, sweep_kernel
 
-__all__ = ["run_block"]
+__all__ = ["run_block", "run_fast"]
 
 
 # ----------------------------------------------------------------------------- one block
@@ -29,69 +29,89 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
 
     This is what a local thread or a Dask worker runs; the numbers do not depend on where.
     """
-    from ..sim.batch import OUT_COLUMNS, run_batch
+    from ..sim.batch import OUT_COLUMNS
 
     rows: dict[int, dict[str, Any]] = {}
     groups: dict[Any, list[CaseJob]] = {}
     for j in jobs:
         if j.fast:
             groups.setdefault(j.law, []).append(j)
-    for law, fast in groups.items():  # the batch kernel is specialised per law
-        C = len(fast)
-        nmax = max(j.N for j in fast)
-        ref_index: dict[tuple[str, int, float], int] = {}
-        refs: list[np.ndarray] = []
-        noise_index: dict[tuple[Any, ...], int] = {(): 0}
-        noises = [np.zeros((nmax + 1, 2))]
-        ref_id = np.empty(C, np.int64)
-        noise_id = np.empty(C, np.int64)
-        bias = np.empty((C, 2))
-        for i, j in enumerate(fast):
-            key = (j.ref_key, j.N, j.Ts)
-            if key not in ref_index:
-                r = np.zeros((nmax + 1, 12))
-                r[: j.N + 1] = j.reference.sample(np.arange(j.N + 1) * j.Ts)
-                ref_index[key] = len(refs)
-                refs.append(r)
-            ref_id[i] = ref_index[key]
-            b, _ = j.sensor.sequences(0, 2)  # the bias (and the shape check)
-            bias[i] = b
-            std = tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist())
-            if any(std):  # a noise sequence is drawn once per (seed, std, length), not per case
-                nkey = (j.sensor.seed, std, j.N)
-                if nkey not in noise_index:
-                    nz = np.zeros((nmax + 1, 2))
-                    nz[: j.N + 1] = j.sensor.sequences(j.N + 1, 2)[1]
-                    noise_index[nkey] = len(noises)
-                    noises.append(nz)
-                noise_id[i] = noise_index[nkey]
-            else:
-                noise_id[i] = 0
-
-        def stack(name: str, fast: list[CaseJob] = fast, C: int = C) -> np.ndarray:
-            arrs = [np.atleast_1d(getattr(j, name)) for j in fast]
-            width = max(a.shape[0] for a in arrs)
-            out = np.zeros((C, width))
-            for i, a in enumerate(arrs):
-                out[i, : a.shape[0]] = a
-            return out
-
-        out = np.empty((C, len(OUT_COLUMNS)))
-        run_batch(
-            law, stack("K"), np.array([j.env_kind for j in fast], np.int64), stack("env_p"),
-            stack("ctrl_p"), stack("ctrl_s"),
-            np.stack(refs), ref_id, bias, np.stack(noises), noise_id,
-            np.array([j.alpha for j in fast]), stack("q0"), stack("qd0"), np.array([j.Ts for j in fast]),
-            np.array([j.nsub for j in fast], np.int64), np.array([j.N for j in fast], np.int64),
-            np.full(C, MAX_JOINT_SPEED), stack("d"), np.array([j.f_ref for j in fast]),
-            np.array([j.window for j in fast], np.int64), float(settle_band), float(stable_band), out,
-        )
+    for law, fast in groups.items():  # the batch kernels are specialised per law
+        out = run_fast(law, fast, settle_band, stable_band)
         for i, j in enumerate(fast):
             rows[j.case_id] = _row(j, dict(zip(OUT_COLUMNS, out[i].tolist())), "batch")
     for j in jobs:
         if not j.fast:
             rows[j.case_id] = _row(j, _simulate_one(j, settle_band, stable_band), "simulate")
     return [rows[j.case_id] for j in jobs]
+
+
+def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: float, kernel: str | None = None) -> np.ndarray:
+    """The cases ``fast`` (one law) through the compiled batch: rows of ``OUT_COLUMNS`` (:mod:`forcecontrol.sim.batch`).
+
+    ``kernel``: ``"lanes8"`` (:mod:`forcecontrol.sim.batch_lanes`, 8 cases per instruction) or
+    ``"scalar"`` (:mod:`forcecontrol.sim.batch`, one case at a time); by default the sweep's
+    choice (:func:`~forcecontrol.sweep.prepare.sweep_kernel`).
+    """
+    from ..sim.batch import OUT_COLUMNS, run_batch
+    from ..sim.batch_lanes import run_lanes
+
+    C = len(fast)
+    nmax = max(j.N for j in fast)
+    ref_index: dict[tuple[str, int, float], int] = {}
+    refs: list[np.ndarray] = []
+    noise_index: dict[tuple[Any, ...], int] = {(): 0}
+    noises = [np.zeros((nmax + 1, 2))]
+    ref_id = np.empty(C, np.int64)
+    noise_id = np.empty(C, np.int64)
+    bias = np.empty((C, 2))
+    for i, j in enumerate(fast):
+        key = (j.ref_key, j.N, j.Ts)
+        if key not in ref_index:
+            r = np.zeros((nmax + 1, 12))
+            r[: j.N + 1] = j.reference.sample(np.arange(j.N + 1) * j.Ts)
+            ref_index[key] = len(refs)
+            refs.append(r)
+        ref_id[i] = ref_index[key]
+        b, _ = j.sensor.sequences(0, 2)  # the bias (and the shape check)
+        bias[i] = b
+        std = tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist())
+        if any(std):  # a noise sequence is drawn once per (seed, std, length), not per case
+            nkey = (j.sensor.seed, std, j.N)
+            if nkey not in noise_index:
+                nz = np.zeros((nmax + 1, 2))
+                nz[: j.N + 1] = j.sensor.sequences(j.N + 1, 2)[1]
+                noise_index[nkey] = len(noises)
+                noises.append(nz)
+            noise_id[i] = noise_index[nkey]
+        else:
+            noise_id[i] = 0
+
+    def stack(name: str) -> np.ndarray:
+        arrs = [np.atleast_1d(getattr(j, name)) for j in fast]
+        width = max(a.shape[0] for a in arrs)
+        out = np.zeros((C, width))
+        for i, a in enumerate(arrs):
+            out[i, : a.shape[0]] = a
+        return out
+
+    env_kind = np.array([j.env_kind for j in fast], np.int64)
+    nsub = np.array([j.nsub for j in fast], np.int64)
+    N = np.array([j.N for j in fast], np.int64)
+    args = (
+        stack("K"), env_kind, stack("env_p"), stack("ctrl_p"), stack("ctrl_s"),
+        np.stack(refs), ref_id, bias, np.stack(noises), noise_id,
+        np.array([j.alpha for j in fast]), stack("q0"), stack("qd0"), np.array([j.Ts for j in fast]),
+        nsub, N, np.full(C, MAX_JOINT_SPEED), stack("d"), np.array([j.f_ref for j in fast]),
+        np.array([j.window for j in fast], np.int64), float(settle_band), float(stable_band),
+    )
+    out = np.empty((C, len(OUT_COLUMNS)))
+    if (kernel or sweep_kernel(law)) == "lanes8":
+        # lanes take the cases grouped by sub-steps, environment and length (fewer masked lanes)
+        run_lanes(law, np.lexsort((N, env_kind, nsub)), *args, out)
+    else:
+        run_batch(law, *args, out)
+    return out
 
 
 def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, Any]:
