@@ -16,6 +16,10 @@ same state; the table reports the median and the spread (min-max) of the ratios.
 case), :func:`forcecontrol.sweep.run_block` over the same blocks (packing, kernel, metrics, rows)
 and the rest of ``run_sweep`` (table, Parquet parts and the final file).
 
+Each repetition runs the process twice, with each batch kernel (``FORCECONTROL_SWEEP_KERNEL``):
+``scalar`` (one case at a time, :mod:`forcecontrol.sim.batch`) and ``lanes8`` (the default, 8 cases
+per instruction, :mod:`forcecontrol.sim.batch_lanes`).
+
 Run: ``python benchmarks/bench_sweep_process.py [--k 100] [--d 100] [--reps 3] [--breakdown]``;
 prints a table, asserts nothing. Target (issue 33 item 3): the process at least 2x the plain loop.
 """
@@ -41,6 +45,8 @@ from bench_plain_numba import plain_loop  # noqa: E402  (the baseline: written f
 import forcecontrol as fc  # noqa: E402
 from forcecontrol.sim.simulation import choose_substeps  # noqa: E402
 
+KERNELS = ("scalar", "lanes8")  # the sweep's batch kernels (FORCECONTROL_SWEEP_KERNEL): one case at a time, 8 lanes
+
 
 def _steps(table) -> int:
     """Control samples actually simulated (a diverged case stops at its last sample)."""
@@ -63,14 +69,15 @@ def _plain_rate(reps: int = 3) -> float:
     return reps * N / (time.perf_counter() - t0)
 
 
-def _cli(k: int, d: int, out: Path) -> tuple[float, dict]:
+def _cli(k: int, d: int, out: Path, kernel: str = "lanes8") -> tuple[float, dict]:
     cmd = [
         "forcecontrol", "sweep", "example-9.2", "--case", "1",
         "-p", f"environment.stiffness=logspace(3,5,{k})", "-p", f"controller.damping=linspace(300,700,{d})",
         "--workers", "1", "--no-figure", "--json", "--overwrite", "--out", str(out),
     ]
+    env = {**os.environ, "FORCECONTROL_SWEEP_KERNEL": kernel}
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    p = subprocess.run(cmd, capture_output=True, text=True, check=True, env=env)
     return time.perf_counter() - t0, json.loads(p.stdout)
 
 
@@ -85,22 +92,25 @@ def _breakdown(k: int, d: int, tmp: Path) -> None:
     prep = prepare_sweep("example-9.2", defn)
     t_prep = time.perf_counter() - t0
     blocks = _blocks(prep.jobs, 1, None)
-    t0 = time.perf_counter()
-    steps = 0
-    for b in blocks:
-        steps += sum(r["_steps"] for r in run_block(b, 0.02, 0.05))
-    t_block = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    run_sweep(prep, tmp / "in-process.parquet", workers=1)
-    t_sweep = time.perf_counter() - t0
-    total = t_prep + t_sweep
-    print(f"\nin-process breakdown ({prep.n_cases} cases, {steps:,} arm-steps, {len(blocks)} blocks):")
-    for what, t in (("prepare_sweep (validate, build every case)", t_prep),
-                    ("run_block over the blocks (pack, kernel, metrics, rows)", t_block),
-                    ("rest of run_sweep (table, Parquet parts, final file)", t_sweep - t_block),
-                    ("prepare_sweep + run_sweep", total)):
-        print(f"  {what:<58} {t:>7.2f} s {100 * t / total:>5.1f} %")
-    print(f"  kernel-side rate (run_block): {steps / t_block:.3g} arm-steps/s; whole: {steps / total:.3g}")
+    for kernel in ("scalar", "lanes8"):
+        os.environ["FORCECONTROL_SWEEP_KERNEL"] = kernel
+        t0 = time.perf_counter()
+        steps = 0
+        for b in blocks:
+            steps += sum(r["_steps"] for r in run_block(b, 0.02, 0.05))
+        t_block = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        run_sweep(prep, tmp / f"in-process-{kernel}.parquet", workers=1)
+        t_sweep = time.perf_counter() - t0
+        total = t_prep + t_sweep
+        print(f"\nin-process breakdown, kernel {kernel} ({prep.n_cases} cases, {steps:,} arm-steps, {len(blocks)} blocks):")
+        for what, t in (("prepare_sweep (validate, build every case)", t_prep),
+                        ("run_block over the blocks (pack, kernel, metrics, rows)", t_block),
+                        ("rest of run_sweep (table, Parquet parts, final file)", t_sweep - t_block),
+                        ("prepare_sweep + run_sweep", total)):
+            print(f"  {what:<58} {t:>7.2f} s {100 * t / total:>5.1f} %")
+        print(f"  kernel-side rate (run_block): {steps / t_block:.3g} arm-steps/s; whole: {steps / total:.3g}")
+    os.environ.pop("FORCECONTROL_SWEEP_KERNEL", None)
 
 
 def main() -> None:
@@ -112,25 +122,34 @@ def main() -> None:
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="fc-bench-process-"))
     try:
-        _cli(2, 2, tmp / "warm.parquet")  # a warm cache: the kernel compiles (if at all) here, not in the timings
+        for kernel in KERNELS:  # a warm cache: the kernels compile (if at all) here, not in the timings
+            _cli(2, 2, tmp / f"warm-{kernel}.parquet", kernel)
         import pandas as pd
 
-        plains, procs, ratios = [], [], []
+        plains: list[float] = []
+        procs: dict[str, list[float]] = {k: [] for k in KERNELS}
+        ratios: dict[str, list[float]] = {k: [] for k in KERNELS}
         for rep in range(args.reps):
             plain = _plain_rate()
-            out = tmp / f"sweep-{rep}.parquet"  # a new file each time: the same file would resume, not run
-            dt, js = _cli(args.k, args.d, out)
-            steps = _steps(pd.read_parquet(out))
             plains.append(plain)
-            procs.append(steps / dt)
-            ratios.append(steps / dt / plain)
-            print(f"plain loop {plain:.3g} arm-steps/s; process {js['cases']} cases, {steps:,} arm-steps in {dt:.2f} s "
-                  f"(sweep's own 'seconds' {js['seconds']:.2f}): {steps / dt:.3g} arm-steps/s; ratio {steps / dt / plain:.2f}x")
+            for kernel in KERNELS:
+                out = tmp / f"sweep-{kernel}-{rep}.parquet"  # a new file each time: the same file would resume, not run
+                dt, js = _cli(args.k, args.d, out, kernel)
+                steps = _steps(pd.read_parquet(out))
+                procs[kernel].append(steps / dt)
+                ratios[kernel].append(steps / dt / plain)
+                print(f"plain loop {plain:.3g} arm-steps/s; process ({kernel}) {js['cases']} cases, {steps:,} arm-steps in "
+                      f"{dt:.2f} s (sweep's own 'seconds' {js['seconds']:.2f}): {steps / dt:.3g} arm-steps/s; "
+                      f"ratio {steps / dt / plain:.2f}x")
         print(f"\ncores: {os.cpu_count()}, repetitions: {args.reps}")
-        for what, v in (("plain scalar loop  ", plains), ("whole sweep process", procs)):
-            print(f"{what}: median {statistics.median(v):.3g} arm-steps/s (min {min(v):.3g}, max {max(v):.3g})")
-        print(f"process / plain    : median {statistics.median(ratios):.2f}x (min {min(ratios):.2f}, max {max(ratios):.2f}); "
-              f"target >= 2.00x: {'met' if statistics.median(ratios) >= 2.0 else 'NOT met'}")
+        print(f"plain scalar loop           : median {statistics.median(plains):.3g} arm-steps/s "
+              f"(min {min(plains):.3g}, max {max(plains):.3g})")
+        for kernel in KERNELS:
+            v, r = procs[kernel], ratios[kernel]
+            print(f"whole sweep process {kernel:<8}: median {statistics.median(v):.3g} arm-steps/s (min {min(v):.3g}, "
+                  f"max {max(v):.3g}); / plain: median {statistics.median(r):.2f}x (min {min(r):.2f}, max {max(r):.2f})")
+        r = ratios["lanes8"]
+        print(f"target (lanes8 process >= 2.00x the plain loop): {'met' if statistics.median(r) >= 2.0 else 'NOT met'}")
         if args.breakdown:
             _breakdown(args.k, args.d, tmp)
     finally:
