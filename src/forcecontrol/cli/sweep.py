@@ -40,7 +40,8 @@ def sweep_command(
     scheduler: Annotated[str | None, typer.Option(  # noqa: UP007
         help="Dask scheduler address (tcp://host:8786); default: this machine, all cores")] = None,
     workers: Annotated[int | None, typer.Option(  # noqa: UP007
-        min=1, max=4096, help="local threads, 1 to 4096 (default: all cores)")] = None,
+        min=1, max=4096, help="local workers, 1 to 4096 (default: all cores): threads for the planar batch kernel, "
+                              "processes (at most one per core) for the cases simulate() runs (6-D arms)")] = None,
     block_size: Annotated[int | None, typer.Option(  # noqa: UP007
         min=1, help="cases per stored block, >= 1 (default: automatic)")] = None,
     figure: Annotated[bool, typer.Option(help="write the metric maps over the first two parameters (PNG)")] = True,

@@ -24,10 +24,12 @@ __all__ = ["run_block", "run_fast"]
 # ----------------------------------------------------------------------------- one block
 
 
-def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> list[dict[str, Any]]:
+def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float, engine: str = "python") -> list[dict[str, Any]]:
     """Simulate a block of cases; one row (metrics, status) per case, in the jobs' order.
 
     This is what a local thread or a Dask worker runs; the numbers do not depend on where.
+    ``engine="compiled"``: the 6-D cases the compiled loop runs (:func:`~forcecontrol.sim.loop_tree.tree_loop_support`)
+    go through ``simulate(engine="compiled")`` (row engine ``"simulate-compiled"``; equal to the Python engine to round-off).
     """
     from ..sim.batch import OUT_COLUMNS
 
@@ -42,7 +44,9 @@ def run_block(jobs: list[CaseJob], settle_band: float, stable_band: float) -> li
             rows[j.case_id] = _row(j, dict(zip(OUT_COLUMNS, out[i].tolist())), "batch")
     for j in jobs:
         if not j.fast:
-            rows[j.case_id] = _row(j, _simulate_one(j, settle_band, stable_band), "simulate")
+            tree = engine == "compiled" and tree_case(j)
+            rows[j.case_id] = _row(j, _simulate_one(j, settle_band, stable_band, "compiled" if tree else "auto"),
+                                   "simulate-compiled" if tree else "simulate")
     return [rows[j.case_id] for j in jobs]
 
 
@@ -114,7 +118,16 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
     return out
 
 
-def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[str, Any]:
+def tree_case(j: CaseJob) -> bool:
+    """A 6-D case the compiled loop runs (sim/loop_tree.py): no actuator, a supported arm, law, environment and sensor."""
+    from ..sim.loop_tree import tree_loop_support
+
+    p = j.parts or {}
+    return (not j.fast and p.get("actuator") is None and getattr(p.get("robot"), "task_dim", 0) == 6
+            and tree_loop_support(p["robot"], p["environment"], p["controller"], p["sensor"]) is None)
+
+
+def _simulate_one(j: CaseJob, settle_band: float, stable_band: float, engine: str = "auto") -> dict[str, Any]:
     """A case outside the kernel's reach: simulate() and the same metrics."""
     from ..sim.batch import case_metrics
     from ..sim.simulation import simulate
@@ -126,7 +139,7 @@ def _simulate_one(j: CaseJob, settle_band: float, stable_band: float) -> dict[st
         try:
             res = simulate(
                 p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], qd0=p["qd0"],
-                duration=j.N * j.Ts, sensor=p["sensor"], substeps=j.nsub, max_joint_speed=MAX_JOINT_SPEED,
+                duration=j.N * j.Ts, sensor=p["sensor"], substeps=j.nsub, max_joint_speed=MAX_JOINT_SPEED, engine=engine,
                 **({} if p.get("actuator") is None else {"actuator": p["actuator"]}),
             )
         except SimulationDivergedError as exc:

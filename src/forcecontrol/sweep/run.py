@@ -3,9 +3,10 @@
 Cases of the chapter's arm with a built-in environment and controller (the Example 9.1-9.3
 schemes) run in the allocation-free compiled kernel :func:`forcecontrol.sim.batch.run_batch`, a
 block of cases per call; other cases go through :func:`forcecontrol.sim.simulation.simulate` one by
-one. Locally the blocks run on a thread pool with one thread per core (the kernel releases the
-GIL), so no server is needed; with a Dask scheduler address they run as tasks on the cluster's
-workers. The kernel and the block function are the same in both, so the tables are identical.
+one. Locally the kernel's blocks run on a thread pool with one thread per core (the kernel releases
+the GIL), so no server is needed; the cases simulate() runs (6-D arms) hold the GIL, so their blocks
+run on worker processes (:mod:`.processes`); with a Dask scheduler address all blocks run as tasks
+on the cluster's workers. The block function is the same everywhere, so the tables are identical.
 
 Storage: the table ``OUT.parquet`` is assembled at the end from parts written atomically as each
 block finishes (``OUT.parquet.parts/part-*.parquet``, written to a temporary name and renamed). An
@@ -41,6 +42,7 @@ from .prepare import (
     load_sweep_scenario,
     prepare_sweep,
 )
+from .processes import BLOCK_STEPS, run_processes, sweep_engine, use_processes
 from .store import (
     SUM_KEY,
     SweepResult,
@@ -77,15 +79,17 @@ __all__ = [
 # ----------------------------------------------------------------------------- storage
 
 
-def _blocks(jobs: list[CaseJob], workers: int, block_size: int | None) -> list[list[CaseJob]]:
+def _blocks(jobs: list[CaseJob], workers: int, block_size: int | None, target: int = 2_000_000,
+            spread: int = 2) -> list[list[CaseJob]]:
+    """Consecutive blocks of ``block_size`` cases, by default about ``target`` arm-steps each (the batch kernel:
+    about half a second) and at least ``spread`` blocks per worker."""
     if not jobs:
         return []
     if block_size is not None:
         size = max(1, int(block_size))
     else:
         mean_steps = sum(j.steps for j in jobs) / len(jobs)
-        target = 2_000_000  # arm-steps per block: about half a second
-        size = max(1, min(int(target // max(mean_steps, 1.0)), math.ceil(len(jobs) / (2 * workers))))
+        size = max(1, min(int(target // max(mean_steps, 1.0)), math.ceil(len(jobs) / (spread * workers))))
     return [jobs[i : i + size] for i in range(0, len(jobs), size)]
 
 
@@ -99,6 +103,8 @@ def run_sweep(
     block_size: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     overwrite: bool = False,
+    processes: bool | None = None,
+    engine: str = "auto",
 ) -> SweepResult:
     """Run (or resume) a sweep and write its table to ``out`` (Parquet).
 
@@ -107,19 +113,30 @@ def run_sweep(
     ``steady_state_force_error`` [N], ``peak_force`` [N], ``settled_force`` [N], ``stable``,
     ``contact_lost``, ``status`` (``"ok"`` or the divergence cause), ``diverged_at`` [s],
     ``samples``, ``integration_substeps`` (RK4 steps per sample), ``engine`` (``"batch"``: the
-    compiled kernel, ``"simulate"``: one by one). The definition is in the schema metadata
+    compiled kernel, ``"simulate"``: one by one, ``"simulate-compiled"``: one by one on the compiled
+    6-D loop, see ``engine``). The definition is in the schema metadata
     (:func:`read_sweep`).
 
     Args:
         sweep: a :class:`PreparedSweep`, or a scenario (name, path, dict) with ``definition``.
         out: the table's path; finished blocks go to ``<out>.parts/`` until the end.
         scheduler: a Dask scheduler address (``"tcp://host:8786"``) or a ``dask.distributed.Client``;
-            None runs locally on ``workers`` threads (default: all cores).
+            None runs locally on ``workers`` workers (default: all cores): threads for the batch
+            kernel's cases, processes for the cases simulate() runs (see ``processes``).
         block_size: cases per block (default: about 2·10⁶ arm-steps per block).
         progress: ``progress(done, total)`` after each stored block (done includes resumed cases).
         overwrite: discard a previous table or parts of a *different* sweep at ``out``, and replace
             (when the sweep ends) a file at ``out`` that is not a sweep table (``--force``; a
             :class:`SweepWarning` says so). A folder at ``out`` is never replaced.
+        processes: run the cases simulate() runs (6-D arms; they hold the GIL) on worker processes
+            (:mod:`.processes`; blocks of about :data:`~.processes.BLOCK_STEPS` arm-steps): True always,
+            False never (threads), None (default) when ``workers`` > 1 and they make at least
+            :data:`~.processes.MIN_STEPS` arm-steps in two blocks or more. The table is the same.
+        engine: the engine of the 6-D cases the compiled loop runs (:mod:`forcecontrol.sim.loop_tree`:
+            impedance or admittance on a Table or ConstantWrench): ``"compiled"`` (about 5-20x faster, equal
+            to the Python engine to round-off; the table's ``engine`` column says ``"simulate-compiled"``),
+            ``"python"``, or ``"auto"`` (default): compiled when they make at least
+            :data:`~.processes.TREE_MIN_STEPS` arm-steps (its first run compiles for 20-60 s).
 
     The library's own outputs are recognised by their mark (the table's metadata, a hidden
     ``.<name>.forcecontrol-sweep.json`` beside it, ``sweep.json`` in the parts folder); only those
@@ -130,10 +147,12 @@ def run_sweep(
     a :class:`SweepWarning`, and each part is then verified against this sweep on its own.
 
     Raises:
-        SweepError: ``out`` holds a different sweep (and not ``overwrite``).
+        SweepError: ``out`` holds a different sweep (and not ``overwrite``); an unknown ``engine``; a case failed
+            in a worker process (named), or worker processes kept dying (:mod:`.processes`).
         OutputError: ``out`` is a folder, or a file that is not a sweep table (and not ``overwrite``).
     """
     prep = sweep if isinstance(sweep, PreparedSweep) else prepare_sweep(sweep, definition)
+    engine = sweep_engine(prep.jobs, engine)  # checked (and decided on every case) before anything is written
     out = Path(out)
     parts_dir = out.with_name(out.name + ".parts")
     stamp = parts_dir / "sweep.json"
@@ -145,10 +164,11 @@ def run_sweep(
     except OSError as exc:
         raise SweepError(f"cannot create the folder of {str(out)!r}: {exc.strerror or exc}; choose another --out") from exc
     with _output_lock(out):
-        return _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite)
+        return _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite, processes, engine)
 
 
-def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite) -> SweepResult:
+def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, progress, overwrite, processes=None,
+                engine="auto") -> SweepResult:
     if out.exists() and is_ours(out):  # (a user's file is refused by check_output, or replaced at the end with --force)
         try:
             import pyarrow.parquet as pq  # type: ignore[import-untyped]
@@ -217,11 +237,17 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
             progress(counter["done"], total)
 
     t0 = time.perf_counter()
-    band = (prep.definition.settle_band, prep.definition.stable_band)
+    band = (prep.definition.settle_band, prep.definition.stable_band, sweep_engine(prep.jobs, engine))  # run_block's arguments
     where = "local"
     if scheduler is None:
         n = workers or os.cpu_count() or 1
-        _run_local(_blocks(todo, n, block_size), n, band, store)
+        slow = [j for j in todo if not j.fast]
+        slow_blocks = _blocks(slow, n, block_size, BLOCK_STEPS, 4)
+        if use_processes(sum(j.steps for j in slow), len(slow_blocks), n, processes):
+            _run_local(_blocks([j for j in todo if j.fast], n, block_size), n, band, store)
+            run_processes(slow_blocks, n, band, store)
+        else:
+            _run_local(_blocks(todo, n, block_size), n, band, store)
     else:
         where = _run_dask(scheduler, todo, block_size, band, store)
     seconds = time.perf_counter() - t0
