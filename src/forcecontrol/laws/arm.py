@@ -14,6 +14,7 @@ from numba import njit, types
 
 from ..core.numba_cache import build_once, kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
+from .inner import on_planar_arm
 from .layout import REF_X_D, ref_a_d, ref_f_d, ref_fddot_d, ref_fdot_d, ref_size, ref_v_d
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]
@@ -106,10 +107,11 @@ def on_arm(law: Any) -> Any:
     """
     def build() -> Any:
         stable_identities()
+        arm_law = on_planar_arm(law)  # m = n = 2: its general-size path is not compiled
 
         def run(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
             ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-            return ok and arm_finish(law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
+            return ok and arm_finish(arm_law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
 
         step = njit(_ON_ARM_SIGNATURE, cache=True)(run)
         kernel_identity(step, f"forcecontrol:laws.arm.on_arm:{law._uuid}")  # its own uuid and cache files, per law

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..core.numba_cache import build_once, kernel_identity, stable_identities
+from ..laws.inner import on_planar_arm
 from .plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
 
 __all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
@@ -34,10 +35,12 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
     loop (a closure), so Numba compiles the loop with the law inlined, specialised for it. With
     ``full_log=False`` (the sweeps' batch, which keeps the contact force only) every log but ``H``
     may have one row: row 0 is overwritten at each sample, the same arithmetic otherwise.
+    The law is compiled for the arm's sizes (:func:`forcecontrol.laws.inner.on_planar_arm`: its
+    general-size path, never taken here, is not compiled).
     """
     def build() -> Any:
         stable_identities()
-        loop = njit(cache=True)(_make_loop(law, full_log))
+        loop = njit(cache=True)(_make_loop(on_planar_arm(law), full_log))
         tag = "" if full_log else ":h-only"
         # its own identity: found again on disk (see stable_identities), and its own cache files (per law and variant)
         kernel_identity(loop, f"forcecontrol:loop:{law._uuid}{tag}")

@@ -1,0 +1,73 @@
+"""A cold first run (issue 33 item 5): its compile notice, once, and only the kernels the command needs.
+
+One cold run is expensive (seconds of compiling), so a single test runs ``forcecontrol run
+example-9.2`` once in a fresh process on an empty ``NUMBA_CACHE_DIR`` and once more on the cache
+it filled. The command line is the console script's own ``forcecontrol.cli.main``, run by a small
+driver that also records which functions Numba compiles (its ``numba:compile`` event).
+No timing is asserted (``benchmarks/bench_coldstart.py`` measures it).
+"""
+
+from __future__ import annotations
+
+import collections
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+NOTICE = "forcecontrol: compiling kernels"
+
+DRIVER = r"""
+import json, sys
+from numba.core import event
+
+compiled = []
+
+class Compiles(event.Listener):
+    def on_start(self, ev):
+        func = getattr(ev.data.get("dispatcher"), "py_func", None)
+        compiled.append(f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', '?')}")
+
+    def on_end(self, ev):
+        pass
+
+event.register("numba:compile", Compiles())
+from forcecontrol.cli import main
+try:
+    main(sys.argv[2:])
+finally:
+    with open(sys.argv[1], "w") as f:
+        json.dump(compiled, f)
+"""
+
+
+def _run(tmp_path: Path, cache: Path, name: str) -> tuple[subprocess.CompletedProcess[str], list[str]]:
+    record = tmp_path / f"{name}.json"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    done = subprocess.run(
+        [sys.executable, "-c", DRIVER, str(record), "run", "example-9.2", "--force", "--out", str(tmp_path / "out")],
+        capture_output=True, text=True, env=env, timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done, json.loads(record.read_text())
+
+
+def test_cold_run_says_it_compiles_once_compiles_only_what_it_needs_and_a_warm_run_compiles_nothing(tmp_path: Path) -> None:
+    """Cold: the notice once on stderr, each kernel compiled once, none the command does not use; warm: no notice, no compile."""
+    cache = tmp_path / "numba-cache"
+    cache.mkdir()
+    cold, compiled = _run(tmp_path, cache, "cold")
+    notices = [line for line in cold.stderr.splitlines() if NOTICE in line]
+    assert len(notices) == 1, cold.stderr
+    assert notices[0].startswith(NOTICE) and str(cache) in notices[0]
+    ours = collections.Counter(n for n in compiled if n.startswith("forcecontrol."))
+    assert any(".sim.loop." in n for n in ours), ours  # the cold run did compile the loop
+    assert {n: k for n, k in ours.items() if k > 1} == {}, "a kernel compiled twice (two array layouts?)"
+    # not used by the chapter's arm on an elastic plane: only circles, only other task sizes, or inlined twins
+    unused = ("environments.surfaces.circle_wrench2", "robots.planar_2r._terms_into", "laws.inner._inverse_dynamics_general")
+    assert [n for n in ours if n.endswith(unused)] == []
+
+    warm, compiled_warm = _run(tmp_path, cache, "warm")
+    assert NOTICE not in warm.stderr, warm.stderr
+    assert [n for n in compiled_warm if n.startswith("forcecontrol.")] == []
