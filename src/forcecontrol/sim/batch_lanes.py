@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from ..core.linalg import solve2_spd
-from ..core.numba_cache import build_once, kernel_identity
+from ..core.numba_cache import build_once, kernel_identity, stable_identities
 from .metrics import case_metrics
 from .plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR
 from .trig import sincos
@@ -88,6 +88,7 @@ def lane_kernel(law: Any, trig: str = "vector") -> Any:
     (:func:`~forcecontrol.sim.trig.sincos`) or ``"libm"`` (the scalar loop's, for tests).
     """
     def build() -> Any:
+        stable_identities()  # the functions it calls, pickled into its cache key, with their stable identities
         fn = njit(cache=True, nogil=True)(_make_kernel(law, _helpers(trig)))
         kernel_identity(fn, f"forcecontrol:_lanes{LANES}.{trig}:{law._uuid}")  # its own uuid and cache files
         return fn
@@ -103,6 +104,7 @@ def _helpers(trig: str) -> tuple[Any, Any]:
     the scalar loop is.
     """
     def build() -> tuple[Any, Any]:
+        stable_identities()  # sincos, solve2_spd, ...: found again on disk only with their stable identities
         fns = _make_helpers(_TRIG[trig])
         for name, fn in fns.items():  # the inlined ones too: the cache keys of the others pickle them
             kernel_identity(fn, f"forcecontrol:_lanes{LANES}.{trig}.{name}")
