@@ -71,3 +71,32 @@ def test_cold_run_says_it_compiles_once_compiles_only_what_it_needs_and_a_warm_r
     warm, compiled_warm = _run(tmp_path, cache, "warm")
     assert NOTICE not in warm.stderr, warm.stderr
     assert [n for n in compiled_warm if n.startswith("forcecontrol.")] == []
+
+
+def test_the_planar_twin_of_a_law_is_the_law_to_the_bit_and_refuses_other_sizes() -> None:
+    """on_planar_arm(impedance) gives impedance's torques byte for byte on random states; its inner loop refuses 3 x 3."""
+    import numpy as np
+
+    import forcecontrol as fc
+    from forcecontrol.laws import impedance, os_pd, workspace_size
+    from forcecontrol.laws.inner import inverse_dynamics_2x2, on_planar_arm
+
+    twin = on_planar_arm(impedance)
+    assert twin is not impedance and on_planar_arm(os_pd) is os_pd  # a law without the inner loop is its own
+    arm = fc.CHAPTER_ARM
+    ctl = fc.ImpedanceController(arm, 100, 500, 2500)
+    rng = np.random.default_rng(33)
+    for _ in range(50):
+        q, qd, h, ref = rng.normal(size=2), rng.normal(size=2), 50.0 * rng.normal(size=2), rng.normal(size=12)
+        t = arm.terms(q, qd)
+        out = []
+        for law in (impedance, twin):
+            u = np.empty(2)
+            ok = law(0.0, 1e-3, q, qd, t.x, t.xd, t.J, t.Jdq, t.B, t.n, t.g, h, ref, ctl._params, ctl.state.copy(),
+                     np.zeros(workspace_size(2, 2)), u)
+            out.append((ok, u.tobytes()))
+        assert out[0] == out[1]
+    u3 = np.zeros(3)
+    ones, zeros = np.ones(3), np.zeros(3)
+    assert not inverse_dynamics_2x2(np.eye(3), ones, np.eye(3), zeros, ones, zeros, True, np.zeros(16), u3)
+    assert np.isnan(u3).all()
