@@ -87,7 +87,8 @@ def is_cold() -> bool:
 def notify_if_cold() -> bool:
     """Print one line on stderr, once per process, if the kernels are about to compile; return whether it did.
 
-    Measured on a 2-core machine: ``run example-9.2`` compiles in about 6 s on a fresh cache; a
+    Measured on a 2-core machine (``benchmarks/bench_coldstart.py --profile``): ``run example-9.2``
+    compiles 15 functions in about 3.1 s of CPU on a fresh cache (5.8 s before issue 33 item 5); a
     sweep compiles its batch kernel once per control law, a few seconds more each.
     """
     global _notified
