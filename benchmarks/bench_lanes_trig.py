@@ -9,8 +9,8 @@ ZOH, RK4), and why:
 * ``libm``: the lanes with ``math.sin``/``math.cos`` (LLVM has no vector libm here: Numba reports
   SVML off, so the trig stays six scalar calls per dynamics evaluation per lane and the loops
   around them do not vectorise). Its results are checked bit for bit against the plain loop.
-* ``vector sincos``: the same lanes with a branch-free sin/cos written in arithmetic (Cody-Waite
-  reduction by pi/2, fdlibm's kernel polynomials, the quadrant by selects), which LLVM vectorises
+* ``vector sincos``: the same lanes with the library's branch-free sin/cos (:func:`forcecontrol.sim.trig.sincos`:
+  Cody-Waite reduction by pi/2 in three parts, fdlibm's kernel polynomials, the quadrant by selects), which LLVM vectorises
   across lanes. Its results are checked bit for bit against the same code run with L = 1 (one
   case at a time: the lane layout itself changes no rounding), and its distance to the libm path
   is reported (sin/cos within about 1 ulp of libm, so not bit-identical to today's scalar loop).
@@ -37,6 +37,7 @@ from bench_plain_numba import plain_loop  # noqa: E402
 
 import forcecontrol as fc  # noqa: E402
 from forcecontrol.sim.simulation import choose_substeps  # noqa: E402
+from forcecontrol.sim.trig import sincos  # noqa: E402
 
 
 @njit(cache=False, inline="always")
@@ -45,24 +46,9 @@ def libm_sincos(x):
     return math.sin(x), math.cos(x)
 
 
-@njit(cache=False, inline="always")
-def vector_sincos(x):
-    """(sin x, cos x) in arithmetic only (vectorisable): x = n pi/2 + r, fdlibm's kernels on r, quadrant by selects."""
-    n = math.floor(x * 0.6366197723675814 + 0.5)
-    r = (x - n * 1.57079632673412561417) - n * 6.07710050650619224932e-11
-    z = r * r
-    s = r + z * r * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03 + z * (-1.98412698298579493134e-04 + z * (
-        2.75573137070700676789e-06 + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))))
-    cr = z * z * (4.16666666666666019037e-02 + z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05 + z * (
-        -2.75573143513906633035e-07 + z * (2.08757232129817482790e-09 + z * -1.13596475577881948265e-11)))))
-    hz = 0.5 * z
-    w = 1.0 - hz
-    c = w + (((1.0 - w) - hz) + cr)
-    m = n - 4.0 * math.floor(n * 0.25)
-    sw = m == 1.0 or m == 3.0
-    a = c if sw else s
-    b = s if sw else c
-    return (-a if m >= 2.0 else a), (-b if (m == 1.0 or m == 2.0) else b)
+#: the library's branch-free sin/cos (forcecontrol.sim.trig, what the sweeps' lane kernel runs); its first
+#: version lived here (two-part reduction, no tail: off by many ulps next to multiples of pi)
+vector_sincos = sincos
 
 
 def make_lanes(sc):
