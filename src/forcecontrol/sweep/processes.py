@@ -73,12 +73,26 @@ def _context() -> Any:
 
 
 class _Pickler(pickle.Pickler):
-    """Pickles modules by name (a PinocchioRobot holds the ``pinocchio`` module; the worker imports it)."""
+    """Pickles modules by name (a PinocchioRobot holds the ``pinocchio`` module; the worker imports it) and a
+    PinocchioRobot without its scratch ``data`` (rebuilt by ``model.createData()`` in the worker: Pinocchio's
+    Data pickles to 230 kB and loads in 14 ms, the Model 22 kB in 0.3 ms; every method fills what it reads)."""
 
     def reducer_override(self, obj: Any) -> Any:
         if isinstance(obj, types.ModuleType):
             return importlib.import_module, (obj.__name__,)
+        cls = type(obj)
+        if cls.__name__ == "PinocchioRobot" and cls.__module__ == "forcecontrol.robots.pinocchio":
+            state = {k: v for k, v in vars(obj).items() if k != "data"}
+            return _robot, (cls, state)
         return NotImplemented
+
+
+def _robot(cls: type, state: dict[str, Any]) -> Any:
+    """A PinocchioRobot from its state, with a fresh ``data`` for its model."""
+    obj = cls.__new__(cls)
+    obj.__dict__.update(state)
+    obj.data = obj.model.createData()
+    return obj
 
 
 def dumps(obj: Any) -> bytes:
