@@ -55,17 +55,24 @@ def _steps(table) -> int:
     return int(table.loc[ok, "samples"].sum() + early.sum())
 
 
-def _plain_rate(reps: int = 3) -> float:
-    """Arm-steps/s of the plain scalar loop on Example 9.2's case (k = 1e4 N/m, 4 s at 1 ms)."""
+def _plain_rate(seconds: float = 2.0) -> float:
+    """Arm-steps/s of the plain scalar loop on Example 9.2's case (k = 1e4 N/m, 4 s at 1 ms), run for about ``seconds``.
+
+    Not a few milliseconds: on a shared machine a 2 ms run lands either in a quiet moment or in a
+    busy one (measured 5.2e6 or 1.9e6 arm-steps/s from one repetition to the next), so the baseline
+    runs as long as a sweep's kernel does and averages the same conditions.
+    """
     arm = fc.PlanarTwoLink()
     q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
     k, Ts, N = 1e4, 1e-3, 4000
     nsub = choose_substeps(arm, fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], k), q0, Ts)
     args = (q0, np.array([1.1, 0.1]), k, 100.0, 500.0, 2500.0, N, Ts, nsub)
     plain_loop(*args)  # compile
+    reps = 0
     t0 = time.perf_counter()
-    for _ in range(reps):
+    while time.perf_counter() - t0 < seconds:
         plain_loop(*args)
+        reps += 1
     return reps * N / (time.perf_counter() - t0)
 
 
