@@ -15,10 +15,15 @@ listener, the thread's CPU time from start to end of each compile; nested compil
 with their depth and counted inside their caller) and prints the top ``--top``.
 
 ``--src DIR`` (repeatable) puts a source folder on ``PYTHONPATH`` to compare checkouts in the same
-loop (e.g. ``git worktree add /tmp/old <commit>`` then ``--src /tmp/old/src --src src``).
+loop (e.g. ``git archive <commit> src | tar -x -C /tmp/old`` then ``--src /tmp/old/src --src src``).
+``--speed R`` measures the other side of the trade (what compiling less costs at run time): R
+rounds, each a fresh warm process per source, in turn, timing the compiled Example 9.2 loop
+(``simulate``, 20 s simulated, best of 5) and ``ImpedanceController.step`` (5000 calls, best of
+3) in thread CPU time (robust to the other processes' load); reported per source: the median µs
+and the median (min–max) of the per-round ratios to the first source.
 Asserts nothing.
 
-Run: ``python benchmarks/bench_coldstart.py [--repeat 3] [--profile] [--src DIR ...]``.
+Run: ``python benchmarks/bench_coldstart.py [--repeat 3] [--profile] [--speed 9] [--src DIR ...]``.
 """
 
 from __future__ import annotations
@@ -64,6 +69,62 @@ with open(sys.argv[1], "w") as f:
 """
 
 
+#: one warm process: the compiled loop [µs/step] and Controller.step [µs], thread CPU, printed on one line.
+SPEED = r"""
+import time
+import numpy as np
+import forcecontrol as fc
+arm = fc.CHAPTER_ARM
+env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], 1e4)
+q0 = arm.inverse_kinematics([1.0, 0.0])
+
+def loop(duration):
+    ctl = fc.ImpedanceController(arm, 100, 500, 2500)
+    t0 = time.thread_time()
+    r = fc.simulate(arm, env, ctl, fc.Setpoint([1.1, 0.1]), q0=q0, duration=duration)
+    assert r.metadata["engine"] == "compiled"
+    return (time.thread_time() - t0) / (len(r.t) - 1)
+
+ctl = fc.ImpedanceController(arm, 100, 500, 2500)
+meas = fc.Measurement(arm.inverse_kinematics([1.05, 0.05]), np.array([0.1, -0.2]), np.array([50.0, 0.0]))
+ref = fc.Reference.setpoint([1.1, 0.1])
+
+def step(n):
+    t0 = time.thread_time()
+    for k in range(n):
+        ctl.step(k * 1e-3, meas, ref)
+    return (time.thread_time() - t0) / n
+
+loop(0.1), step(10)
+print(min(loop(20.0) for _ in range(5)) * 1e6, min(step(5000) for _ in range(3)) * 1e6)
+"""
+
+
+def speed(srcs: list[str | None], rounds: int) -> None:
+    """The compiled loop [µs/step] and Controller.step [µs] per source, a fresh warm process per source and round.
+
+    A fresh process each time: where the machine code lands in memory (its alignment) moves a
+    tight loop's speed by several per cent from one process to the next, so one long-lived
+    process per source would compare placements, not sources.
+    """
+    res: list[list[tuple[float, float]]] = [[] for _ in srcs]
+    with tempfile.TemporaryDirectory(prefix="coldstart-cache-") as cache:
+        for src in srcs:  # fill the cache
+            subprocess.run([PY, "-c", "import forcecontrol"], env=_env(cache, src), check=True)
+        for _ in range(rounds):
+            for i, src in enumerate(srcs):
+                out = subprocess.run([PY, "-c", SPEED], capture_output=True, text=True, env=_env(cache, src), check=True)
+                a, b = out.stdout.split()
+                res[i].append((float(a), float(b)))
+    print(f"\nrun time, thread CPU, a fresh warm process per source and round ({rounds} rounds; "
+          "ratios to the first source per round, median (min-max)):")
+    for src, r in zip(srcs, res):
+        loops = [x[0] / base[0] for x, base in zip(r, res[0])]
+        steps = [x[1] / base[1] for x, base in zip(r, res[0])]
+        print(f"  {str(src or '(installed)'):34s} loop {statistics.median(x[0] for x in r):.3f} us/step  ratio {spread(loops, 3)}"
+              f"   step {statistics.median(x[1] for x in r):.3f} us  ratio {spread(steps, 3)}")
+
+
 def _env(cache: str, src: str | None) -> dict[str, str]:
     env = os.environ.copy()
     env["NUMBA_CACHE_DIR"] = cache
@@ -105,8 +166,8 @@ def profile(src: str | None, out: str) -> list[dict[str, float]]:
             return json.load(f)
 
 
-def spread(values: list[float]) -> str:
-    return f"{statistics.median(values):7.2f}  ({min(values):.2f}-{max(values):.2f})"
+def spread(values: list[float], digits: int = 2) -> str:
+    return f"{statistics.median(values):7.{digits}f}  ({min(values):.{digits}f}-{max(values):.{digits}f})"
 
 
 def main() -> None:
@@ -114,17 +175,20 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="rounds (each: a cold, a warm and a numpy run per source)")
     ap.add_argument("--profile", action="store_true", help="also list the compiles of one cold run per source")
     ap.add_argument("--top", type=int, default=10, help="compiles listed by --profile")
+    ap.add_argument("--speed", type=int, default=0, metavar="R", help="also R interleaved rounds of run-time speed per source")
     ap.add_argument("--src", action="append", default=None, help="a source folder for PYTHONPATH (repeat to compare)")
     args = ap.parse_args()
     srcs = args.src or [None]
     rows: dict[str | None, list[dict[str, float]]] = {s: [] for s in srcs}
+    if args.speed:
+        speed(srcs, args.speed)
     with tempfile.TemporaryDirectory() as out:
         for _ in range(args.repeat):
             for src in srcs:
                 rows[src].append(one_round(src, out))
         profiles = {src: profile(src, out) for src in srcs} if args.profile else {}
     print(f"load average at the end: {os.getloadavg()[0]:.1f} (2 cores)")
-    for src in srcs:
+    for src in srcs if args.repeat > 0 else ():
         r = rows[src]
         print(f"\nsource: {src or '(installed)'}   command: forcecontrol {' '.join(COMMAND)} --out DIR   "
               f"(median (min-max) of {args.repeat})")
