@@ -222,3 +222,29 @@ def test_a_second_sweep_process_on_lanes_compiles_nothing(tmp_path):
         runs.append(json.loads(record.read_text()))
     assert [n for n in runs[1] if n.startswith("forcecontrol.")] == []
     assert read_sweep(tmp_path / "s1.parquet")[1]["kernel"] == "lanes8"
+
+
+@pytest.mark.parametrize("scenario, parameters", [
+    ("example-9.3", {"environment.stiffness": "logspace(3, 5, 4)"}),  # inner position, inner velocity, parallel (with state)
+    ("example-9.4", {"duration": [0.6, 0.9]}),  # hybrid force/motion on a compliant environment (with state)
+])
+def test_every_law_runs_on_lanes_within_the_trig_bound(scenario: str, parameters: dict):
+    """The other schemes' own compiled laws (and their state) on lanes: discrete outputs equal the scalar kernel's,
+    floats within 1e-9 relative or 1e-9 absolute (the steady-state error is y_final − f_ref: its error is y_final's)."""
+    prep = prepare_sweep(scenario, SweepDefinition.from_options(parameters))
+    groups: dict = {}
+    for j in prep.jobs:
+        assert j.fast
+        groups.setdefault(j.law, []).append(j)
+    assert len(groups) == (3 if scenario == "example-9.3" else 1)
+    assert any(j.ctrl_s.size for j in prep.jobs)  # laws with integral state
+    for law, fast in groups.items():
+        scalar = run_fast(law, fast, 0.02, 0.05, kernel="scalar")
+        lanes = run_fast(law, fast, 0.02, 0.05, kernel="lanes8")
+        for c in _DISCRETE:
+            i = OUT_COLUMNS.index(c)
+            assert np.array_equal(lanes[:, i], scalar[:, i]), (law.__name__, c)
+        for c in _FLOATS:
+            i = OUT_COLUMNS.index(c)
+            np.testing.assert_allclose(lanes[:, i], scalar[:, i], rtol=RTOL, atol=1e-9, equal_nan=True,
+                                       err_msg=f"{law.__name__}: {c}")
