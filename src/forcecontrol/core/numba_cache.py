@@ -88,7 +88,7 @@ def notify_if_cold() -> bool:
     """Print one line on stderr, once per process, if the kernels are about to compile; return whether it did.
 
     Measured on a 2-core machine (``benchmarks/bench_coldstart.py --profile``): ``run example-9.2``
-    compiles 15 functions in about 3.1 s of CPU on a fresh cache (5.8 s before issue 33 item 5); a
+    compiles 14 functions in about 3.7 s of CPU on a fresh cache at load 6 (16 in 5.4 s before issue 33 item 5); a
     sweep compiles its batch kernel once per control law, a few seconds more each.
     """
     global _notified
