@@ -270,26 +270,102 @@ class SweepResult:
 
 @contextlib.contextmanager
 def _output_lock(out: Path):
-    """One sweep at a time on an output: ``<out>.lock`` holds the owner's pid (a dead owner's lock is taken over)."""
+    """One sweep at a time on an output: ``<out>.lock``, held with an exclusive ``flock`` and holding the owner's pid.
+
+    The kernel drops a dead process's ``flock``, so a lock left by a killed sweep is taken over (with a
+    :class:`SweepWarning`), and a live one is never taken: the pid file alone was not enough: a second
+    process that read the file between the first one's create and its write of the pid saw no pid,
+    called the lock stale, removed it and ran over the first sweep's parts (found under load: the first
+    sweep then failed on a part the second had removed). After the ``flock`` the file must still be the
+    one at the path (a sweep ending removes it), else it is opened again. A pid written by a live
+    process that holds no ``flock`` (an older version) is still refused. Where ``flock`` is missing
+    (Windows) or refused (``ENOLCK`` on some network file systems) the pid file alone is used.
+    """
     lock = out.with_name(out.name + ".lock")
-    for _ in range(2):
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        fcntl = None  # type: ignore[assignment]
+    fd = _flock_output(lock, out, fcntl) if fcntl is not None else None
+    if fd is None:
+        with _pid_lock(lock, out):
+            yield
+        return
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)  # while holding the flock: a waiting process then finds a new file
+        os.close(fd)
+
+
+def _refuse(out: Path, lock: Path, pid: int | str) -> SweepError:
+    return SweepError(
+        f"another sweep (process {pid}) is writing {str(out)!r}; wait for it or choose another --out "
+        f"(remove {str(lock)!r} if that process is gone)"
+    )
+
+
+def _read_pid(fd: int) -> int:
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        return int(os.read(fd, 32).decode().strip() or "0")
+    except (OSError, ValueError):
+        return 0
+
+
+def _flock_output(lock: Path, out: Path, fcntl: Any) -> int | None:
+    """Open and ``flock`` ``lock`` (the file at the path, not one a finished sweep removed); write this pid. None: no flock."""
+    while True:
+        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
         try:
-            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            pid = _read_pid(fd)
+            os.close(fd)
+            raise _refuse(out, lock, pid or "starting") from None
+        except OSError:  # ENOLCK (NFS without locking) and the like
+            os.close(fd)
+            return None
+        try:
+            same = os.stat(lock).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:  # removed by the sweep that just ended: open the new one
+            os.close(fd)
+            continue
+        pid = _read_pid(fd)
+        if pid and pid != os.getpid():
+            if _alive(pid):
+                os.close(fd)
+                raise _refuse(out, lock, pid)
+            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=5)
+        os.ftruncate(fd, 0)
+        os.lseek(fd, 0, os.SEEK_SET)
+        os.write(fd, str(os.getpid()).encode())
+        return fd
+
+
+@contextlib.contextmanager
+def _pid_lock(lock: Path, out: Path):
+    """The pid file alone (no ``flock`` on this system): created exclusively with the pid already in it (a hard link of
+    a written temporary file), so a reader never sees it empty; a dead owner's lock is taken over."""
+    for _ in range(2):
+        tmp = lock.with_name(f"{lock.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+        tmp.write_text(str(os.getpid()))
+        try:
+            os.link(tmp, lock)
         except FileExistsError:
             try:
                 pid = int(lock.read_text().strip() or "0")
             except (OSError, ValueError):
                 pid = 0
             if pid and pid != os.getpid() and _alive(pid):
-                raise SweepError(
-                    f"another sweep (process {pid}) is writing {str(out)!r}; wait for it or choose another --out "
-                    f"(remove {str(lock)!r} if that process is gone)"
-                ) from None
-            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=4)
+                raise _refuse(out, lock, pid) from None
+            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=5)
             lock.unlink(missing_ok=True)
             continue
-        with os.fdopen(fd, "w") as f:
-            f.write(str(os.getpid()))
+        finally:
+            tmp.unlink(missing_ok=True)
         break
     try:
         yield
