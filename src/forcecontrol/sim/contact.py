@@ -73,7 +73,13 @@ def contact_rate(robot: RobotModel, environment: Environment, q: np.ndarray, *, 
             w2 = max(_largest_real_eigenvalue(mobility @ K), 0.0)
             omega, damping_rate = math.sqrt(w2), (c / k * w2 if k > 0 else 0.0)
         else:
-            lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (mobility + mobility.T)).max())
+            # a point contact (a surface's or friction's force at the end-effector origin, no moment: ``space``
+            # components of the wrench) moves the arm through the translational block of the mobility only; the
+            # whole 6 x 6 mixed in the wrist's rotational mobility [1/(kg m²)] and asked 61 RK4 substeps a sample
+            # of the Panda on a surface where its table (stiffness_matrix) asked 2
+            space = getattr(environment, "space", None)
+            M = mobility[:space, :space] if isinstance(space, int) and 0 < space < mobility.shape[0] else mobility
+            lam = 1.0 / float(np.linalg.eigvalsh(0.5 * (M + M.T)).max())
             omega, damping_rate = math.sqrt(max(k, 0.0) / max(lam, 1e-9)), c / max(lam, 1e-9)
     except (np.linalg.LinAlgError, ZeroDivisionError):
         lam = float(np.linalg.eigvalsh(np.asarray(robot.mass_matrix(q))).min())
