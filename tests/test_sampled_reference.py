@@ -133,3 +133,22 @@ def test_bad_samples_and_files_get_clear_errors(tmp_path):
     """))
     with pytest.raises(ScenarioError, match=r"\[reference\].*cannot read reference samples from .*nowhere.csv"):
         load_scenario(tmp_path / "scn.toml")
+
+
+def test_linear_hold_is_exactly_constant_and_samples_are_exact():
+    """A linear reference holding a pose (two equal samples) returns that pose bit for bit at every time, whatever the
+    hold's length (a motion's start time then cannot reach a run that ends before it); each sample time, the last
+    included, returns its sample exactly; between samples the value is on the segment."""
+    from forcecontrol.trajectories.sampled import SampledReference
+
+    rng = np.random.default_rng(3)
+    x0 = rng.normal(size=6) * np.array([0.3, 0.3, 0.5, 3.0, 1.0, 2.0])
+    x1 = x0 + 0.1
+    tq = np.linspace(0.0, 0.3, 3001)
+    for start in (0.37, 0.5, 0.65, 1.0 / 3.0, 7.123):
+        ref = SampledReference([0.0, start, start + 1.0], np.vstack([x0, x0, x1]), np.zeros((3, 6)), interpolation="linear")
+        assert np.array_equal(ref.sample(tq)[:, :6], np.broadcast_to(x0, (tq.size, 6)))
+        got = ref.sample(np.array([0.0, start, start + 1.0]))[:, :6]
+        assert np.array_equal(got, np.vstack([x0, x0, x1]))
+        mid = ref.sample(np.array([start + 0.25]))[0, :6]
+        np.testing.assert_allclose(mid, x0 + 0.25 * (x1 - x0), rtol=0, atol=1e-15)

@@ -192,7 +192,10 @@ class SampledReference(ReferenceSignal):
             idx = np.clip(np.searchsorted(self.times, tc, side="right") - 1, 0, self.times.shape[0] - 2)
             t0, t1 = self.times[idx], self.times[idx + 1]
             w = ((tc - t0) / (t1 - t0))[:, None]
-            y = (1.0 - w) * Y[idx] + w * Y[idx + 1]
+            # Y0 + w (Y1 − Y0): a hold (Y1 = Y0) is exactly Y0 whatever w (the (1 − w) Y0 + w Y1 form moved it by an
+            # ulp that depended on the segment's length, so a motion's start time reached a run before it started);
+            # w = 1 gives Y1 exactly
+            y = np.where(w == 1.0, Y[idx + 1], Y[idx] + w * (Y[idx + 1] - Y[idx]))
             yd = (Y[idx + 1] - Y[idx]) / (t1 - t0)[:, None]
             ydd = np.zeros_like(y)
         return y, np.where(inside, yd, 0.0), np.where(inside, ydd, 0.0)
