@@ -22,9 +22,10 @@ CHAPTER = ["9.1-interaction", "9.2-compliance", "9.3-impedance", "9.4-force", "9
            "9.6-constraints", "9.7-hybrid"]
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def site(tmp_path_factory) -> Path:
-    """The site built once, strictly, into a temporary folder."""
+    """The site built once, strictly, into a temporary folder (session scope: a module fixture was built twice on one
+    worker when another module's tests ran between this module's; the build takes minutes)."""
     out = tmp_path_factory.mktemp("site")
     env = {**os.environ, "FORCECONTROL_DOCS_CACHE": str(out.parent / "generated"), "NO_MKDOCS_2_WARNING": "1",
            "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
