@@ -24,15 +24,41 @@ ONE_WORKER = {
     "test_surface_following_6d.py", "test_rigid.py", "test_monitor.py", "test_problem_9_10.py", "test_journeys.py",
     "test_cli_replay.py", "test_journeys_files.py", "test_python_parity.py", "test_render_process.py",
     "test_ergonomics.py", "test_plotting.py", "test_animation.py", "test_vendor_data.py", "test_replay_frames.py",
-    "test_view3d.py", "test_view3d_browser.py",
+    "test_view3d.py", "test_view3d_browser.py", "test_sweep_6d_parallel.py",
 }
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark the tests of :data:`ONE_WORKER`'s modules with one ``xdist_group`` per module."""
+    """Mark the tests of :data:`ONE_WORKER`'s modules with one ``xdist_group`` per module (for the record: the
+    scheduler below is what keeps them together)."""
     for item in items:
         if item.path.name in ONE_WORKER:
             item.add_marker(pytest.mark.xdist_group(name=item.path.name))
+
+
+def _group(nodeid: str) -> str | None:
+    """The ONE_WORKER module a node id belongs to, or None."""
+    path = nodeid.split("::", 1)[0]
+    return path if path.rsplit("/", 1)[-1] in ONE_WORKER else None
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
+    """``--dist loadgroup`` that keeps each :data:`ONE_WORKER` module on one worker, by the module's path.
+
+    xdist 3.8's own grouping appends ``@group`` to ``item._nodeid`` in the worker, but pytest 9.2 derives
+    ``nodeid`` from ``item._id``: the suffix never reached the scheduler, every test was its own unit, and
+    the modules' expensive fixtures were built on both workers (the docs site twice, about 70 s each, in
+    the CI run at ba561de). The scheduler is chosen on the controller, from the node ids it already has.
+    """
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler.loadgroup import LoadGroupScheduling
+
+    class OneWorkerModules(LoadGroupScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _group(nodeid) or super()._split_scope(nodeid)
+
+    return OneWorkerModules(config, log)
 
 
 @pytest.fixture(scope="session")

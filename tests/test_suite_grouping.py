@@ -1,0 +1,31 @@
+"""The suite's ONE_WORKER modules really run on one xdist worker (their expensive fixtures built once).
+
+xdist 3.8's own ``xdist_group`` never took effect under pytest 9.2 (it edits ``item._nodeid``, which pytest 9.2 no
+longer reads): the docs site was built on both workers. tests/conftest.py schedules the groups by module path.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_a_one_worker_module_runs_on_one_worker_and_others_spread():
+    """`pytest -n 2 -v` on a ONE_WORKER module (test_vendor_data.py) and an ordinary one: every test of the first ran
+    on one worker; the second's ran on both."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-n", "2", "-v", "-p", "no:cacheprovider", "--durations=0",
+         "tests/test_vendor_data.py", "tests/test_law_layout.py"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:]
+    ran = re.findall(r"^\[(gw\d)\] .*? (?:PASSED|FAILED|SKIPPED) (tests/\S+?)::", proc.stdout, flags=re.M)
+    workers = {f: {w for w, g in ran if g == f} for f in ("tests/test_vendor_data.py", "tests/test_law_layout.py")}
+    assert len(workers["tests/test_vendor_data.py"]) == 1, workers
+    assert workers["tests/test_law_layout.py"] == {"gw0", "gw1"}, workers
