@@ -15,17 +15,21 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_a_one_worker_module_runs_on_one_worker_and_others_spread():
-    """`pytest -n 2 -v` on a ONE_WORKER module (test_vendor_data.py) and an ordinary one: every test of the first ran
-    on one worker; the second's ran on both."""
+def _workers(*files: str) -> dict[str, set[str]]:
+    """Run ``pytest -n 2 -v FILES``; the workers each file's tests ran on."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     proc = subprocess.run(
-        [sys.executable, "-m", "pytest", "-n", "2", "-v", "-p", "no:cacheprovider", "--durations=0",
-         "tests/test_vendor_data.py", "tests/test_law_layout.py"],
+        [sys.executable, "-m", "pytest", "-n", "2", "-v", "-p", "no:cacheprovider", "--durations=0", *files],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
     )
     assert proc.returncode == 0, proc.stdout[-3000:]
     ran = re.findall(r"^\[(gw\d)\] .*? (?:PASSED|FAILED|SKIPPED) (tests/\S+?)::", proc.stdout, flags=re.M)
-    workers = {f: {w for w, g in ran if g == f} for f in ("tests/test_vendor_data.py", "tests/test_law_layout.py")}
-    assert len(workers["tests/test_vendor_data.py"]) == 1, workers
-    assert workers["tests/test_law_layout.py"] == {"gw0", "gw1"}, workers
+    return {f: {w for w, g in ran if g == f} for f in files}
+
+
+def test_a_one_worker_module_runs_on_one_worker_and_an_ordinary_one_on_both():
+    """`pytest -n 2 -v`: every test of a ONE_WORKER module (test_vendor_data.py) runs on one worker, also beside another
+    module; an ordinary module run alone (test_law_layout.py, 23 tests) is spread over both workers."""
+    both = _workers("tests/test_vendor_data.py", "tests/test_law_layout.py")
+    assert len(both["tests/test_vendor_data.py"]) == 1, both
+    assert _workers("tests/test_law_layout.py")["tests/test_law_layout.py"] == {"gw0", "gw1"}
