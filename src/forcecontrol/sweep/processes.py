@@ -186,6 +186,26 @@ def _rows(out: tuple[Any, ...]) -> list[dict[str, Any]]:
     raise SweepError(text) from cause
 
 
+def keep_finishing(pending: dict[Future, list[Any]], rows: Callable[[Any], list[dict[str, Any]] | None],
+                   store: Callable[[list[Any], list[dict[str, Any]]], None]) -> None:
+    """After Ctrl-C or a failure: cancel the blocks not started, wait for the running ones and store those that end
+    well (``rows(result)`` is their rows, or None for a block that failed); the rest run again on resume.
+
+    Shared by the thread pool (:func:`forcecontrol.sweep.run._run_local`) and the process pool (:func:`_one_pool`).
+    """
+    for f in list(pending):
+        if f.cancel():
+            pending.pop(f)
+    for f, b in pending.items():
+        try:
+            got = rows(f.result())
+        except Exception:  # the block failed, or the pool broke meanwhile
+            continue
+        if got is not None:
+            store(b, got)
+    pending.clear()
+
+
 def _ids(blocks: list[list[Any]]) -> str:
     ids = sorted(j.case_id for b in blocks for j in b)
     return f"{ids[0]}-{ids[-1]}" if len(ids) > 1 else str(ids[0])
@@ -257,17 +277,7 @@ def _one_pool(queue: list[list[Any]], n: int, ctx: Any, band: tuple[Any, ...], s
         return sorted(lost, key=lambda b: b[0].case_id)
     except BaseException:
         # Ctrl-C or a failed case: start nothing new, keep what the running blocks finish
-        for f in list(pending):
-            if f.cancel():
-                pending.pop(f)
-        for f, b in pending.items():
-            try:
-                out = f.result()
-                if out[0] == "ok":
-                    store(b, out[1])
-            except Exception:  # the pool broke meanwhile: these cases run again on resume
-                pass
-        pending.clear()
+        keep_finishing(pending, lambda out: out[1] if out[0] == "ok" else None, store)
         clean = True
         raise
     finally:

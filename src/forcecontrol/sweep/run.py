@@ -42,7 +42,7 @@ from .prepare import (
     load_sweep_scenario,
     prepare_sweep,
 )
-from .processes import BLOCK_STEPS, run_processes, sweep_engine, use_processes
+from .processes import BLOCK_STEPS, keep_finishing, run_processes, sweep_engine, use_processes
 from .store import (
     SUM_KEY,
     SweepResult,
@@ -277,14 +277,7 @@ def _run_local(blocks, workers: int, band, store) -> None:
                 store(b, _block_result(f, b))
     except BaseException:
         # Ctrl-C: keep what the running blocks finish, start nothing new
-        for f in list(pending):
-            if f.cancel():
-                pending.pop(f)
-        for f, b in pending.items():
-            try:
-                store(b, f.result())
-            except Exception:  # pragma: no cover - the block itself failed
-                pass
+        keep_finishing(pending, lambda rows: rows, store)
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
