@@ -11,11 +11,12 @@ from ..errors import ForceControlError, ScenarioError
 from ..robots import PlanarTwoLink, PlanarTwoLinkParameters
 from ..sensors import ForceSensor
 from ..sim.actuators import Actuator
+from .build_share import PartShare, _shared_part
 from .checks import METRICS, _check_expected_specs
 from .model import _RICH_SENSOR_KEYS, ACTUATOR_FIELDS, ROBOT_FIELDS, SENSOR_FIELDS, TOP_FIELDS, CaseSpec
 from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, check_table, check_table_memo, check_value
 
-__all__ = ["build_case", "build_sensor"]
+__all__ = ["PartShare", "build_case", "build_sensor"]
 
 
 def _allow_contact_loss(where: str, v: Any) -> bool:
@@ -62,7 +63,7 @@ def _shared_reference(where: str, table: Any, ctx: dict[str, Any], memo: dict[An
 
 
 def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] | None = None, *,
-               sensor: ForceSensor | None = None) -> dict[str, Any]:
+               sensor: ForceSensor | None = None, share: PartShare | None = None) -> dict[str, Any]:
     """Build a case's parts: robot, environment, controller, reference, sensor, q0, settings.
 
     ``memo`` (a dict the caller keeps, e.g. for the cases of one sweep): tables equal to ones
@@ -73,29 +74,32 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
     ``sensor``: a sensor the caller already built with :func:`build_sensor` from this case's
     ``[sensor]`` table at its sample time, used instead of building it again (a sweep shares
     one between the cases whose sensor values are equal).
+
+    ``share`` (:class:`PartShare`): parts already built for cases whose keys are equal are
+    returned again (the same objects), their tables not checked again; a sweep's compiled cases.
     """
     cfg = case.config
-    unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
-    if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
-        allowed = sorted(k for k in TOP_FIELDS if k not in ("name", "title", "description", "figure", "case"))
-        raise ScenarioError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(allowed)}")
-    for key in ("robot", "environment", "controller", "reference"):
-        if key not in cfg:
-            raise ScenarioError(f"{where}: missing table [{key}]")
-    for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
-                           ("tolerance", 0.0, "a non-negative number")):
-        if cfg.get(key) is not None:
-            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
-            if v < low or (key == "settle_window" and v == 0.0):
-                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
-    _check_expected_specs(where, case.expected)
+    if share is not None:
+        top_key = ("top", share.keys["top"])
+        if top_key in share._store:  # these top-level values passed the checks below
+            hit = share._store.get(("robot", share.keys["top"], share.keys["robot"]))
+            if hit is not None:
+                rt, robot, q0 = hit
+                return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor, share)
+        else:
+            _check_top(where, case)
+            share._store[top_key] = True
+    else:
+        _check_top(where, case)
     rt = check_table_memo(memo, f"{where}: [robot]", cfg["robot"], ROBOT_FIELDS)
     robot_key = None
     if memo is not None and rt["model"] in ("planar-2r", "chapter-arm"):
         robot_key = ("robot", json.dumps(rt, sort_keys=True, default=repr))
         if robot_key in memo:
             robot, q0 = memo[robot_key]
-            return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor)
+            if share is not None:
+                share._store[("robot", share.keys["top"], share.keys["robot"])] = (rt, robot, q0.copy())
+            return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor, share)
     if rt.get("payload_mass") is not None and rt["model"] != "ur10":
         raise ScenarioError(f"{where}: [robot]: key 'payload_mass' needs model = 'ur10'; got model = {rt['model']!r}")
     if rt["model"] in ("panda", "ur5", "ur10", "urdf"):
@@ -144,24 +148,46 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
         robot = servo_robot(where, rt["servo"], robot)
     if robot_key is not None:
         memo[robot_key] = (robot, q0.copy())  # type: ignore[index]
-    return _build_rest(case, where, memo, rt, robot, q0, sensor)
+        if share is not None:
+            share._store[("robot", share.keys["top"], share.keys["robot"])] = (rt, robot, q0.copy())
+    return _build_rest(case, where, memo, rt, robot, q0, sensor, share)
+
+
+def _check_top(where: str, case: CaseSpec) -> None:
+    """The case's top-level keys: none unknown, the four tables present, substeps and windows in range, [expected]."""
+    cfg = case.config
+    unknown = sorted(k for k in cfg if k not in TOP_FIELDS or k in ("name", "title", "description", "figure", "case"))
+    if unknown:  # e.g. a misspelt top-level key in a [[case]] table, which nothing else would read
+        allowed = sorted(k for k in TOP_FIELDS if k not in ("name", "title", "description", "figure", "case"))
+        raise ScenarioError(f"{where}: unknown key '{unknown[0]}'; expected one of: {', '.join(allowed)}")
+    for key in ("robot", "environment", "controller", "reference"):
+        if key not in cfg:
+            raise ScenarioError(f"{where}: missing table [{key}]")
+    for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
+                           ("tolerance", 0.0, "a non-negative number")):
+        if cfg.get(key) is not None:
+            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
+            if v < low or (key == "settle_window" and v == 0.0):
+                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
+    _check_expected_specs(where, case.expected)
 
 
 def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dict[str, Any], robot: Any,
-                q0: np.ndarray, sensor: ForceSensor | None) -> dict[str, Any]:
+                q0: np.ndarray, sensor: ForceSensor | None, share: PartShare | None = None) -> dict[str, Any]:
     """The parts after the robot: environment, controller, reference, sensor, actuator and the settings."""
     cfg = case.config
-    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
-    if Ts <= 0:
-        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
-    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
-    if duration <= 0:
-        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
+    times = None if share is None else share._store.get(("times", share.keys["top"]))
+    if times is None:
+        times = _times(where, cfg)
+        if share is not None:
+            share._store[("times", share.keys["top"])] = times
+    Ts, duration = times
     ctx: dict[str, Any] = {"robot": robot, "sample_time": Ts, "q0": q0, "where": where}
-    env = _part(where, "environment", cfg["environment"], ENVIRONMENTS, ctx, memo)
+    env = _shared_part(share, "environment", lambda c: _part(where, "environment", cfg["environment"], ENVIRONMENTS, c, memo),
+                       ctx)
     ctx["environment"] = env
-    ctl = _part(where, "controller", cfg["controller"], CONTROLLERS, ctx, memo)
-    ref = _shared_reference(where, cfg["reference"], ctx, memo)
+    ctl = _shared_part(share, "controller", lambda c: _part(where, "controller", cfg["controller"], CONTROLLERS, c, memo), ctx)
+    ref = _shared_part(share, "reference", lambda c: _shared_reference(where, cfg["reference"], c, memo), ctx)
     sensor = build_sensor(where, cfg.get("sensor"), Ts) if sensor is None else sensor
     arm = getattr(robot, "torque_robot", robot)
     if getattr(arm, "payload", None) is not None:  # the sensor carries the payload: reads its inertial wrench
@@ -190,6 +216,17 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
         "settle_window": cfg.get("settle_window", 0.1), "tolerance": cfg.get("tolerance", 0.005),
         "allow_contact_loss": _allow_contact_loss(where, cfg.get("allow_contact_loss", False)),
     }
+
+
+def _times(where: str, cfg: dict[str, Any]) -> tuple[Any, Any]:
+    """The case's sample time and duration, checked positive."""
+    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
+    if Ts <= 0:
+        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
+    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
+    if duration <= 0:
+        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
+    return Ts, duration
 
 
 def _check_joint_limits(where: str, robot: Any, q0: np.ndarray) -> None:

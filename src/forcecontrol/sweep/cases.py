@@ -164,8 +164,34 @@ def _plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, m
     """Check a built case's run size and sub-steps and pack what its cases share.
 
     ``memo``: the sweep's memo (see :func:`~forcecontrol.scenarios.build_case`); the arm's
-    mobility at q0 is computed once per arm object and q0.
+    mobility at q0 is computed once per arm object and q0, and the plant once per robot,
+    environment and reference object (cases sharing them share everything but the controller).
     """
+    robot, env, ctl, ref = (parts[k] for k in ("robot", "environment", "controller", "reference"))
+    if memo is None:
+        return _new_plant(label, parts, ref_keys, memo)
+    # what the plant depends on: the very robot, environment and reference objects (a sweep shares
+    # them between cases with equal tables), the controller's sample time and whether it has a
+    # compiled law (the controller itself only for a 6-D task's force direction), and the settings
+    qd0 = parts["qd0"]
+    extra = (id(env), id(ref), id(ctl) if robot.task_dim != 2 else None, float(ctl.sample_time),
+             getattr(ctl, "compiled_law", None) is not None, parts.get("actuator") is None,
+             parts["duration"], parts["substeps"], parts["settle_window"],
+             np.asarray(parts["q0"], dtype=np.float64).tobytes(),
+             None if qd0 is None else np.asarray(qd0, dtype=np.float64).tobytes())
+    held = (env, ref, ctl if robot.task_dim != 2 else None)
+
+    def new() -> tuple[Any, _Plant]:
+        return held, _new_plant(label, parts, ref_keys, memo)
+
+    _, template = _per_object(memo, "plant", robot, extra, new)  # the entry holds env, ref (and ctl): their ids stay theirs
+    plant = _Plant.__new__(_Plant)  # the template with this case's parts (dataclasses.replace: 20 µs a case)
+    plant.__dict__.update(template.__dict__)
+    plant.parts = parts
+    return plant
+
+
+def _new_plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | None, memo: dict[Any, Any] | None) -> _Plant:
     from ..errors import ParameterError
     from ..robots import PlanarTwoLink
     from ..sim.contact import _contact_guarded, contact_rate

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import copy
+from functools import lru_cache
 from typing import Any
 
 from ..scenarios.schema import copy_tree
 from .spec import SweepError, SweepParameter
 
-__all__ = ["sweep_label", "copy_tree"]
+__all__ = ["sweep_label", "copy_tree", "set_values"]
 
 
 def _sweepable_top() -> list[str]:
@@ -87,25 +87,31 @@ def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:
     )
 
 
+@lru_cache(maxsize=1024)
+def _split(path: str) -> tuple[tuple[str, ...], tuple[int, ...]]:
+    """A parameter path's keys and indices (:attr:`SweepParameter.keys`, ``.indices``), parsed once per path."""
+    p = SweepParameter(path, None)
+    return tuple(p.keys), tuple(p.indices)
+
+
 def _apply(cfg: dict[str, Any], p: SweepParameter, value: Any, label: str) -> None:
     """Set ``p.path = value`` in a case configuration (creating missing [sensor]/parameters tables)."""
-    keys = p.keys
+    keys, idx = _split(p.path)
     node = cfg
     for k in keys[:-1]:
         if k not in node or node[k] is None:
             node[k] = {}
         node = node[k]
     last = keys[-1]
-    idx = p.indices
     if not idx:
-        node[last] = copy.deepcopy(value)
+        node[last] = copy_tree(value)  # a deep copy (plain data: the same as copy.deepcopy, cheaper)
         return
     if last not in node:
         raise SweepError(
             f"parameter '{p.path}' (case '{label}'): '{'.'.join(keys)}' is not set in the scenario, so it has no "
             "entries to index; sweep the whole value instead"
         )
-    cur = copy.deepcopy(node[last])
+    cur = copy_tree(node[last])
     target = cur
     for depth, i in enumerate(idx):
         if not isinstance(target, list) or i >= len(target):
@@ -114,10 +120,36 @@ def _apply(cfg: dict[str, Any], p: SweepParameter, value: Any, label: str) -> No
                 f"'{'.'.join(keys)}{''.join(f'[{j}]' for j in idx[:depth])}'; the scenario has {target!r}"
             )
         if depth == len(idx) - 1:
-            target[i] = copy.deepcopy(value)
+            target[i] = copy_tree(value)
         else:
             target = target[i]
     node[last] = cur
+
+
+def set_values(config: dict[str, Any], params: list[SweepParameter], values: dict[str, Any], label: str) -> dict[str, Any]:
+    """``config`` with every ``params`` path set to its value, as ``copy_tree`` and :func:`_apply` give it, but
+    only the tables along the swept paths copied: the rest is shared with ``config`` (read, never changed)."""
+    cfg = dict(config)
+    fresh = {id(cfg)}
+    for p in params:
+        node = cfg
+        for k in _split(p.path)[0][:-1]:
+            child = node.get(k)
+            if child is None:
+                child = node[k] = {}
+                fresh.add(id(child))
+            elif not isinstance(child, dict):  # not a table: the whole copy, and _apply's own outcome
+                cfg = copy_tree(config)
+                for q in params:
+                    _apply(cfg, q, values[q.path], label)
+                return cfg
+            elif id(child) not in fresh:
+                child = node[k] = dict(child)
+                fresh.add(id(child))
+            node = child
+    for p in params:
+        _apply(cfg, p, values[p.path], label)
+    return cfg
 
 
 def sweep_label(label: str, overrides: tuple[str, ...], parameters: list[SweepParameter]) -> str:

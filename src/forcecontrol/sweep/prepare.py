@@ -22,7 +22,7 @@ import numpy as np
 from .. import __version__
 from ..errors import DriftWarning, ForceControlError, ScenarioError
 from .cases import CaseJob, _batch_sensor, _first_sample, _job, _Plant, _plant
-from .paths import _apply, _check_path, check_only_note, copy_tree, sweep_label
+from .paths import _apply, _check_path, check_only_note, copy_tree, set_values, sweep_label
 from .spec import SweepDefinition, SweepError, SweepWarning, definition_hash
 
 __all__ = ["PreparedSweep", "CaseJob", "load_sweep_scenario", "prepare_sweep", "sweep_label", "METRIC_COLUMNS", "MAX_JOINT_SPEED"]
@@ -172,6 +172,10 @@ def _value_key(v: Any) -> tuple[str, Any]:
     return (type(v).__name__, v if isinstance(v, (bool, int, float, str)) else json.dumps(v, sort_keys=True))
 
 
+#: the tables whose parts a sweep's compiled cases share ("top": the top-level values).
+_SHARED_TABLES = ("top", "robot", "environment", "controller", "reference")
+
+
 def _where(cid: int, label: str, values: dict[str, Any]) -> str:
     shown = ", ".join(f"{k}={v!r}" for k, v in values.items())
     return f"sweep case {cid} ('{label}', {shown})"
@@ -197,7 +201,7 @@ def prepare_sweep(
             that fails the scenario's validation (the message names the case and its values).
     """
     from ..scenarios import CaseSpec, Scenario, build_case
-    from ..scenarios.build import build_sensor
+    from ..scenarios.build import PartShare, build_sensor
 
     if isinstance(scenario, Scenario):
         scn, file_def = scenario, None
@@ -218,6 +222,7 @@ def prepare_sweep(
                 warnings.warn(note, SweepWarning, stacklevel=2)
     assignments = definition.assignments()
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
+    params = list(definition.parameters)
     jobs: list[CaseJob] = []
     ref_keys: dict[Any, Any] = {}
     memo: dict[Any, Any] = {}  # tables already checked, the planar arm already built (build_case)
@@ -226,6 +231,10 @@ def prepare_sweep(
     # the plant's and the sensor's share of each assignment, as hashable keys (once, not per case)
     keys = [(tuple(_value_key(values[p.path]) for p in plant_params), tuple(_value_key(values[p.path]) for p in sensor_params))
             for values in assignments]
+    # which of the plant's values set which table (the parts shared between cases: PartShare)
+    tables = {t: [i for i, p in enumerate(plant_params) if (p.keys[0] if len(p.keys) > 1 else "top") == t]
+              for t in _SHARED_TABLES}
+    shareable = sum(len(v) for v in tables.values()) == len(plant_params)
     cid = 0
     total = len(selected) * len(assignments)
     with warnings.catch_warnings(), _collector_paused():
@@ -236,6 +245,9 @@ def prepare_sweep(
             # set of non-sensor values, the sensor once per distinct sensor values
             plants: dict[tuple[Any, ...], _Plant] = {}
             sensors: dict[tuple[Any, ...], tuple[Any, np.ndarray]] = {}
+            # the compiled cases share the parts of equal tables (checked and built once); the first case
+            # that the batch kernel cannot run ends the sharing for this row (simulate() owns its parts)
+            share = PartShare() if shareable else None
             for values, (pkey, skey) in zip(assignments, keys):
                 try:
                     job = None
@@ -252,16 +264,20 @@ def prepare_sweep(
                         if _batch_sensor(sensor_first[0]):
                             job = _job(cid, case.label, values, plant, *sensor_first)
                     if job is None:  # a new plant, or a case run by simulate(), which owns its parts
-                        cfg = copy_tree(case.config)
-                        for p in definition.parameters:
-                            _apply(cfg, p, values[p.path], case.label)
+                        cfg = set_values(case.config, params, values, case.label)
                         Ts = cfg.get("sample_time", 1e-3)  # the sensor of these values at this Ts, if built
                         known = sensors.get((skey, Ts)) if type(Ts) is float else None
                         if known is not None and not _batch_sensor(known[0]):
                             known = None  # a stateful sensor (simulate() runs it): each case builds its own
-                        built = build_case(CaseSpec(case.label, cfg, {}), where=_where(cid, case.label, values), memo=memo,
-                                           sensor=None if known is None else known[0])
+                        spec, where = CaseSpec(case.label, cfg, {}), _where(cid, case.label, values)
+                        if share is not None:
+                            share.keys = {t: tuple(pkey[i] for i in idx) for t, idx in tables.items()}
+                        built = build_case(spec, where=where, memo=memo, sensor=None if known is None else known[0], share=share)
                         own = _plant(case.label, built, ref_keys, memo)
+                        if share is not None and not (own.compiled and _batch_sensor(built["sensor"])):
+                            share = None  # this case and the row's next ones: their own parts
+                            built = build_case(spec, where=where, memo=memo, sensor=None if known is None else known[0])
+                            own = _plant(case.label, built, ref_keys, memo)
                         plants.setdefault(pkey, own)
                         sensor = built["sensor"]
                         sensor_first = sensors.get((skey, own.Ts)) if own.compiled and _batch_sensor(sensor) else None
