@@ -141,3 +141,26 @@ def test_set_values_equals_a_deep_copy_with_the_values_applied_and_leaves_the_sc
         assert got == want
         assert got["robot"] is case.config["robot"]  # not swept: shared, not copied
     assert case.config == before
+
+
+@pytest.mark.parametrize("drift", [0.0, 0.1], ids=["compiled", "simulate"])
+def test_a_part_that_warns_warns_once_for_every_case_as_a_fresh_build_does(monkeypatch, drift):
+    """A controller whose constructor warns is built (and warns) once per case, compiled or not: no warning lost or doubled."""
+    from forcecontrol.controllers import impedance
+
+    scn = load_scenario("example-9.2")
+    init = impedance.ImpedanceController.__init__
+
+    def noisy(self, robot, inertia, damping, *a, **kw):
+        warnings.warn(f"built with damping {damping}", UserWarning, stacklevel=2)
+        init(self, robot, inertia, damping, *a, **kw)
+
+    monkeypatch.setattr(impedance.ImpedanceController, "__init__", noisy)
+    params = {"environment.stiffness": [1e3, 1e4, 1e5], "controller.damping": [400.0, 500.0]}
+    definition = SweepDefinition.from_options({**params, "sensor.drift": [drift]} if drift else params, cases=["1"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        prep = prepare_sweep(scn, definition)
+    said = sorted(str(w.message) for w in caught if w.category is UserWarning)
+    assert all(j.fast == (drift == 0.0) for j in prep.jobs)
+    assert said == sorted(f"built with damping {d}" for _ in range(3) for d in (400.0, 500.0))

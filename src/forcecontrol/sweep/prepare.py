@@ -276,8 +276,10 @@ def prepare_sweep(
                         own = _plant(case.label, built, ref_keys, memo)
                         if share is not None and not (own.compiled and _batch_sensor(built["sensor"])):
                             share = None  # this case and the row's next ones: their own parts
-                            built = build_case(spec, where=where, memo=memo, sensor=None if known is None else known[0])
-                            own = _plant(case.label, built, ref_keys, memo)
+                            with warnings.catch_warnings():  # said once already, by the same build just above
+                                warnings.simplefilter("ignore")
+                                built = build_case(spec, where=where, memo=memo, sensor=None if known is None else known[0])
+                                own = _plant(case.label, built, ref_keys, memo)
                         plants.setdefault(pkey, own)
                         sensor = built["sensor"]
                         sensor_first = sensors.get((skey, own.Ts)) if own.compiled and _batch_sensor(sensor) else None
