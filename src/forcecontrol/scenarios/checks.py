@@ -10,8 +10,8 @@ import numpy as np
 from ..errors import ScenarioError
 from ..sim.simulation import SimulationResult
 
-__all__ = ["METRICS", "register_metric", "register_analysis", "case_analysis", "register_response", "case_response",
-           "check_expected", "check_no_empty_tables"]
+__all__ = ["METRICS", "register_metric", "register_analysis", "register_once", "case_analysis", "register_response",
+           "case_response", "check_expected", "check_no_empty_tables"]
 
 
 #: name -> fn(result, parts, window) giving a settled value; parts has robot, environment,...
@@ -30,6 +30,15 @@ def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], f
 def register_analysis(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> None:
     """Add an analytic prediction shown beside the simulation (and usable in ``expected``)."""
     _ANALYSES.append((applies, fn))
+
+
+def register_once(applies: Callable[[dict[str, Any]], bool], fn: Callable[[dict[str, Any]], dict[str, Any]]) -> bool:
+    """:func:`register_analysis` unless ``fn`` is already registered (a module's hook may run more than once,
+    e.g. after a reload); True when it was added."""
+    if any(known is fn for _, known in _ANALYSES):
+        return False
+    register_analysis(applies, fn)
+    return True
 
 
 #: list of (predicate(parts), fn(parts, times) -> predicted h_e (N, m) or None): linear transients.

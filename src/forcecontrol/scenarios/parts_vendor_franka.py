@@ -103,7 +103,6 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
 
 
 def _register_analyses() -> None:
-    from .checks import _ANALYSES, register_analysis
+    from .checks import register_once
 
-    if all(fn is not _analysis for _, fn in _ANALYSES):
-        register_analysis(_applies, _analysis)
+    register_once(_applies, _analysis)
