@@ -69,6 +69,7 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
     ref_id = np.empty(C, np.int64)
     noise_id = np.empty(C, np.int64)
     bias = np.empty((C, 2))
+    per_sensor: dict[int, tuple[Any, np.ndarray, tuple[float, ...]]] = {}  # holds the sensor: its id stays its own
     for i, j in enumerate(fast):
         key = (j.ref_key, j.N, j.Ts)
         if key not in ref_index:
@@ -77,9 +78,13 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
             ref_index[key] = len(refs)
             refs.append(r)
         ref_id[i] = ref_index[key]
-        b, _ = j.sensor.sequences(0, 2)  # the bias (and the shape check)
+        sensor = j.sensor  # cases share sensor objects (one per distinct [sensor] values in a sweep)
+        got = per_sensor.get(id(sensor))
+        if got is None:
+            b, _ = sensor.sequences(0, 2)  # the bias (and the shape check)
+            got = per_sensor[id(sensor)] = (sensor, b, tuple(np.broadcast_to(sensor.noise_std, (2,)).tolist()))
+        _, b, std = got
         bias[i] = b
-        std = tuple(np.broadcast_to(j.sensor.noise_std, (2,)).tolist())
         if any(std):  # a noise sequence is drawn once per (seed, std, length), not per case
             nkey = (j.sensor.seed, std, j.N)
             if nkey not in noise_index:
@@ -92,7 +97,14 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
             noise_id[i] = 0
 
     def stack(name: str) -> np.ndarray:
-        arrs = [np.atleast_1d(getattr(j, name)) for j in fast]
+        same = [getattr(j, name) for j in fast]
+        try:  # the usual case: vectors of one length, stacked at once
+            out = np.array(same, dtype=np.float64)
+            if out.ndim == 2:
+                return out
+        except ValueError:  # lengths differ: padded below
+            pass
+        arrs = [np.atleast_1d(a) for a in same]
         width = max(a.shape[0] for a in arrs)
         out = np.zeros((C, width))
         for i, a in enumerate(arrs):
