@@ -182,11 +182,10 @@ def wipe_line_reference(start: Any, end: Any, speed: float, start_time: float = 
     (linear ramps over ``accel_time`` at both ends), from ``start_time``; λ_d = ``normal_force`` [N] (the
     force reference's first component, for a frame provider's normal), constant.
 
-    **No rates**: ẋ_d = ẍ_d = 0 are given to the controller. Over a surface the controller does not know the
-    line is not tangent to it, and (9.82) measures λ̇ from the twist error, λ̇ = k̂ n̂ᵀ(ẋ − ẋ_d): a line of speed v
-    at the angle β to the surface's tangent would read as the force rate k̂ v sin β and shift the regulated force
-    by k̂ K_Dλ v sin β / K_Pλ (3 N at v = 5 cm/s, β = 9°, k̂ = 10⁴ N/m, K_Dλ/K_Pλ = 0.04 s). Without rates, the
-    pose servo follows x_d along the estimated tangent with the steady lag v K_D/K_P.
+    **No rates**: ẋ_d = ẍ_d = 0 are given to the controller. This was chosen when the 6-D hybrid read (9.82)'s λ̇
+    from the twist error, k̂ n̂ᵀ(ẋ − ẋ_d), so that a line at the angle β to the surface's tangent shifted the regulated
+    force by k̂ K_Dλ v sin β / K_Pλ; the hybrid now reads the tip's own velocity, λ̇ = k̂ n̂ᵀ ẋ, and rates would no
+    longer do that. Without rates, the pose servo follows x_d along the estimated tangent with the steady lag v K_D/K_P.
     """
     a, b = (np.asarray(v, dtype=np.float64) for v in (start, end))
     if a.shape != (6,) or b.shape != (6,):
