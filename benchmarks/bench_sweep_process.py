@@ -13,8 +13,10 @@ start-up and imports count too), so the ratio of each repetition is taken on a m
 same state; the table reports the median and the spread (min-max) of the ratios.
 
 ``--breakdown`` also splits one in-process run: ``prepare_sweep`` (validate and build every
-case), :func:`forcecontrol.sweep.run_block` over the same blocks (packing, kernel, metrics, rows)
-and the rest of ``run_sweep`` (table, Parquet parts and the final file).
+case; also per case), :func:`forcecontrol.sweep.run_block` over the same blocks (packing, kernel,
+metrics, rows) and the rest of ``run_sweep`` (table, Parquet parts and the final file). The
+table's head line also gives the wall time of a 4-case process: what any sweep process costs
+(Python's start-up, the imports, the compiled code loaded from the cache, the files).
 
 Each repetition runs the process twice, with each batch kernel (``FORCECONTROL_SWEEP_KERNEL``):
 ``scalar`` (one case at a time, :mod:`forcecontrol.sim.batch`) and ``lanes8`` (the default, 8 cases
@@ -111,6 +113,7 @@ def _breakdown(k: int, d: int, tmp: Path) -> None:
         t_sweep = time.perf_counter() - t0
         total = t_prep + t_sweep
         print(f"\nin-process breakdown, kernel {kernel} ({prep.n_cases} cases, {steps:,} arm-steps, {len(blocks)} blocks):")
+        print(f"  prepare_sweep per case: {1e6 * t_prep / prep.n_cases:.1f} us")
         for what, t in (("prepare_sweep (validate, build every case)", t_prep),
                         ("run_block over the blocks (pack, kernel, metrics, rows)", t_block),
                         ("rest of run_sweep (table, Parquet parts, final file)", t_sweep - t_block),
@@ -131,6 +134,9 @@ def main() -> None:
     try:
         for kernel in KERNELS:  # a warm cache: the kernels compile (if at all) here, not in the timings
             _cli(2, 2, tmp / f"warm-{kernel}.parquet", kernel)
+        # what a process costs whatever its size (start-up, imports, the compiled code loaded from the cache,
+        # the files): a 4-case sweep, the median of 3
+        fixed = statistics.median(_cli(2, 2, tmp / f"fixed-{i}.parquet")[0] for i in range(3))
         import pandas as pd
 
         plains: list[float] = []
@@ -148,7 +154,7 @@ def main() -> None:
                 print(f"plain loop {plain:.3g} arm-steps/s; process ({kernel}) {js['cases']} cases, {steps:,} arm-steps in "
                       f"{dt:.2f} s (sweep's own 'seconds' {js['seconds']:.2f}): {steps / dt:.3g} arm-steps/s; "
                       f"ratio {steps / dt / plain:.2f}x")
-        print(f"\ncores: {os.cpu_count()}, repetitions: {args.reps}")
+        print(f"\ncores: {os.cpu_count()}, repetitions: {args.reps}; a 4-case process (fixed cost) takes {fixed:.2f} s")
         print(f"plain scalar loop           : median {statistics.median(plains):.3g} arm-steps/s "
               f"(min {min(plains):.3g}, max {max(plains):.3g})")
         for kernel in KERNELS:
