@@ -104,7 +104,7 @@ class _DesiredFrameHybrid(_SpatialBase):
         reference = self._frame_step(err, o_e, J[:3] @ qd, h, reference)
         h_d = _desired_frame(err, reference, h, self._ref)
         xd = -err.xd
-        if reference.velocity.any() or reference.acceleration.any():  # else x̃̇ = −J_Ad q̇ and c = −J̇_Ad q̇ already
+        if np.asarray(reference.velocity).any() or np.asarray(reference.acceleration).any():  # else x̃̇ = −J_Ad q̇, c = −J̇_Ad q̇
             rest_xd, rest_c = _at_rest(err, Jdq, qd, self.orientation)
             Q = self.force_selection  # this sample's S_f (desired frame, orthonormal columns)
             xd = xd + Q @ (Q.T @ (err.xd - rest_xd))  # S_f components: J_Ad q̇ = −x̃̇ of the frame at rest
