@@ -35,7 +35,7 @@ from ..errors import DimensionError, ParameterError
 from ..laws.layout import HYBRID_COMPLIANT, HYBRID_RIGID, HYBRID_STATE
 from ..robots.base import RobotModel
 from ..task import SelectionMatrices, Task
-from .base import Controller, Measurement, Reference, runs_law
+from .base import Controller, Measurement, Reference, _f64, runs_law
 
 __all__ = [
     "HybridCompliantController",
@@ -62,6 +62,9 @@ def _selection(selection: Any, m: int) -> SelectionMatrices:
         )
     return selection
 
+
+#: The blocks of HYBRID_COMPLIANT an estimated (moving) frame changes every sample, in this order.
+_FRAME_BLOCKS = ("S_v", "S_v_pinv", "S_f_pinv", "CpS_f", "L_hat")
 
 def _frame_provider(frame: Any) -> Any:
     """``frame`` itself when it has what a moving-frame hybrid needs, else a ParameterError naming what is missing."""
@@ -164,16 +167,29 @@ class HybridCompliantController(Controller):
         d, k = self.selection.dim, self.selection.m
         l = d - k
         C = self.compliance
-        blocks = {"S_v": S_v, "S_v_pinv": S_v.T, "S_f_pinv": S_f.T, "CpS_f": (np.eye(d) - S_v @ S_v.T) @ C @ S_f,
-                  "L_hat": np.linalg.solve(S_f.T @ C @ S_f, S_f.T)}
+        slices = self.__dict__.get("_frame_slices")
+        if slices is None:  # where each moving block sits (the layout's offsets, asked once)
+            slices = self.__dict__["_frame_slices"] = (
+                [HYBRID_COMPLIANT.slice(b, d, l, k) for b in _FRAME_BLOCKS], np.eye(d))
+        where, eye = slices
         params = self._params.copy()
-        for block, value in blocks.items():
-            params[HYBRID_COMPLIANT.slice(block, d, l, k)] = np.ravel(value)
+        for at, value in zip(where, (S_v, S_v.T, S_f.T, (eye - S_v @ S_v.T) @ C @ S_f,
+                                     np.linalg.solve(S_f.T @ C @ S_f, S_f.T))):
+            params[at] = value.ravel()
         self._params = params
         r = reference
-        base = Reference(np.asarray(r.position, dtype=np.float64), S_v @ np.asarray(r.velocity)[:l],
+        base = Reference(_f64(r.position), S_v @ np.asarray(r.velocity)[:l],
                          S_v @ np.asarray(r.acceleration)[:l], S_f @ np.asarray(r.force)[:k],
                          S_f @ np.asarray(r.force_rate)[:k], S_f @ np.asarray(r.force_accel)[:k])
+        if self._fused_K is not None:  # the chapter's arm: the law and the arm's terms in one compiled call
+            u = np.empty(self.robot.nq)
+            if not laws.on_arm(self.law)(
+                self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
+                _f64(measurement.wrench), base.position, base.velocity, base.acceleration, base.force,
+                base.force_rate, base.force_accel, params, self.state, self._workspace(), u,
+            ):
+                u[:] = np.nan  # named by _check_output (a non-finite input, a singular Jacobian)
+            return self._check_output(t, u, measurement)
         return self._law_step(t, measurement, base, T)
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:

@@ -36,7 +36,7 @@ from ..errors import ParameterError
 from .base import Environment
 from .elastic import ElasticPlane
 from .spatial import Table
-from .surfaces import ElasticSurface
+from .surfaces import ElasticSphere, ElasticSurface
 
 __all__ = ["FrictionalContact"]
 
@@ -112,11 +112,69 @@ class FrictionalContact(Environment):
         fn, nu, _ = s.normal_force(x, xd)
         return fn, nu
 
+    def _normal2(self, p0: float, p1: float, v0: float, v1: float) -> tuple[float, float, float]:
+        """:meth:`_normal` on scalars for a planar surface: (f_n, ν0, ν1), the same arithmetic."""
+        s = self.surface
+        if type(s) is ElasticPlane:
+            n0, n1 = s.normal.tolist()
+            r0, r1 = s.point.tolist()
+            delta = n0 * (r0 - p0) + n1 * (r1 - p1)
+            if delta <= 0.0:
+                return 0.0, n0, n1
+            return max(0.0, s.stiffness * delta - s.damping * (n0 * v0 + n1 * v1)), n0, n1
+        if type(s) is ElasticSphere:  # ElasticSphere.geometry and ElasticSurface.normal_force
+            c0, c1 = s.center.tolist()
+            d0 = p0 - c0
+            d1 = p1 - c1
+            r = math.sqrt(d0 * d0 + d1 * d1)
+            n0, n1 = (1.0, 0.0) if r < 1e-12 else (d0 / r, d1 / r)
+            phi = r - s.radius
+            if phi >= 0.0:
+                return 0.0, n0, n1
+            return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1)), n0, n1
+        fn, nu = self._normal(np.array((p0, p1)), np.array((v0, v1)))
+        n0, n1 = np.asarray(nu, dtype=np.float64).tolist()
+        return fn, n0, n1
+
+    def _components2(self, p0: float, p1: float, v0: float, v1: float) -> tuple[float, float, float, float, float]:
+        """:meth:`components` on scalars for a planar surface (the same arithmetic, none of the small
+        arrays): (f_n, ν0, ν1, h_t0, h_t1); h_n = −f_n ν."""
+        fn, n0, n1 = self._normal2(p0, p1, v0, v1)
+        if fn <= 0.0:
+            return 0.0, n0, n1, 0.0, 0.0
+        vn = n0 * v0 + n1 * v1
+        t0 = v0 - vn * n0
+        t1 = v1 - vn * n1
+        if self.mode == STICK:
+            a0, a1 = self.anchor.tolist()
+            e0 = p0 - a0
+            e1 = p1 - a1
+            en = n0 * e0 + n1 * e1
+            h0 = self.sigma0 * (e0 - en * n0) + self.sigma1 * t0
+            h1 = self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
+        else:  # sliding (or touching in this step: the state follows after it)
+            speed = math.sqrt(t0 * t0 + t1 * t1)
+            if speed > 1e-12:
+                s0, s1 = t0 / speed, t1 / speed
+            else:
+                d0, d1 = self.direction.tolist()
+                dn = n0 * d0 + n1 * d1
+                s0, s1 = d0 - dn * n0, d1 - dn * n1
+                ns = math.sqrt(s0 * s0 + s1 * s1)
+                s0, s1 = (s0 / ns, s1 / ns) if ns > 1e-12 else (0.0, 0.0)
+            f = self.mu_k * fn
+            h0, h1 = f * s0, f * s1
+        b = self.viscous
+        return fn, n0, n1, h0 + b * t0, h1 + b * t1
+
     def components(self, x: Any, xd: Any) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """(f_n, ν, h_n, h_t) at (x, ẋ) under the current stick/slip state: the normal force [N], the
         normal, and the normal and tangential parts of h_e (space,) [N]."""
         p = np.asarray(x, dtype=np.float64)[: self.space]
         v = np.asarray(xd, dtype=np.float64)[: self.space]
+        if self.space == 2:
+            fn, n0, n1, h0, h1 = self._components2(*p.tolist(), *v.tolist())
+            return fn, np.array((n0, n1)), np.array((-fn * n0, -fn * n1)), np.array((h0, h1))
         fn, nu = self._normal(p, v)
         zero = np.zeros(self.space)
         if fn <= 0.0:
@@ -137,6 +195,11 @@ class FrictionalContact(Environment):
         return fn, nu, -fn * nu, ht + self.viscous * vt
 
     def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
+        if self.space == 2 and self.dim == 2:  # the planar arm's hot path: scalars in, one array out
+            x0, x1 = np.asarray(x, dtype=np.float64).tolist()
+            v0, v1 = np.asarray(xd, dtype=np.float64).tolist()
+            fn, n0, n1, h0, h1 = self._components2(x0, x1, v0, v1)
+            return np.array((-fn * n0 + h0, -fn * n1 + h1))
         out = np.zeros(self.dim)
         _, _, hn, ht = self.components(x, xd)
         out[: self.space] = hn + ht
@@ -149,6 +212,9 @@ class FrictionalContact(Environment):
     def _update(self, x: np.ndarray, xd: np.ndarray) -> None:
         p = np.asarray(x, dtype=np.float64)[: self.space]
         v = np.asarray(xd, dtype=np.float64)[: self.space]
+        if self.space == 2:
+            self._update2(*p.tolist(), *v.tolist())
+            return
         fn, nu = self._normal(p, v)
         if fn <= 0.0:
             self.mode = FREE
@@ -179,6 +245,47 @@ class FrictionalContact(Environment):
             self.anchor = p - (self.mu_k * fn / self.sigma0) * d
         else:
             self.direction = vt / speed
+
+    def _update2(self, p0: float, p1: float, v0: float, v1: float) -> None:
+        """:meth:`_update` on scalars for a planar surface (the same arithmetic and transitions)."""
+        fn, n0, n1 = self._normal2(p0, p1, v0, v1)
+        if fn <= 0.0:
+            self.mode = FREE
+            return
+        vn = n0 * v0 + n1 * v1
+        t0 = v0 - vn * n0
+        t1 = v1 - vn * n1
+        speed = math.sqrt(t0 * t0 + t1 * t1)
+        if self.mode == FREE:
+            if speed > self.stick_speed:
+                self.mode, self.direction = SLIP, np.array((t0 / speed, t1 / speed))
+            else:
+                self.mode, self.anchor = STICK, np.array((p0, p1))
+            return
+        if self.mode == STICK:
+            a0, a1 = self.anchor.tolist()
+            e0 = p0 - a0
+            e1 = p1 - a1
+            en = n0 * e0 + n1 * e1
+            f0 = self.sigma0 * (e0 - en * n0) + self.sigma1 * t0
+            f1 = self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
+            fmag = math.sqrt(f0 * f0 + f1 * f1)
+            if fmag > self.mu_s * fn:  # breakaway
+                self.mode = SLIP
+                self.direction = np.array((t0 / speed, t1 / speed) if speed > 1e-12 else (f0 / fmag, f1 / fmag))
+            return
+        # sliding: stop on a reversal or below the sticking speed, with the kinetic force carried on
+        d0, d1 = self.direction.tolist()
+        if speed <= self.stick_speed or t0 * d0 + t1 * d1 <= 0.0:
+            dn = n0 * d0 + n1 * d1
+            d0, d1 = d0 - dn * n0, d1 - dn * n1
+            nd = math.sqrt(d0 * d0 + d1 * d1)
+            d0, d1 = (d0 / nd, d1 / nd) if nd > 1e-12 else (0.0, 0.0)
+            self.mode = STICK
+            c = self.mu_k * fn / self.sigma0
+            self.anchor = np.array((p0 - c * d0, p1 - c * d1))
+        else:
+            self.direction = np.array((t0 / speed, t1 / speed))
 
     def _pose(self, robot: Any, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         pose_twist = getattr(robot, "pose_twist", None)

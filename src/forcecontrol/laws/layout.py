@@ -75,6 +75,9 @@ class Blocks:
                     f"the dimensions {self.dims}; got {size!r}"
                 )
             self.blocks[block] = factors
+        #: ``(block, dims) -> slice`` of the blocks already addressed (the declaration never changes):
+        #: a controller that repacks blocks every sample asks the same few each time
+        self._slices: dict[tuple[str, tuple[int, ...]], slice] = {}
 
     def _dims(self, dims: tuple[int, ...]) -> dict[str, int]:
         if len(dims) != len(self.dims) or not all(isinstance(v, (int, np.integer)) and v >= 0 for v in dims):
@@ -109,8 +112,14 @@ class Blocks:
 
     def slice(self, block: str, *dims: int) -> slice:
         """The slice of ``block`` in a packed vector."""
-        o = self.offset(block, *dims)
-        return slice(o, o + self._size(block, self._dims(dims)))
+        key = (block, dims)
+        out = self._slices.get(key) if all(type(v) is int for v in dims) else None
+        if out is None:
+            o = self.offset(block, *dims)
+            out = slice(o, o + self._size(block, self._dims(dims)))
+            if all(type(v) is int for v in dims):
+                self._slices[key] = out
+        return out
 
     def fixed(self, block: str) -> bool:
         """True when the offset of ``block`` does not depend on the dimensions (it is a constant)."""

@@ -25,6 +25,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
+from ..core.linalg import SINGULAR_RCOND as _SINGULAR
 from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, WorkspaceError
 from .base import RobotTerms
@@ -150,6 +151,39 @@ def _terms(q, qd, K):  # pragma: no cover - compiled
     g = np.empty(2)
     _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
     return x, xd, J, Jdq, B, nv, g
+
+
+@njit(cache=True)
+def _pose_twist(q, qd, K):  # pragma: no cover - compiled
+    """(x0, x1, ẋ0, ẋ1) as scalars, the expressions of :func:`_terms_into`."""
+    a1 = K[0]
+    a2 = K[1]
+    c1 = math.cos(q[0])
+    s1 = math.sin(q[0])
+    c12 = math.cos(q[0] + q[1])
+    s12 = math.sin(q[0] + q[1])
+    j00 = -a1 * s1 - a2 * s12
+    j01 = -a2 * s12
+    j10 = a1 * c1 + a2 * c12
+    j11 = a2 * c12
+    return a1 * c1 + a2 * c12, a1 * s1 + a2 * s12, j00 * qd[0] + j01 * qd[1], j10 * qd[0] + j11 * qd[1]
+
+
+@njit(cache=True)
+def _plant_terms(q, qd, K):  # pragma: no cover - compiled
+    """What the plant needs at (q, q̇) as 13 scalars: x (2), ẋ (2), J (row-major, 4), B00, B01, B11, n (2).
+
+    The arithmetic of :func:`_terms_into` (the same function, inlined); scalars cross into Python
+    for a fraction of the cost of the seven arrays :func:`_terms` returns."""
+    x = np.empty(2)
+    xd = np.empty(2)
+    J = np.empty((2, 2))
+    Jdq = np.empty(2)
+    B = np.empty((2, 2))
+    nv = np.empty(2)
+    g = np.empty(2)
+    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
+    return x[0], x[1], xd[0], xd[1], J[0, 0], J[0, 1], J[1, 0], J[1, 1], B[0, 0], B[0, 1], B[1, 1], nv[0], nv[1]
 
 
 @njit(cache=True)
@@ -279,6 +313,36 @@ class PlanarTwoLink:
     def terms(self, q: np.ndarray, qd: np.ndarray) -> RobotTerms:
         """x, ẋ, J, J̇q̇, B, n, g in one compiled call (the hot path; no shape checks)."""
         return RobotTerms(*_terms(q, qd, self._K))
+
+    # -- the simulator's hot path (Environment.sampled_wrench and .acceleration use these when present)
+    def pose_twist(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x, ẋ) of the tip from the kinematics alone, the same numbers as ``terms(q, qd).x, .xd`` (no checks)."""
+        x0, x1, v0, v1 = _pose_twist(q, qd, self._K)
+        return np.array((x0, x1)), np.array((v0, v1))
+
+    def elastic_acceleration(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench) -> tuple[np.ndarray, np.ndarray]:
+        """The plant (9.1) on an elastic environment: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)`` with ``h_e = wrench(x, ẋ)``.
+
+        One compiled call for the terms, then the 2×2 system in closed form, by the inverse as the
+        compiled loops do (``core.linalg.solve2_spd``): equal to ``np.linalg.solve(B, u − n − Jᵀ h)``
+        to round-off at a fifth of its cost. A B that is not numerically positive definite (a
+        non-finite state) goes to ``np.linalg.solve``, which then decides as before (no checks).
+
+        Returns:
+            q̈ (2,) [rad/s²] and h_e (2,) [N].
+        """
+        x0, x1, v0, v1, j00, j01, j10, j11, b00, b01, b11, n0, n1 = _plant_terms(q, qd, self._K)
+        h = np.asarray(wrench(np.array((x0, x1)), np.array((v0, v1))), dtype=np.float64)
+        h0, h1 = h.tolist()
+        u0, u1 = np.asarray(u, dtype=np.float64).tolist()
+        r0 = (u0 - n0) - (j00 * h0 + j10 * h1)
+        r1 = (u1 - n1) - (j01 * h0 + j11 * h1)
+        scale = max(abs(b00), abs(b01), abs(b11))
+        det = b00 * b11 - b01 * b01
+        if not (det > _SINGULAR * scale * scale and math.isfinite(det)):
+            return np.linalg.solve(np.array(((b00, b01), (b01, b11))), np.array((r0, r1))), h
+        inv = 1.0 / det
+        return np.array(((b11 * r0 - b01 * r1) * inv, (b00 * r1 - b01 * r0) * inv)), h
 
 
 #: the chapter's arm with its data.

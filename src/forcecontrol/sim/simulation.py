@@ -327,6 +327,8 @@ def _python_loop(
     q, qd = q0.copy(), qd0.copy()
     hm = np.zeros(m)
     dt = Ts / nsub
+    hdt, sdt = 0.5 * dt, dt / 6.0
+    planar = q0.shape[0] == 2
 
     u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see pre_start_wrench)
     friction = actuator.friction if actuator is not None and actuator.has_friction else None
@@ -342,7 +344,7 @@ def _python_loop(
         a, h = environment.acceleration(robot, q, qd, u if friction is None else u - friction(qd))
         if h.any():
             touched[0] = True
-        return a
+        return np.asarray(a, dtype=np.float64)
 
     for k in range(N + 1):
         t = k * Ts
@@ -374,7 +376,7 @@ def _python_loop(
         if k == N:
             break
         try:
-            for _ in range(nsub):
+            for _ in range(nsub) if not planar else ():
                 a1 = accel(q, qd, u)
                 v2 = qd + 0.5 * dt * a1
                 a2 = accel(q + 0.5 * dt * qd, v2, u)
@@ -384,6 +386,20 @@ def _python_loop(
                 a4 = accel(q + dt * v3, v4, u)
                 q = q + dt / 6.0 * (qd + 2 * v2 + 2 * v3 + v4)
                 qd = qd + dt / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+                if stateful:
+                    environment.advance(robot, q, qd)
+            for _ in range(nsub) if planar else ():  # the same arithmetic on scalars (2 joints: no small arrays)
+                q_0, q_1 = q.tolist()
+                w_0, w_1 = qd.tolist()
+                a10, a11 = accel(q, qd, u).tolist()
+                v20, v21 = w_0 + hdt * a10, w_1 + hdt * a11
+                a20, a21 = accel(np.array((q_0 + hdt * w_0, q_1 + hdt * w_1)), np.array((v20, v21)), u).tolist()
+                v30, v31 = w_0 + hdt * a20, w_1 + hdt * a21
+                a30, a31 = accel(np.array((q_0 + hdt * v20, q_1 + hdt * v21)), np.array((v30, v31)), u).tolist()
+                v40, v41 = w_0 + dt * a30, w_1 + dt * a31
+                a40, a41 = accel(np.array((q_0 + dt * v30, q_1 + dt * v31)), np.array((v40, v41)), u).tolist()
+                q = np.array((q_0 + sdt * (w_0 + 2 * v20 + 2 * v30 + v40), q_1 + sdt * (w_1 + 2 * v21 + 2 * v31 + v41)))
+                qd = np.array((w_0 + sdt * (a10 + 2 * a20 + 2 * a30 + a40), w_1 + sdt * (a11 + 2 * a21 + 2 * a31 + a41)))
                 if stateful:
                     environment.advance(robot, q, qd)
         except np.linalg.LinAlgError:
