@@ -164,3 +164,26 @@ def test_a_part_that_warns_warns_once_for_every_case_as_a_fresh_build_does(monke
     said = sorted(str(w.message) for w in caught if w.category is UserWarning)
     assert all(j.fast == (drift == 0.0) for j in prep.jobs)
     assert said == sorted(f"built with damping {d}" for _ in range(3) for d in (400.0, 500.0))
+
+
+@pytest.mark.parametrize("drift", [0.0, 0.1], ids=["compiled", "simulate"])
+def test_a_warning_shown_once_under_the_default_filter_is_shown_once(monkeypatch, drift):
+    """Under the "default" filter a builder's same warning is shown once per sweep, as when every case is built afresh."""
+    from forcecontrol.controllers import impedance
+
+    scn = load_scenario("example-9.2")
+    # the compiled functions loaded first: Numba's first load resets the registries of warnings shown
+    prepare_sweep(scn, SweepDefinition.from_options({"environment.stiffness": [1e3]}, cases=["1"]))
+    init = impedance.ImpedanceController.__init__
+
+    def noisy(self, *a, **kw):
+        warnings.warn("the same note for every controller", UserWarning, stacklevel=2)
+        init(self, *a, **kw)
+
+    monkeypatch.setattr(impedance.ImpedanceController, "__init__", noisy)
+    params = {"environment.stiffness": [1e3, 1e4, 1e5], "controller.damping": [400.0, 500.0, 600.0]}
+    definition = SweepDefinition.from_options({**params, "sensor.drift": [drift]} if drift else params, cases=["1"])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        prepare_sweep(scn, definition)
+    assert [str(w.message) for w in caught if w.category is UserWarning] == ["the same note for every controller"]

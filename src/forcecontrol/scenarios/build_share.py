@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Hashable
+from collections.abc import Hashable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["PartShare"]
+__all__ = ["PartShare", "warnings_shown"]
 
 
 class PartShare:
@@ -74,6 +75,34 @@ class _Reads(dict):
         return dict(super().items())
 
 
+@contextmanager
+def warnings_shown(swallow: bool = False) -> Iterator[list[Any]]:
+    """The warnings shown inside the block (appended to the list it gives), or none shown with ``swallow``.
+
+    The filters are left alone (``warnings.catch_warnings`` would reset every module's registry of warnings
+    already shown, so a "default" warning said once before would be said again): only what passes the filters
+    and the registries reaches ``warnings._showwarnmsg``, which is watched here. Without that hook (not CPython),
+    every build counts as having said something.
+    """
+    said: list[Any] = []
+    show = getattr(warnings, "_showwarnmsg", None)
+    if show is None:  # pragma: no cover - CPython has it
+        said.append(None)
+        yield said
+        return
+
+    def watch(msg: Any) -> None:
+        said.append(msg)
+        if not swallow:
+            show(msg)
+
+    warnings._showwarnmsg = watch  # type: ignore[attr-defined]
+    try:
+        yield said
+    finally:
+        warnings._showwarnmsg = show  # type: ignore[attr-defined]
+
+
 def _shared_part(share: PartShare | None, name: str, build: Any, ctx: dict[str, Any]) -> Any:
     """``build(ctx)`` (one of the case's parts), or the part already built for equal keys (:class:`PartShare`)."""
     if share is None:
@@ -88,14 +117,12 @@ def _shared_part(share: PartShare | None, name: str, build: Any, ctx: dict[str, 
         if hit is not None:
             return hit
     seen = _Reads(ctx)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings_shown() as shown:  # a part whose build says something is not shared: its cases build (and say) their own
         part = build(seen)
-    for w in caught:  # what the builder said, said again (and its part not shared: its cases build their own)
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
     # ctx holds the robot, its q0 and the sample time (given by the "robot" and "top" keys), the case's
     # where (a builder that reads it may keep it) and the parts built before this one
     deps = tuple(sorted(seen.read - {"robot", "q0", "sample_time"}))
-    if caught or "where" in deps or "*" in deps or any(d not in keys for d in deps):
+    if shown or "where" in deps or "*" in deps or any(d not in keys for d in deps):
         store[("reads", base)] = _NOT_SHARED
         return part
     store[("reads", base)] = deps

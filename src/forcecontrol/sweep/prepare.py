@@ -202,6 +202,7 @@ def prepare_sweep(
     """
     from ..scenarios import CaseSpec, Scenario, build_case
     from ..scenarios.build import PartShare, build_sensor
+    from ..scenarios.build_share import warnings_shown
 
     if isinstance(scenario, Scenario):
         scn, file_def = scenario, None
@@ -276,8 +277,7 @@ def prepare_sweep(
                         own = _plant(case.label, built, ref_keys, memo)
                         if share is not None and not (own.compiled and _batch_sensor(built["sensor"])):
                             share = None  # this case and the row's next ones: their own parts
-                            with warnings.catch_warnings():  # said once already, by the same build just above
-                                warnings.simplefilter("ignore")
+                            with warnings_shown(swallow=True):  # said once already, by the same build just above
                                 built = build_case(spec, where=where, memo=memo, sensor=None if known is None else known[0])
                                 own = _plant(case.label, built, ref_keys, memo)
                         plants.setdefault(pkey, own)
