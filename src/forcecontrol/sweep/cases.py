@@ -257,6 +257,19 @@ def _batch_sensor(sensor: Any) -> bool:
     return bool(getattr(sensor, "compiled_ok", True))
 
 
+def _controllers_base() -> Any:
+    """:mod:`forcecontrol.controllers.base`, imported on first use (this module is imported before the controllers)."""
+    global _BASE
+    if _BASE is None:
+        from ..controllers import base
+
+        _BASE = base
+    return _BASE
+
+
+_BASE: Any = None
+
+
 def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor: Any, first: np.ndarray) -> CaseJob:
     """One case: the kernel's packed arrays (compiled plants and sensors) or its parts for simulate()."""
     p = plant.parts
@@ -266,7 +279,7 @@ def _job(case_id: int, label: str, values: dict[str, Any], plant: _Plant, sensor
         job.parts = {k: p[k] for k in ("robot", "environment", "controller", "reference", "q0", "qd0", "actuator")}
         job.parts["sensor"] = sensor
         return job
-    from ..controllers import base  # a module import: a third of a from-import's cost, once per case
+    base = _controllers_base()
 
     ctl = p["controller"]
     # the controller's reset exactly as simulate() does it (same first noise sample); the packed
