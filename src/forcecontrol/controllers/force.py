@@ -409,14 +409,20 @@ class ParallelForcePositionController(_DirectForceController):
         """Torques of (9.30), (9.48), (9.43) for this sample; advances ξ by one sample."""
         if self.frame is None:
             return self._law_step(t, measurement, reference)
-        T = self.robot.terms(measurement.q, measurement.qd)
-        self.frame.update(measurement.wrench, T.xd, T.x)
+        from .hybrid import _frame_pose, _on_arm_step
+
+        T, x, xd = _frame_pose(self, measurement)
+        self.frame.update(measurement.wrench, xd, x)
         S_f, S_v = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
         params = self._params.copy()
-        params[FORCE.slice("R", self.m)] = np.ravel(np.hstack([S_f, S_v]))
+        where = self.__dict__.get("_R_slice")
+        if where is None:  # the block's place in the layout, asked once
+            where = self.__dict__["_R_slice"] = FORCE.slice("R", self.m)
+        params[where] = np.ravel(np.hstack([S_f, S_v]))
         self._params = params
-        x = np.asarray(T.x, dtype=np.float64)
-        u = self._law_step(t, measurement, self._base_reference(x, reference, S_f, S_v), T)
+        x = np.asarray(x, dtype=np.float64)
+        base = self._base_reference(x, reference, S_f, S_v)
+        u = _on_arm_step(self, t, measurement, base, params) if T is None else self._law_step(t, measurement, base, T)
         nu_d = np.asarray(reference.velocity, dtype=np.float64)[: self.m - self._k]
-        self._tangential_error += self.sample_time * (nu_d - S_v.T @ np.asarray(T.xd, dtype=np.float64))
+        self._tangential_error += self.sample_time * (nu_d - S_v.T @ np.asarray(xd, dtype=np.float64))
         return u

@@ -66,6 +66,32 @@ def _selection(selection: Any, m: int) -> SelectionMatrices:
 #: The blocks of HYBRID_COMPLIANT an estimated (moving) frame changes every sample, in this order.
 _FRAME_BLOCKS = ("S_v", "S_v_pinv", "S_f_pinv", "CpS_f", "L_hat")
 
+def _frame_pose(controller: Controller, measurement: Measurement) -> tuple[Any, np.ndarray, np.ndarray]:
+    """(T, x, ẋ) for a moving-frame step: on the chapter's arm T is None (the law computes the terms in its
+    one compiled call, :func:`_on_arm_step`) and x, ẋ come from the kinematics alone; else the robot's terms."""
+    pose_twist = getattr(controller.robot, "pose_twist", None) if controller._fused_K is not None else None
+    if pose_twist is not None:
+        x, xd = pose_twist(measurement.q, measurement.qd)
+        return None, x, xd
+    T = controller.robot.terms(measurement.q, measurement.qd)
+    return T, T.x, T.xd
+
+
+def _on_arm_step(controller: Controller, t: float, measurement: Measurement, ref: Reference, params: np.ndarray) -> np.ndarray:
+    """The controller's law on the chapter's arm with this sample's ``params``, in one compiled call
+    (:func:`forcecontrol.laws.on_arm`; ``ref``'s fields float64 arrays): what ``_law_step`` computes from
+    the robot's terms, equal to round-off."""
+    u = np.empty(controller.robot.nq)
+    m = measurement
+    if not laws.on_arm(controller.law)(
+        controller._fused_K, float(t), controller.sample_time, _f64(m.q), _f64(m.qd), _f64(m.wrench),
+        _f64(ref.position), _f64(ref.velocity), _f64(ref.acceleration), _f64(ref.force), _f64(ref.force_rate),
+        _f64(ref.force_accel), params, controller.state, controller._workspace(), u,
+    ):
+        u[:] = np.nan  # named by _check_output (a non-finite input, a singular Jacobian)
+    return controller._check_output(t, u, m)
+
+
 def _frame_provider(frame: Any) -> Any:
     """``frame`` itself when it has what a moving-frame hybrid needs, else a ParameterError naming what is missing."""
     if frame is None:
@@ -161,36 +187,52 @@ class HybridCompliantController(Controller):
         """Torques of (9.77), (9.80), (9.81) for this sample; advances the velocity integral."""
         if self.frame is None:
             return self._law_step(t, measurement, reference)
-        T = self.robot.terms(measurement.q, measurement.qd)
-        self.frame.update(measurement.wrench, T.xd, T.x)
+        T, x, xd = _frame_pose(self, measurement)
+        self.frame.update(measurement.wrench, xd, x)
         S_f, S_v = (np.asarray(a, dtype=np.float64) for a in self.frame.selection())
         d, k = self.selection.dim, self.selection.m
         l = d - k
-        C = self.compliance
         slices = self.__dict__.get("_frame_slices")
         if slices is None:  # where each moving block sits (the layout's offsets, asked once)
-            slices = self.__dict__["_frame_slices"] = (
-                [HYBRID_COMPLIANT.slice(b, d, l, k) for b in _FRAME_BLOCKS], np.eye(d))
-        where, eye = slices
+            where = [HYBRID_COMPLIANT.slice(b, d, l, k) for b in _FRAME_BLOCKS]
+            flat = np.concatenate([np.arange(w.start, w.stop) for w in where])
+            slices = self.__dict__["_frame_slices"] = (where, np.eye(d), flat)
+        where, eye, flat = slices
         params = self._params.copy()
-        for at, value in zip(where, (S_v, S_v.T, S_f.T, (eye - S_v @ S_v.T) @ C @ S_f,
-                                     np.linalg.solve(S_f.T @ C @ S_f, S_f.T))):
-            params[at] = value.ravel()
-        self._params = params
         r = reference
-        base = Reference(_f64(r.position), S_v @ np.asarray(r.velocity)[:l],
-                         S_v @ np.asarray(r.acceleration)[:l], S_f @ np.asarray(r.force)[:k],
-                         S_f @ np.asarray(r.force_rate)[:k], S_f @ np.asarray(r.force_accel)[:k])
-        if self._fused_K is not None:  # the chapter's arm: the law and the arm's terms in one compiled call
-            u = np.empty(self.robot.nq)
-            if not laws.on_arm(self.law)(
-                self._fused_K, float(t), self.sample_time, _f64(measurement.q), _f64(measurement.qd),
-                _f64(measurement.wrench), base.position, base.velocity, base.acceleration, base.force,
-                base.force_rate, base.force_accel, params, self.state, self._workspace(), u,
-            ):
-                u[:] = np.nan  # named by _check_output (a non-finite input, a singular Jacobian)
-            return self._check_output(t, u, measurement)
+        if d == 2 and S_f.shape == (2, 1) and S_v.shape == (2, 1):  # planar: the same products on scalars
+            values, base = self._planar_frame(S_f, S_v, r)
+            params[flat] = values
+        else:
+            C = self.compliance
+            for at, value in zip(where, (S_v, S_v.T, S_f.T, (eye - S_v @ S_v.T) @ C @ S_f,
+                                         np.linalg.solve(S_f.T @ C @ S_f, S_f.T))):
+                params[at] = value.ravel()
+            base = Reference(_f64(r.position), S_v @ np.asarray(r.velocity)[:l],
+                             S_v @ np.asarray(r.acceleration)[:l], S_f @ np.asarray(r.force)[:k],
+                             S_f @ np.asarray(r.force_rate)[:k], S_f @ np.asarray(r.force_accel)[:k])
+        self._params = params
+        if T is None:
+            return _on_arm_step(self, t, measurement, base, params)
         return self._law_step(t, measurement, base, T)
+
+    def _planar_frame(self, S_f: np.ndarray, S_v: np.ndarray, r: Reference) -> tuple[list[float], Reference]:
+        """The blocks S_v, S_v†, S_f†, Ĉ′ S_f = (I − S_v S_vᵀ) Ĉ S_f, L̂ = (S_fᵀ Ĉ S_f)⁻¹ S_fᵀ of a planar frame
+        (S_f = n̂, S_v = t̂, (2, 1)) in that order, and the reference mapped on it: the products of the
+        general path written out on scalars (equal to round-off), without its ten small arrays."""
+        n0, n1 = S_f.ravel().tolist()
+        t0, t1 = S_v.ravel().tolist()
+        c00, c01, c10, c11 = self.compliance.ravel().tolist()
+        p00, p01, p10, p11 = 1.0 - t0 * t0, 0.0 - t0 * t1, 0.0 - t1 * t0, 1.0 - t1 * t1
+        q00, q01 = p00 * c00 + p01 * c10, p00 * c01 + p01 * c11
+        q10, q11 = p10 * c00 + p11 * c10, p10 * c01 + p11 * c11
+        lam = (n0 * c00 + n1 * c10) * n0 + (n0 * c01 + n1 * c11) * n1
+        values = [t0, t1, t0, t1, n0, n1, q00 * n0 + q01 * n1, q10 * n0 + q11 * n1, n0 / lam, n1 / lam]
+        v, a, f, fd, fdd = (float(np.asarray(w)[0]) for w in (r.velocity, r.acceleration, r.force, r.force_rate,
+                                                              r.force_accel))
+        base = Reference(_f64(r.position), np.array((t0 * v, t1 * v)), np.array((t0 * a, t1 * a)),
+                         np.array((n0 * f, n1 * f)), np.array((n0 * fd, n1 * fd)), np.array((n0 * fdd, n1 * fdd)))
+        return values, base
 
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         """Integrators zeroed; a frame provider back to its first guess."""

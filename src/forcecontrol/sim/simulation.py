@@ -318,6 +318,10 @@ def _raise_diverged(result: SimulationResult, status: int, k: int, Ts: float, ma
     raise err
 
 
+def _pose(T: Any) -> tuple[np.ndarray, np.ndarray]:
+    return T.x, T.xd
+
+
 def _python_loop(
     robot, environment, controller, refs, bias, noise, alpha, q0, qd0, Ts, nsub, max_qd, logs, sensor=None, actuator=None
 ):
@@ -329,6 +333,9 @@ def _python_loop(
     dt = Ts / nsub
     hdt, sdt = 0.5 * dt, dt / 6.0
     planar = q0.shape[0] == 2
+    robot_nq = q0.shape[0]
+    # (x, ẋ) of a sample: from the kinematics alone where the robot offers it (the same numbers as terms' x, ẋ)
+    pose_twist = robot.pose_twist if isinstance(getattr(robot, "torque_robot", robot), PlanarTwoLink) else None
 
     u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see pre_start_wrench)
     friction = actuator.friction if actuator is not None and actuator.has_friction else None
@@ -348,7 +355,7 @@ def _python_loop(
 
     for k in range(N + 1):
         t = k * Ts
-        T = robot.terms(q, qd)
+        x, xd = pose_twist(q, qd) if pose_twist is not None else _pose(robot.terms(q, qd))
         h = environment.sampled_wrench(robot, q, qd, u if friction is None else u - friction(qd))
         if sensor is not None:  # stateful sensor model (started in simulate)
             hm = sensor.measure(k, t, h, q)
@@ -359,7 +366,7 @@ def _python_loop(
         ref = Reference(*(row[i * m : (i + 1) * m] for i in range(len(REFERENCE_FIELDS))))
         try:
             u = np.asarray(controller.step(t, Measurement(q.copy(), qd.copy(), hm.copy()), ref), dtype=np.float64)
-            status = 0 if np.all(np.isfinite(u)) else 4
+            status = 0 if all(map(math.isfinite, u.tolist())) else 4
             if line is not None:
                 logs["torque_commanded"][k] = u
                 if not status:
@@ -367,10 +374,10 @@ def _python_loop(
         except SingularityError:
             u = np.full(robot.nq, np.nan)
             status = 3
-        logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, T.x, T.xd
+        logs["q"][k], logs["qd"][k], logs["x"][k], logs["xd"][k] = q, qd, x, xd
         logs["wrench"][k], logs["wrench_measured"][k], logs["torque"][k] = h, hm, u
         if stateful:
-            environment.log_sample(k, T.x, T.xd)
+            environment.log_sample(k, x, xd)
         if status:
             return status, k
         if k == N:
@@ -416,8 +423,9 @@ def _python_loop(
         elif guard and not touched[0]:
             next_check = 0  # out of contact: the next contact is checked at once
         touched[0] = False
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+        state = q.tolist() + qd.tolist()
+        if not all(map(math.isfinite, state)):
             return 1, k
-        if np.max(np.abs(qd)) > max_qd:
+        if max(map(abs, state[robot_nq:])) > max_qd:
             return 2, k
     return 0, N

@@ -142,6 +142,8 @@ class ConstraintFrameEstimator:
         d = self.dim
         f = np.asarray(force, dtype=np.float64)[:d]
         v = np.asarray(velocity, dtype=np.float64)[:d]
+        if d == 2:
+            return self._update2(*f.tolist(), *v.tolist(), x)
         speed = math.sqrt(float(v @ v))
         if speed > self.min_speed and abs(float(v @ self.normal)) < 0.5 * speed:
             f = f - float(f @ v) / (speed * speed) * v  # friction along the (sliding) velocity removed
@@ -158,6 +160,26 @@ class ConstraintFrameEstimator:
             self.tangent = t / tn if tn > 1e-12 else self._orthogonal(n, None)
         self._record(x)
         return n
+
+    def _update2(self, f0: float, f1: float, v0: float, v1: float, x: Any) -> np.ndarray:
+        """:meth:`update` for a planar frame on scalars: the same arithmetic, without the small arrays."""
+        speed = math.sqrt(v0 * v0 + v1 * v1)
+        m0, m1 = self.normal.tolist()
+        if speed > self.min_speed and abs(v0 * m0 + v1 * m1) < 0.5 * speed:
+            c = (f0 * v0 + f1 * v1) / (speed * speed)  # friction along the (sliding) velocity removed
+            f0, f1 = f0 - c * v0, f1 - c * v1
+        fn = math.sqrt(f0 * f0 + f1 * f1)
+        if fn > self.min_force:
+            g = self.gain
+            a0, a1 = self.filtered.tolist()
+            a0, a1 = a0 + g * (f0 / fn - a0), a1 + g * (f1 / fn - a1)
+            self.filtered = np.array((a0, a1))
+            na = math.sqrt(a0 * a0 + a1 * a1)
+            m0, m1 = a0 / na, a1 / na
+            self.normal = np.array((m0, m1))
+        self.tangent = np.array((-m1, m0))
+        self._record(x)
+        return self.normal
 
     def _record(self, x: Any) -> None:
         log = self._log
