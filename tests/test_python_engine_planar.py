@@ -150,3 +150,14 @@ def test_layout_slices_are_cached_and_still_checked():
         HYBRID_COMPLIANT.slice("nope", 2, 1, 1)
     with pytest.raises(DimensionError):
         HYBRID_COMPLIANT.slice("S_v", 2, -1, 1)
+
+
+def test_rigid_planar_inverse_is_the_inverse():
+    """rigid._inverse2 gives B⁻¹ of the arm's inertia (B⁻¹ B = I to 1e-13) and None for a singular or NaN matrix."""
+    from forcecontrol.environments.rigid import _inverse2
+
+    for q, _, _ in _states(100):
+        B = ARM.mass_matrix(q)
+        np.testing.assert_allclose(_inverse2(B), np.linalg.inv(B), rtol=1e-13)
+    assert _inverse2(np.array([[1.0, 1.0], [1.0, 1.0]])) is None
+    assert _inverse2(np.array([[np.nan, 0.0], [0.0, 1.0]])) is None

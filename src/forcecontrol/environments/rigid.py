@@ -40,6 +40,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ..core.linalg import SINGULAR_RCOND
 from ..core.validate import as_vector, positive_scalar
 from ..errors import DimensionError, ParameterError, SingularityError
 from .base import Environment
@@ -264,6 +265,18 @@ class JointConstraint(HolonomicConstraint):
         return (Jp - Jm) @ qd / (2.0 * eps)
 
 
+def _inverse2(B: np.ndarray) -> np.ndarray | None:
+    """B⁻¹ of a symmetric positive definite 2×2 inertia by its adjugate (``core.linalg.solve2_spd``'s test),
+    or None when B is not numerically positive definite (the caller then solves as before)."""
+    b00, b01, b10, b11 = B.ravel().tolist()
+    scale = max(abs(b00), abs(b01), abs(b11))
+    det = b00 * b11 - b01 * b10
+    if not (det > SINGULAR_RCOND * scale * scale and math.isfinite(det)):
+        return None
+    inv = 1.0 / det
+    return np.array(((b11 * inv, -b01 * inv), (-b10 * inv, b00 * inv)))
+
+
 class RigidEnvironment(Environment):
     """A rigid, frictionless environment: holonomic constraints with constrained dynamics.
 
@@ -315,8 +328,12 @@ class RigidEnvironment(Environment):
         w = self.stabilisation_frequency
         s = -2.0 * w * (Jphi @ qd) - w * w * phi
         free = u - T.n
-        Binv_free = np.linalg.solve(T.B, free)
-        Binv_JT = np.linalg.solve(T.B, Jphi.T)
+        Binv = _inverse2(T.B) if T.B.shape == (2, 2) else None
+        if Binv is not None:  # the planar arm: B⁻¹ in closed form once for both right-hand sides
+            Binv_free, Binv_JT = Binv @ free, Binv @ Jphi.T
+        else:
+            Binv_free = np.linalg.solve(T.B, free)
+            Binv_JT = np.linalg.solve(T.B, Jphi.T)
         m = phi.shape[0]
         lam = np.zeros(m)
         active = np.ones(m, dtype=bool)
