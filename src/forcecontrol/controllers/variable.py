@@ -298,16 +298,25 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30)–(9.31) with the gains of this sample (tank-limited when there is a tank)."""
-        T = self.robot.terms(measurement.q, measurement.qd)
-        xt = np.asarray(reference.position, dtype=np.float64) - T.x
-        xtd = np.asarray(reference.velocity, dtype=np.float64) - T.xd
+        from .hybrid import _frame_pose, _on_arm_step
+
+        T, x, xd = _frame_pose(self, measurement)  # the chapter's arm: x, ẋ alone, the law in one compiled call
+        xt = np.asarray(reference.position, dtype=np.float64) - x
+        xtd = np.asarray(reference.velocity, dtype=np.float64) - xd
         K, D, K_s = self._scheduled_gains(t, xt, xtd, self._K, self._D, self.m, self._last_xtd)
         self._K, self._D, self._last_xtd = K, D, xtd
         self._params[IMPEDANCE.slice("K_D", self.m)] = np.ravel(D)
         self._params[IMPEDANCE.slice("K_P", self.m)] = np.ravel(K)
-        u = self._law_step(t, measurement, reference, T)
+        if T is None and self._law_plain():
+            u = _on_arm_step(self, t, measurement, reference, self._params)
+        else:
+            u = self._law_step(t, measurement, reference, T)
         self._record(K, K_s, D, 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt))
         return u
+
+    def _law_plain(self) -> bool:
+        """The law runs as such (no singularity handling, no posture: ``_law_step``'s square branch)."""
+        return getattr(self, "singularity", None) is None and getattr(self, "posture", None) is None
 
     def gains(self) -> dict[str, Any]:
         g = super().gains()
