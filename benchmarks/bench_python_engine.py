@@ -109,10 +109,12 @@ def main() -> None:
     base.append(plain_loop())
     b = statistics.median(base)
     print(f"baseline (plain NumPy loop of the arm): {b:7.1f} µs/sample, spread {min(base):.1f}–{max(base):.1f}")
-    print(f"{'scenario':30s} {'engine':8s} {'µs/sample':>10s} {'spread':>15s} {'ratio':>7s}")
+    print("ratio: median / baseline median; best: fastest / baseline's fastest (less sensitive to a busy machine)")
+    print(f"{'scenario':30s} {'engine':8s} {'µs/sample':>10s} {'spread':>15s} {'ratio':>7s} {'best':>6s}")
     for name, engines, times in rows:
         m = statistics.median(times)
-        print(f"{name:30s} {engines:8s} {m:10.1f} {min(times):7.1f}–{max(times):<7.1f} {m / b:7.2f}")
+        print(f"{name:30s} {engines:8s} {m:10.1f} {min(times):7.1f}–{max(times):<7.1f} {m / b:7.2f} "
+              f"{min(times) / min(base):6.2f}")
 
 
 if __name__ == "__main__":
