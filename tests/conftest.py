@@ -4,7 +4,8 @@ The README's test line runs ``python -m pytest -q``; pyproject's ``addopts`` add
 loadgroup``: every test goes to whichever worker is free, except the tests of the modules in
 :data:`ONE_WORKER`, which share an expensive module- or session-scoped fixture (a site build, a
 browser, a Dask cluster, a fuzz warm-up, a set of recorded runs) and are kept on one worker so that
-the fixture is built once. The compiled-kernel cache is shared by the workers (it is safe under
+the fixture is built once; likewise the tests named in :data:`ONE_WORKER_TESTS` (the users of one module
+fixture in a module whose other tests may spread). The compiled-kernel cache is shared by the workers (it is safe under
 concurrency: ``tests/test_kernel_cache.py``).
 """
 
@@ -27,19 +28,34 @@ ONE_WORKER = {
     "test_view3d.py", "test_view3d_browser.py", "test_sweep_6d_parallel.py",
 }
 
+#: tests that share a module fixture and stay together on one worker, the module's other tests spreading:
+#: test_batch_lanes.py's ``jobs``/``outputs`` compile the impedance law's scalar and lanes8 kernels (about 20 s
+#: CPU cold); run on both workers, both compiled them (tests/compile_census.py, -n 2 on a cold cache)
+ONE_WORKER_TESTS = {
+    "test_batch_lanes.py": (
+        "test_the_random_cases_cover_what_the_lanes_must_handle",
+        "test_lanes_with_libm_trig_equal_the_scalar_kernel_to_the_bit",
+        "test_lanes_equal_the_scalar_kernel_within_the_trig_bound",
+    ),
+}
+
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark the tests of :data:`ONE_WORKER`'s modules with one ``xdist_group`` per module (for the record: the
-    scheduler below is what keeps them together)."""
+    """Mark the tests of :data:`ONE_WORKER`'s modules with one ``xdist_group`` per module, and each
+    :data:`ONE_WORKER_TESTS` group with its own (for the record: the scheduler below is what keeps them together)."""
     for item in items:
-        if item.path.name in ONE_WORKER:
-            item.add_marker(pytest.mark.xdist_group(name=item.path.name))
+        group = _group(item.nodeid)
+        if group is not None:
+            item.add_marker(pytest.mark.xdist_group(name=group.rsplit("/", 1)[-1]))
 
 
 def _group(nodeid: str) -> str | None:
-    """The ONE_WORKER module a node id belongs to, or None."""
-    path = nodeid.split("::", 1)[0]
-    return path if path.rsplit("/", 1)[-1] in ONE_WORKER else None
+    """The ONE_WORKER module a node id belongs to, or its ONE_WORKER_TESTS group (``<path>::shared``), or None."""
+    path, _, name = nodeid.partition("::")
+    module = path.rsplit("/", 1)[-1]
+    if module in ONE_WORKER:
+        return path
+    return f"{path}::shared" if name.split("[", 1)[0] in ONE_WORKER_TESTS.get(module, ()) else None
 
 
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:

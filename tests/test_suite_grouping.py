@@ -33,3 +33,23 @@ def test_a_one_worker_module_runs_on_one_worker_and_an_ordinary_one_on_both():
     both = _workers("tests/test_vendor_data.py", "tests/test_law_layout.py")
     assert len(both["tests/test_vendor_data.py"]) == 1, both
     assert _workers("tests/test_law_layout.py")["tests/test_law_layout.py"] == {"gw0", "gw1"}
+
+
+def test_the_users_of_a_shared_module_fixture_are_one_unit_of_the_scheduler():
+    """conftest's grouping: test_batch_lanes.py's users of ``jobs``/``outputs`` (every parametrization) map to one group,
+    its other tests to none (they spread), a ONE_WORKER module's tests to the module; and that list is exactly the
+    module's tests that take those fixtures (a new user of the fixture cannot be forgotten)."""
+    import inspect
+
+    import conftest
+    import test_batch_lanes
+
+    users = {name for name, f in vars(test_batch_lanes).items() if name.startswith("test_") and callable(f)
+             and {"jobs", "outputs"} & set(inspect.signature(f).parameters)}
+    assert users == set(conftest.ONE_WORKER_TESTS["test_batch_lanes.py"]) and len(users) == 3
+    module = "tests/test_batch_lanes.py"
+    assert {conftest._group(f"{module}::{name}") for name in users} == {f"{module}::shared"}
+    assert conftest._group(f"{module}::test_every_law_runs_on_lanes_within_the_trig_bound[example-9.3-parameters0]") is None
+    assert conftest._group(f"{module}::test_sincos_special_values") is None
+    assert conftest._group("tests/test_vendor_data.py::test_x[1]") == "tests/test_vendor_data.py"
+    assert conftest._group("tests/test_law_layout.py::test_x") is None
