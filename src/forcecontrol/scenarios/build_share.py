@@ -33,11 +33,17 @@ _NOT_SHARED = object()
 
 
 class _Reads(dict):
-    """A builder's context that notes which of its entries the builder read (every one, when it iterates)."""
+    """A builder's context that notes which of its entries the builder read (every one, when it iterates or writes)."""
 
     def __init__(self, ctx: dict[str, Any]) -> None:
         super().__init__(ctx)
         self.read: set[str] = set()
+        self._ctx = ctx
+
+    def __setitem__(self, key: str, value: Any) -> None:  # a builder that writes the context: written through, not shared
+        self._every()
+        super().__setitem__(key, value)
+        self._ctx[key] = value
 
     def __getitem__(self, key: str) -> Any:
         self.read.add(key)
