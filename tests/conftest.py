@@ -28,14 +28,16 @@ ONE_WORKER = {
     "test_view3d.py", "test_view3d_browser.py", "test_sweep_6d_parallel.py",
 }
 
-#: tests that share a module fixture and stay together on one worker, the module's other tests spreading:
-#: test_batch_lanes.py's ``jobs``/``outputs`` compile the impedance law's scalar and lanes8 kernels (about 20 s
-#: CPU cold); run on both workers, both compiled them (tests/compile_census.py, -n 2 on a cold cache)
+#: tests that share a module fixture (or its compiled kernels) and stay together on one worker, the module's
+#: other tests spreading: test_batch_lanes.py's ``jobs``/``outputs`` compile the impedance law's scalar and lanes8
+#: kernels (about 20 s CPU cold), and its sweep-table test runs the same two; on both workers, both compiled them
+#: (tests/compile_census.py, -n 2 on a cold cache)
 ONE_WORKER_TESTS = {
     "test_batch_lanes.py": (
         "test_the_random_cases_cover_what_the_lanes_must_handle",
         "test_lanes_with_libm_trig_equal_the_scalar_kernel_to_the_bit",
         "test_lanes_equal_the_scalar_kernel_within_the_trig_bound",
+        "test_a_sweep_table_on_lanes_matches_the_scalar_one_and_names_its_kernel",
     ),
 }
 
