@@ -11,7 +11,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import threading
 import time
 import warnings
 
@@ -293,10 +292,37 @@ def test_two_sweeps_at_once_on_the_same_output(tmp_path, slow, fault_table):
 # ----------------------------------------------------------------------------- Dask worker loss
 
 
+def _die_in_block(marker: str, victim: int) -> None:
+    """Run on a Dask worker: the first block holding case ``victim`` (on any worker) runs its first case, writes the
+    worker's pid to ``marker`` and SIGKILLs the worker, mid-block; a worker the nanny restarts runs blocks normally."""
+    import os
+    import signal
+
+    import forcecontrol.sweep.block as block
+
+    real = block.run_block
+
+    def dying(jobs, *band):
+        if any(j.case_id == victim for j in jobs):
+            try:
+                fd = os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:  # already killed once: the resubmitted block runs
+                return real(jobs, *band)
+            real(jobs[:1], *band)  # mid-block: one case done, the rest not
+            os.write(fd, str(os.getpid()).encode())
+            os.close(fd)
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(jobs, *band)
+
+    block.run_block = dying  # the sweep submits forcecontrol.sweep.block.run_block, pickled by reference
+
+
 def test_dask_worker_killed_mid_block_is_resubmitted(tmp_path, slow, fault_table):
-    """SIGKILL a Dask worker (LocalCluster, 2 processes, 1 thread each) while it runs a block. With
-    allowed-failures = 0 the scheduler gives up on the task at once (KilledWorker): the sweep submits the
-    block again with a SweepWarning naming its cases, and the table equals the local run's, every case once."""
+    """SIGKILL a Dask worker (LocalCluster, 2 processes, 1 thread each) in the middle of a block (it dies after the
+    block's first case). With allowed-failures = 0 the scheduler gives up on the task at once (KilledWorker): the sweep
+    submits the block again with a SweepWarning naming its cases, and the table equals the local run's, every case once.
+    (The worker kills itself at a chosen block, so the kill lands mid-block however loaded the machine is; a killer
+    thread polling for a busy worker found none in time under load.)"""
     distributed = pytest.importorskip("dask.distributed")
     import dask
     import pandas as pd
@@ -304,36 +330,20 @@ def test_dask_worker_killed_mid_block_is_resubmitted(tmp_path, slow, fault_table
     scn, whole = slow
     prep = prepare_sweep(str(scn))  # 60 cases in blocks of 4 (about 0.15 s a block)
     out = tmp_path / "dask.parquet"
-    parts = out.with_name(out.name + ".parts")
-    kills: list[str] = []
+    marker = tmp_path / "killed.pid"
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster, distributed.Client(cluster) as client, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-
-        def lost():
-            return [w for w in caught if issubclass(w.category, SweepWarning) and "lost with its Dask worker" in str(w.message)]
-
-        def killer():
-            deadline = time.monotonic() + 60
-            while time.monotonic() < deadline and len(kills) < 3 and not lost():
-                if _n_parts(parts) >= 2 + 3 * len(kills):
-                    busy = [addr for addr, keys in client.processing().items() if keys]
-                    if busy:
-                        pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
-                        os.kill(pid, signal.SIGKILL)
-                        kills.append(f"pid {pid} after {_n_parts(parts)} parts")
-                        time.sleep(1.0)  # the scheduler notices, the nanny restarts the worker
-                time.sleep(0.01)
-
-        t = threading.Thread(target=killer)
-        t.start()
+        client.run(_die_in_block, str(marker), 21)  # the block of cases 20-23
         res = run_sweep(prep, out, scheduler=client, block_size=4)
-        t.join()
-        messages = [str(w.message) for w in lost()]
+        messages = [str(w.message) for w in caught
+                    if issubclass(w.category, SweepWarning) and "lost with its Dask worker" in str(w.message)]
+    kills = [f"pid {marker.read_text()} after case 20"] if marker.exists() else []
     # each kill loses the blocks the scheduler had assigned to that worker (one running, maybe one queued)
     assert kills and messages, (kills, messages)
     assert all("the block of cases" in m and "submitted again" in m for m in messages)
+    assert any("the block of cases 20-23 was lost" in m for m in messages), messages  # the block it died in
     assert res.ran == prep.n_cases and res.table["case_id"].tolist() == list(range(prep.n_cases))
     pd.testing.assert_frame_equal(res.table, whole, check_exact=True)
     print("\nDask retry evidence:", kills, messages)
