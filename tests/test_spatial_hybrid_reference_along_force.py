@@ -22,6 +22,7 @@ from forcecontrol.environments.spatial import Table  # noqa: E402
 from forcecontrol.robots.pinocchio import PANDA_READY, panda  # noqa: E402
 from forcecontrol.sim.simulation import simulate  # noqa: E402
 from forcecontrol.spatial.closed_form import rotation_to_euler_xyz  # noqa: E402
+from frame_helpers import ConstantFrame  # noqa: E402
 
 K_TABLE = 1e4  # [N/m]
 F_D = 20.0  # [N] pressed along the hand's z (the table's normal, into it)
@@ -45,30 +46,6 @@ class _ConstantVelocity(ReferenceSignal):
     def at(self, t):
         z = np.zeros(6)
         return Reference(self.x0 + t * self.v, self.v.copy(), z, self.force, z, z)
-
-
-class _Constant:
-    """A frame provider that always returns one normal and tangent plane (base frame)."""
-
-    SIGNALS = ()
-
-    def __init__(self, n, t):
-        self.n, self.t = np.asarray(n, dtype=float), np.asarray(t, dtype=float)
-
-    def update(self, force, velocity, x=None):
-        return self.n
-
-    def selection(self):
-        return self.n[:, None], np.column_stack([self.t, np.cross(self.n, self.t)])
-
-    def reset(self):
-        pass
-
-    def signals(self):
-        return {}
-
-    def describe(self):
-        return {"type": "constant"}
 
 
 @pytest.fixture(scope="module")
@@ -166,7 +143,7 @@ def test_frame_provider_reads_the_force_rate_on_the_updated_frame(franka, start)
 
     def run(v):
         c = SpatialHybridController(franka, [1, 0, 0, 0, 0, 0], 1 / K_TABLE, 400.0, 40.0, 400.0, 40.0,
-                                    posture=PANDA_READY, frame=_Constant(n, t))
+                                    posture=PANDA_READY, frame=ConstantFrame(n, t))
         return simulate(franka, table, c, _ConstantVelocity(x0, v, force), q0=PANDA_READY, duration=0.8, substeps=2)
 
     runs = [run([0.05, 0, -0.02, 0, 0, 0]), run([0.05, 0, 0, 0, 0, 0])]

@@ -17,34 +17,11 @@ from forcecontrol.controllers.spatial_hybrid import SpatialHybridController
 from forcecontrol.errors import ParameterError
 from forcecontrol.scenarios import build_case, load_scenario
 from forcecontrol.task.estimation import circle_lag
+from frame_helpers import ConstantFrame
 
 TS = 1e-3
 SHAPES = {"panda-unknown-sphere": 0.2, "panda-unknown-cylinder": 0.1}  # scenario: the surface's radius [m]
 AFTER = 1.0  # [s]: the first contact transient (17° first guess) and the speed ramp (0.5-0.8 s) are over
-
-
-class _Constant:
-    """A frame provider that always returns one normal and tangent plane (base frame)."""
-
-    SIGNALS = ()
-
-    def __init__(self, n, t):
-        self.n, self.t = np.asarray(n, dtype=float), np.asarray(t, dtype=float)
-
-    def update(self, force, velocity, x=None):
-        return self.n
-
-    def selection(self):
-        return self.n[:, None], np.column_stack([self.t, np.cross(self.n, self.t)])
-
-    def reset(self):
-        pass
-
-    def signals(self):
-        return {}
-
-    def describe(self):
-        return {"type": "constant"}
 
 
 def _gains():
@@ -67,7 +44,7 @@ def test_frame_hook_with_a_constant_frame_equals_the_fixed_selection_law():
     h_d = np.concatenate([10.0 * n, np.zeros(3)])
     R_d = euler_xyz_to_rotation(pose[3:])  # the desired frame, on which the fixed law's S_f is given
     fixed = SpatialHybridController(franka, np.concatenate([R_d.T @ n, np.zeros(3)]), *_gains())
-    hooked = SpatialHybridController(franka, [0, 0, 1, 0, 0, 0], *_gains(), frame=_Constant(n, t))
+    hooked = SpatialHybridController(franka, [0, 0, 1, 0, 0, 0], *_gains(), frame=ConstantFrame(n, t))
     q, qd = PANDA_READY + 0.05, np.linspace(-0.2, 0.3, 7)
     wrench = np.array([1.0, -2.0, -9.0, 0.1, 0.2, -0.1])
     z = np.zeros(6)
@@ -85,7 +62,7 @@ def test_frame_hook_refuses_more_than_one_force_direction():
     S[0, 0] = S[1, 1] = 1.0
     with pytest.raises(ParameterError, match="force_directions must be one direction with a frame provider"):
         SpatialHybridController(panda(), S, np.eye(2) * 1e-4, np.eye(6), np.eye(6), np.eye(2), np.eye(2),
-                                frame=_Constant([0, 0, -1.0], [1.0, 0, 0]))
+                                frame=ConstantFrame([0, 0, -1.0], [1.0, 0, 0]))
 
 
 class _Runs(dict):
