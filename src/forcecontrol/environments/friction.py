@@ -112,6 +112,15 @@ class FrictionalContact(Environment):
         fn, nu, _ = s.normal_force(x, xd)
         return fn, nu
 
+    def _stick_force2(self, p0: float, p1: float, n0: float, n1: float, t0: float, t1: float) -> tuple[float, float]:
+        """The stuck contact's tangential spring and damper on scalars (planar): σ0 (the anchor offset in the tangent
+        plane) + σ1 (the tangential velocity (t0, t1))."""
+        a0, a1 = self.anchor.tolist()
+        e0 = p0 - a0
+        e1 = p1 - a1
+        en = n0 * e0 + n1 * e1
+        return self.sigma0 * (e0 - en * n0) + self.sigma1 * t0, self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
+
     def _normal2(self, p0: float, p1: float, v0: float, v1: float) -> tuple[float, float, float]:
         """:meth:`_normal` on scalars for a planar surface: (f_n, ν0, ν1), the same arithmetic."""
         s = self.surface
@@ -146,12 +155,7 @@ class FrictionalContact(Environment):
         t0 = v0 - vn * n0
         t1 = v1 - vn * n1
         if self.mode == STICK:
-            a0, a1 = self.anchor.tolist()
-            e0 = p0 - a0
-            e1 = p1 - a1
-            en = n0 * e0 + n1 * e1
-            h0 = self.sigma0 * (e0 - en * n0) + self.sigma1 * t0
-            h1 = self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
+            h0, h1 = self._stick_force2(p0, p1, n0, n1, t0, t1)
         else:  # sliding (or touching in this step: the state follows after it)
             speed = math.sqrt(t0 * t0 + t1 * t1)
             if speed > 1e-12:
@@ -263,12 +267,7 @@ class FrictionalContact(Environment):
                 self.mode, self.anchor = STICK, np.array((p0, p1))
             return
         if self.mode == STICK:
-            a0, a1 = self.anchor.tolist()
-            e0 = p0 - a0
-            e1 = p1 - a1
-            en = n0 * e0 + n1 * e1
-            f0 = self.sigma0 * (e0 - en * n0) + self.sigma1 * t0
-            f1 = self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
+            f0, f1 = self._stick_force2(p0, p1, n0, n1, t0, t1)
             fmag = math.sqrt(f0 * f0 + f1 * f1)
             if fmag > self.mu_s * fn:  # breakaway
                 self.mode = SLIP
