@@ -11,12 +11,12 @@ overshoot of a lightly damped case; 44 of them equal to the bit), and the discre
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 
+from compile_helpers import cli_recording_compiles
 from forcecontrol.sim.batch import OUT_COLUMNS
 from forcecontrol.sim.trig import sincos
 from forcecontrol.sweep import SweepDefinition, prepare_sweep, read_sweep, run_sweep
@@ -178,48 +178,21 @@ def test_an_unknown_kernel_choice_is_refused_by_name(monkeypatch):
         prepare_sweep(_scenario(), d)
 
 
-DRIVER = r"""
-import json, sys
-from numba.core import event
-
-compiled = []
-
-class Compiles(event.Listener):
-    def on_start(self, ev):
-        func = getattr(ev.data.get("dispatcher"), "py_func", None)
-        compiled.append(f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', '?')}")
-
-    def on_end(self, ev):
-        pass
-
-event.register("numba:compile", Compiles())
-from forcecontrol.cli import main
-try:
-    main(sys.argv[2:])
-finally:
-    with open(sys.argv[1], "w") as f:
-        json.dump(compiled, f)
-"""
-
-
 def test_a_second_sweep_process_on_lanes_compiles_nothing(tmp_path):
     """The lane kernels are found again on disk: a second 'forcecontrol sweep' process compiles none of the package's
     functions."""
     import os
-    import subprocess
-    import sys
 
     runs = []
     for n in range(2):
-        record = tmp_path / f"compiled-{n}.json"
-        done = subprocess.run(
-            [sys.executable, "-c", DRIVER, str(record), "sweep", "example-9.2", "--case", "1", "-p",
-             "environment.stiffness=1000,2000", "--workers", "1", "--no-figure", "--out", str(tmp_path / f"s{n}.parquet")],
-            capture_output=True, text=True, timeout=900,
-            env={k: v for k, v in os.environ.items() if k != "FORCECONTROL_SWEEP_KERNEL"},
+        done, compiled = cli_recording_compiles(
+            tmp_path / f"compiled-{n}.json",
+            ["sweep", "example-9.2", "--case", "1", "-p", "environment.stiffness=1000,2000", "--workers", "1", "--no-figure",
+             "--out", str(tmp_path / f"s{n}.parquet")],
+            {k: v for k, v in os.environ.items() if k != "FORCECONTROL_SWEEP_KERNEL"}, timeout=900,
         )
         assert done.returncode == 0, done.stderr[-3000:]
-        runs.append(json.loads(record.read_text()))
+        runs.append(compiled)
     assert [n for n in runs[1] if n.startswith("forcecontrol.")] == []
     assert read_sweep(tmp_path / "s1.parquet")[1]["kernel"] == "lanes8"
 

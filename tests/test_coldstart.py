@@ -10,47 +10,19 @@ No timing is asserted (``benchmarks/bench_coldstart.py`` measures it).
 from __future__ import annotations
 
 import collections
-import json
 import os
 import subprocess
-import sys
 from pathlib import Path
+
+from compile_helpers import cli_recording_compiles
 
 NOTICE = "forcecontrol: compiling kernels"
 
-DRIVER = r"""
-import json, sys
-from numba.core import event
-
-compiled = []
-
-class Compiles(event.Listener):
-    def on_start(self, ev):
-        func = getattr(ev.data.get("dispatcher"), "py_func", None)
-        compiled.append(f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', '?')}")
-
-    def on_end(self, ev):
-        pass
-
-event.register("numba:compile", Compiles())
-from forcecontrol.cli import main
-try:
-    main(sys.argv[2:])
-finally:
-    with open(sys.argv[1], "w") as f:
-        json.dump(compiled, f)
-"""
-
-
 def _run(tmp_path: Path, cache: Path, name: str) -> tuple[subprocess.CompletedProcess[str], list[str]]:
-    record = tmp_path / f"{name}.json"
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
-    done = subprocess.run(
-        [sys.executable, "-c", DRIVER, str(record), "run", "example-9.2", "--force", "--out", str(tmp_path / "out")],
-        capture_output=True, text=True, env=env, timeout=600,
-    )
+    done, compiled = cli_recording_compiles(tmp_path / f"{name}.json", ["run", "example-9.2", "--force", "--out",
+                                            str(tmp_path / "out")], dict(os.environ, NUMBA_CACHE_DIR=str(cache)))
     assert done.returncode == 0, done.stderr[-3000:]
-    return done, json.loads(record.read_text())
+    return done, compiled
 
 
 def test_cold_run_says_it_compiles_once_compiles_only_what_it_needs_and_a_warm_run_compiles_nothing(tmp_path: Path) -> None:
