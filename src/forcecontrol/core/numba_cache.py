@@ -160,7 +160,9 @@ def stable_identities() -> None:
         for name in sorted(m for m in list(sys.modules) if m == "forcecontrol" or m.startswith("forcecontrol.")):
             module = sys.modules.get(name)
             for attr, obj in sorted(list(vars(module).items()), key=lambda kv: kv[0]) if module is not None else ():
-                if isinstance(obj, CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
+                # type(), not isinstance(): isinstance reads ``obj.__class__``, which loads a lazily imported
+                # module (core.lazy: python-control, 1.3 s) that no compiled run needs
+                if issubclass(type(obj), CPUDispatcher) and getattr(obj.py_func, "__module__", None) == name:
                     if getattr(obj, "_MemoMixin__uuid", None) is None:
                         obj._set_uuid(f"forcecontrol:{name}.{attr}")
 
