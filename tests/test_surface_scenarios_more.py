@@ -35,6 +35,20 @@ def test_bump_field_geometry_is_the_formula():
     assert pc[2] == pytest.approx(f.height(pc[:2]), abs=1e-15)
 
 
+def test_bump_field_slope_used_by_the_contact_is_the_formulas_to_the_bit_and_its_finite_difference():
+    """The contact's (h, h_x, h_y) equal the formula's first three to the bit (dips included), and h_x, h_y are h's
+    central differences (an outside reference for both)."""
+    f = BumpField([0.0, -0.05], 0.005, [41, 21], 0.1, 0.004, 0.15, [0.03, 0.01],
+                  dips=[[0.06, 0.0, 0.003, 0.01], [0.1, -0.02, 0.002, 0.02]], stiffness=1e4)
+    rng = np.random.default_rng(31)
+    e = 1e-6
+    for x, y in rng.uniform([-0.05, -0.1], [0.25, 0.1], size=(200, 2)):
+        h, hx, hy = f._height_slope(x, y)
+        assert (h, hx, hy) == f.height_formula(x, y)[:3]
+        assert hx == pytest.approx((f.height([x + e, y]) - f.height([x - e, y])) / (2 * e), abs=1e-8)
+        assert hy == pytest.approx((f.height([x, y + e]) - f.height([x, y - e])) / (2 * e), abs=1e-8)
+
+
 def test_spiral_reference_is_archimedean_at_constant_speed():
     """x_d lies on r = pitch·θ/2π (θ unwrapped) and moves at the given speed along the curve (finite differences)."""
     pitch, speed = 0.005, 0.05
