@@ -6,8 +6,12 @@ registers its command on it when imported here.
 
 from __future__ import annotations
 
-from . import analyze, cache, calibrate, compare, compare_trace, config, convert, design, replay, report, sweep, task, tune
-from .app import app, main
+from ..core.threads import one_blas_thread
+
+one_blas_thread()  # before any command module loads NumPy: core.threads says why
+
+from . import analyze, cache, calibrate, compare, compare_trace, config, convert, design, replay, report, sweep, task, tune  # noqa: E402
+from .app import app, main  # noqa: E402
 
 # each module's ``*_command`` functions, in the order of ``forcecontrol --help``:
 # ``calibrate_plan_command`` is the command ``calibrate-plan``
