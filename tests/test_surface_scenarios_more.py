@@ -35,18 +35,23 @@ def test_bump_field_geometry_is_the_formula():
     assert pc[2] == pytest.approx(f.height(pc[:2]), abs=1e-15)
 
 
-def test_bump_field_slope_used_by_the_contact_is_the_formulas_to_the_bit_and_its_finite_difference():
-    """The contact's (h, h_x, h_y) equal the formula's first three to the bit (dips included), and h_x, h_y are h's
-    central differences (an outside reference for both)."""
+def test_bump_field_derivatives_are_the_finite_differences_of_its_height():
+    """h_x, h_y are central differences of h, and h_xx, h_xy, h_yy central differences of h_x, h_y (dips included):
+    an outside reference for the contact's slope and for the curvature the wipe's analysis reads."""
     f = BumpField([0.0, -0.05], 0.005, [41, 21], 0.1, 0.004, 0.15, [0.03, 0.01],
                   dips=[[0.06, 0.0, 0.003, 0.01], [0.1, -0.02, 0.002, 0.02]], stiffness=1e4)
     rng = np.random.default_rng(31)
     e = 1e-6
     for x, y in rng.uniform([-0.05, -0.1], [0.25, 0.1], size=(200, 2)):
-        h, hx, hy = f._height_slope(x, y)
-        assert (h, hx, hy) == f.height_formula(x, y)[:3]
+        h, hx, hy, hxx, hxy, hyy = f.height_formula(x, y)
+        assert h == f.height([x, y])
         assert hx == pytest.approx((f.height([x + e, y]) - f.height([x - e, y])) / (2 * e), abs=1e-8)
         assert hy == pytest.approx((f.height([x, y + e]) - f.height([x, y - e])) / (2 * e), abs=1e-8)
+        px, mx, py, my = (f.height_formula(*u) for u in ((x + e, y), (x - e, y), (x, y + e), (x, y - e)))
+        assert hxx == pytest.approx((px[1] - mx[1]) / (2 * e), rel=1e-5, abs=1e-4)
+        assert hxy == pytest.approx((py[1] - my[1]) / (2 * e), rel=1e-5, abs=1e-4)
+        assert hxy == pytest.approx((px[2] - mx[2]) / (2 * e), rel=1e-5, abs=1e-4)
+        assert hyy == pytest.approx((py[2] - my[2]) / (2 * e), rel=1e-5, abs=1e-4)
 
 
 def test_spiral_reference_is_archimedean_at_constant_speed():

@@ -67,27 +67,23 @@ class BumpField(HeightField):
 
     def height_formula(self, x: float, y: float) -> tuple[float, float, float, float, float, float]:
         """(h, h_x, h_y, h_xx, h_xy, h_yy) of the formula at (x, y) [m, -, -, 1/m, 1/m, 1/m]."""
+        h, hx, hy = self._height_slope(x, y)
         k, A = self._k, self.amplitude
-        cx, sx = math.cos(k * (x - self._cx)), math.sin(k * (x - self._cx))
-        cy, sy = math.cos(k * (y - self._cy)), math.sin(k * (y - self._cy))
-        h = self.base + A * cx * cy
-        hx, hy = -A * k * sx * cy, -A * k * cx * sy
+        ax, ay = k * (x - self._cx), k * (y - self._cy)
+        cx, sx, cy, sy = math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay)
         hxx, hxy, hyy = -A * k * k * cx * cy, A * k * k * sx * sy, -A * k * k * cx * cy
         for px, py, d, w in self._dips:
             dx, dy = x - px, y - py
             g = d * math.exp(-(dx * dx + dy * dy) / (2.0 * w * w))
             w2 = w * w
-            h -= g
-            hx += g * dx / w2
-            hy += g * dy / w2
             hxx += g * (1.0 / w2 - dx * dx / (w2 * w2))
             hyy += g * (1.0 / w2 - dy * dy / (w2 * w2))
             hxy -= g * dx * dy / (w2 * w2)
         return h, hx, hy, hxx, hxy, hyy
 
     def _height_slope(self, x: float, y: float) -> tuple[float, float, float]:
-        """(h, h_x, h_y) at (x, y): :meth:`height_formula`'s first three, the same operations in the same order
-        (equal to the bit), without the second derivatives the contact's projection does not read."""
+        """(h, h_x, h_y) at (x, y): what the contact's projection reads (:meth:`height_formula` adds the second
+        derivatives)."""
         k, A = self._k, self.amplitude
         ax, ay = k * (x - self._cx), k * (y - self._cy)
         cx, sx, cy, sy = math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay)
