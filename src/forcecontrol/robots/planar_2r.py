@@ -173,16 +173,9 @@ def _pose_twist(q, qd, K):  # pragma: no cover - compiled
 def _plant_terms(q, qd, K):  # pragma: no cover - compiled
     """What the plant needs at (q, q̇) as 13 scalars: x (2), ẋ (2), J (row-major, 4), B00, B01, B11, n (2).
 
-    The arithmetic of :func:`_terms_into` (the same function, inlined); scalars cross into Python
-    for a fraction of the cost of the seven arrays :func:`_terms` returns."""
-    x = np.empty(2)
-    xd = np.empty(2)
-    J = np.empty((2, 2))
-    Jdq = np.empty(2)
-    B = np.empty((2, 2))
-    nv = np.empty(2)
-    g = np.empty(2)
-    _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g)
+    :func:`_terms`'s arithmetic (called inside the compiled code); scalars cross into Python for a
+    fraction of the cost of the seven arrays :func:`_terms` returns."""
+    x, xd, J, _Jdq, B, nv, _g = _terms(q, qd, K)
     return x[0], x[1], xd[0], xd[1], J[0, 0], J[0, 1], J[1, 0], J[1, 1], B[0, 0], B[0, 1], B[1, 1], nv[0], nv[1]
 
 
