@@ -97,6 +97,17 @@ def _first_screen(text: str) -> str:
     return text.split("\n---\n", 1)[0]
 
 
+def test_ci_runs_the_readmes_test_line_verbatim():
+    """`.ci/run` ends with the README first screen's test line, character for character, and runs nothing after it
+    (what it does before, such as byte-compiling the sources, is installation)."""
+    screen = _first_screen((ROOT / "README.md").read_text(encoding="utf-8"))
+    line = screen.split("# 2. run the tests", 1)[1].splitlines()[1]
+    assert line.startswith("pip install -e") and "pytest" in line
+    commands = [s for s in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+                if s.strip() and not s.lstrip().startswith("#")]
+    assert commands[-1] == line
+
+
 def test_readme_first_screen_and_getting_started_commands_run_twice(tmp_path):
     """The README's first screen and docs/getting-started.md: their forcecontrol lines run verbatim, twice, exit 0;
     the first run writes the PNG and prints the book's 71.4 N / 7.14 cm and 200 N / 2.00 cm, a re-run keeps it and succeeds."""
