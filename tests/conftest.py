@@ -12,11 +12,13 @@ concurrency: ``tests/test_kernel_cache.py``).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
 
 import forcecontrol as fc
+from forcecontrol.core.threads import SET_VARIABLES, USER_VARIABLES
 
 #: modules whose tests stay together on one worker (their module/session fixture is expensive)
 ONE_WORKER = {
@@ -40,6 +42,20 @@ ONE_WORKER_TESTS = {
         "test_a_sweep_table_on_lanes_matches_the_scalar_one_and_names_its_kernel",
     ),
 }
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The workers run BLAS on one thread, as the command line does (:mod:`forcecontrol.core.threads`).
+
+    Set here, in the process that starts pytest-xdist's workers, before they load NumPy: with OpenBLAS's
+    default (a thread per core, spinning after each call) two workers on two cores took each other's cores;
+    tests/test_admittance_servo.py, test_cli_units.py and test_position_interface.py used 36.4 s of CPU for
+    25.9 s of wall time, with one thread 24.4 s for 25.1 s. A thread count the user set is kept; the tests of
+    the thread rule (tests/test_blas_threads.py) clear these variables for their probes.
+    """
+    if os.environ.get("PYTEST_XDIST_WORKER") is None and not any(os.environ.get(v) for v in USER_VARIABLES):
+        for v in SET_VARIABLES:
+            os.environ[v] = "1"
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
