@@ -137,3 +137,24 @@ def test_panda_stick_figure_gif(tmp_path):
     frames = _frames(animate_run(res, robot, table, tmp_path / "panda.gif"))
     assert len(frames) == n
     assert all(ImageChops.difference(a, b).getbbox() is not None for a, b in zip(frames, frames[1:]))
+
+
+def test_each_frame_is_drawn_once_and_reported(approach, tmp_path, monkeypatch):
+    """The figure is drawn once per frame (FuncAnimation.save drew each twice: 2.7 -> 1.7 s for Example 9.2's GIF, the
+    same bytes), and the progress callback hears of every frame, in order."""
+    from matplotlib.figure import Figure
+
+    arm, plane, res = approach
+    draws, heard = [], []
+    original = Figure.draw
+
+    def counted(self, renderer):
+        draws.append(1)
+        return original(self, renderer)
+
+    monkeypatch.setattr(Figure, "draw", counted)
+    path = animate_run(res, arm, plane, tmp_path / "run.gif", max_frames=5,
+                       progress=lambda done, total: heard.append((done, total)))
+    frames = _frames(path)
+    assert len(frames) == 5 and len(draws) == 5
+    assert heard == [(k, 5) for k in range(1, 6)]
