@@ -157,3 +157,40 @@ def test_processes_are_used_by_default_only_when_they_pay():
     assert procs.use_processes(10, 2, 2, True) and not procs.use_processes(10**9, 9, 8, False)
     assert not procs.use_processes(10**9, 9, 1, None) and not procs.use_processes(procs.MIN_STEPS - 1, 9, 2, None)
     assert procs.use_processes(procs.MIN_STEPS, 2, 2, None) and not procs.use_processes(procs.MIN_STEPS, 1, 2, None)
+
+
+UNGUARDED = """
+import numpy as np
+from forcecontrol.sweep import SweepDefinition, prepare_sweep
+from forcecontrol.sweep.run import run_sweep
+d = SweepDefinition.from_options({"duration": [0.01], "environment.stiffness": [3000.0, 8000.0]})
+run_sweep(prepare_sweep("panda-admittance-contact", d), OUT, workers=2, block_size=1, processes=True)
+print("finished")
+"""
+
+
+@pytest.mark.parametrize("guarded", [False, True])
+def test_a_script_without_the_main_guard_is_told_so_at_once(guarded, tmp_path):
+    """A user's script that runs a process sweep at its top level: each worker imports it again and exits with code 1
+    (multiprocessing refuses a process started while one starts). The sweep says so at once, naming the script and the
+    guard, instead of resubmitting the blocks four times and blaming memory; the same script under
+    ``if __name__ == "__main__":`` runs."""
+    import subprocess
+    import sys
+
+    body = UNGUARDED.replace("OUT", repr(str(tmp_path / "s.parquet")))
+    if guarded:
+        lines = body.strip().splitlines()
+        body = "\n".join(lines[:3] + ['if __name__ == "__main__":'] + ["    " + s for s in lines[3:]]) + "\n"
+    script = tmp_path / "my_study.py"
+    script.write_text(body, encoding="utf-8")
+    out = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    if guarded:
+        assert out.returncode == 0 and "finished" in out.stdout, out.stderr[-3000:]
+        return
+    assert out.returncode == 1 and "finished" not in out.stdout
+    last = out.stderr.strip().splitlines()[-1]
+    assert last.startswith("forcecontrol.sweep.spec.SweepError: the blocks of cases 0-1 were lost: a worker process "
+                           "exited with code 1"), last
+    assert str(script) in last and "if __name__ == \"__main__\":" in last and "memory" not in last
+    assert "submitted again" not in out.stderr  # not resubmitted: the same error at every attempt

@@ -18,6 +18,10 @@ Faults:
 - a worker that dies (killed, out of memory) breaks the pool: the finished blocks are stored, the
   lost ones submitted again on a new pool with a :class:`SweepWarning`, at most
   :data:`MAX_RESUBMITS` times, then a :class:`SweepError`; the same command resumes;
+- a worker that exits by itself (a positive exit code: a Python error or ``sys.exit`` while it starts)
+  would do so at every attempt: a :class:`SweepError` at once, which says, when the sweep runs from a
+  script, that each worker imports that script and a sweep at its top level needs
+  ``if __name__ == "__main__":`` (tested with such a script);
 - Ctrl-C: the workers ignore SIGINT; the parent starts nothing new, stores the blocks that are
   running when they end (a second Ctrl-C stops the workers at once) and re-raises, as with threads.
 """
@@ -30,6 +34,7 @@ import multiprocessing
 import os
 import pickle
 import signal
+import sys
 import types
 import warnings
 from collections.abc import Callable
@@ -229,11 +234,16 @@ def run_processes(blocks: list[list[Any]], workers: int, band: tuple[Any, ...],
     ctx = _context()
     breaks = 0
     while queue:
-        lost = _one_pool(queue, n, ctx, band, store)
+        lost, codes = _one_pool(queue, n, ctx, band, store)
         if not lost:
             return
         breaks += 1
         what = f"the blocks of cases {_ids(lost)}"
+        # a Python error or exit in a worker: the same at every attempt (negative: a signal; 255: the fork server could
+        # not tell, multiprocessing.popen_forkserver)
+        exited = sorted({c for c in codes if c is not None and 0 < c < 255})
+        if exited:
+            raise SweepError(_exited_message(what, exited))
         if breaks > MAX_RESUBMITS:
             raise SweepError(
                 f"{what} were lost with a worker process {breaks} times (the process died: killed, or out of memory); "
@@ -244,8 +254,25 @@ def run_processes(blocks: list[list[Any]], workers: int, band: tuple[Any, ...],
         queue = lost + queue
 
 
-def _one_pool(queue: list[list[Any]], n: int, ctx: Any, band: tuple[Any, ...], store: Any) -> list[list[Any]]:
-    """Run blocks from ``queue`` (popped as submitted) on one pool until done or the pool breaks; the blocks it lost."""
+def _exited_message(what: str, codes: list[int]) -> str:
+    """Why the blocks were lost when a worker process ended by itself with ``codes`` (positive exit codes)."""
+    text = (f"{what} were lost: a worker process exited with code {', '.join(map(str, codes))} (a Python error or "
+            "exit in the worker, its message on stderr above; not a signal, so it is not tried again)")
+    main = sys.modules.get("__main__")
+    script = getattr(main, "__file__", None)
+    # a script run by its path (python my_study.py: no __spec__), not the console script; the sweep's context is
+    # forkserver or spawn (_context), never fork, so its workers import it
+    if script and getattr(main, "__spec__", None) is None and os.path.basename(script) != "forcecontrol":
+        text += (f". Each worker process imports the main script ({script!r}) as it starts (multiprocessing's "
+                 "forkserver and spawn start methods): a script that runs a sweep at its top level starts it again in "
+                 "every worker; run it under 'if __name__ == \"__main__\":'")
+    return text + "; the cases stored so far are kept and the same command resumes"
+
+
+def _one_pool(queue: list[list[Any]], n: int, ctx: Any, band: tuple[Any, ...],
+              store: Any) -> tuple[list[list[Any]], list[int | None]]:
+    """Run blocks from ``queue`` (popped as submitted) on one pool until done or the pool breaks; the blocks it lost
+    and, when it broke, the exit codes of its worker processes (negative: ended by that signal)."""
     global _pool
     pool = _pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_init_worker)
     pending: dict[Future, list[Any]] = {}
@@ -274,7 +301,12 @@ def _one_pool(queue: list[list[Any]], n: int, ctx: Any, band: tuple[Any, ...], s
                     lost.append(b)
             pending.clear()
         clean = True
-        return sorted(lost, key=lambda b: b[0].case_id)
+        codes: list[int | None] = []
+        if lost:
+            for p in list((getattr(pool, "_processes", None) or {}).values()):
+                p.join(timeout=5)  # the pool terminated the others: a dead worker's own code is positive or its signal
+                codes.append(p.exitcode)
+        return sorted(lost, key=lambda b: b[0].case_id), codes
     except BaseException:
         # Ctrl-C or a failed case: start nothing new, keep what the running blocks finish
         keep_finishing(pending, lambda out: out[1] if out[0] == "ok" else None, store)
