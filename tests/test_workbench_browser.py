@@ -359,14 +359,18 @@ def _press_save(driver) -> None:
     buttons[0].click()
 
 
-_PAGE_TEXT = """
-const out = [];
-(function walk(root) {
-  root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); });
-  out.push(root.textContent || '');
-})(document);
-return out.join(' ');
+#: a JavaScript function: the text of the page, shadow roots included (Bokeh's widgets live in shadow DOM)
+_PAGE_TEXT_FUNCTION = """
+const page = () => {
+  const out = [];
+  (function walk(root) {
+    root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); });
+    out.push(root.textContent || '');
+  })(document);
+  return out.join(' ');
+};
 """
+_PAGE_TEXT = _PAGE_TEXT_FUNCTION + "return page();\n"
 
 
 def test_tune_save_does_not_overwrite_a_file_the_server_did_not_create(driver, tmp_path):
@@ -423,15 +427,20 @@ const t0 = performance.now();
 })();
 """
 
-# type a value in an entry (as a user does: the value, then Enter fires 'change'); ms to new plot data, and what
-# the busy indicator said right after the change
-_TYPE_TO_PLOT = """
-const [input, text] = [arguments[0], arguments[1]];
+#: what a typed value's scripts below share: the async callback, the plotted force's sum and the busy indicator
+_TYPED = """
 const done = arguments[arguments.length - 1];
 const src = Bokeh.documents[0].get_model_by_name('response-fx');
 const busy = Array.from(Bokeh.documents[0].all_models).find(
   m => typeof m.text === 'string' && (m.text.includes('ready') || m.text.includes('computing')));
 const sum = () => Array.from(src.data.v).reduce((a, b) => a + b, 0);
+"""
+
+# type a value in an entry (as a user does: the value, then Enter fires 'change'); ms to new plot data, and what
+# the busy indicator said right after the change
+_TYPE_TO_PLOT = """
+const [input, text] = [arguments[0], arguments[1]];
+""" + _TYPED + """
 const before = sum();
 const t0 = performance.now();
 input.value = text;
@@ -449,19 +458,7 @@ const said = busy ? busy.text : null;
 #: printed below); [-1, ...] if new data came, [-2, ...] if the text never came within 10 s.
 _TYPE_REFUSED = """
 const [input, text, expected] = [arguments[0], arguments[1], arguments[2]];
-const done = arguments[arguments.length - 1];
-const src = Bokeh.documents[0].get_model_by_name('response-fx');
-const busy = Array.from(Bokeh.documents[0].all_models).find(
-  m => typeof m.text === 'string' && (m.text.includes('ready') || m.text.includes('computing')));
-const sum = () => Array.from(src.data.v).reduce((a, b) => a + b, 0);
-const page = () => {
-  const out = [];
-  (function walk(root) {
-    root.querySelectorAll('*').forEach(el => { if (el.shadowRoot) walk(el.shadowRoot); });
-    out.push(root.textContent || '');
-  })(document);
-  return out.join(' ');
-};
+""" + _TYPED + _PAGE_TEXT_FUNCTION + """
 const before = sum();
 const t0 = performance.now();
 let shown = -1;
