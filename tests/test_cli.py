@@ -213,6 +213,20 @@ def test_run_does_not_import_python_control(name):
     assert _python(code, timeout=600)[-1] in ("NoneType False", "_LazyModule False")
 
 
+def test_the_command_line_starts_without_numpy_or_numba():
+    """Importing the command line loads neither NumPy nor Numba (`forcecontrol --help` 0.30 -> 0.13 s: `sweep`'s
+    module imported the scenarios at its top, and with them the simulator); `--help` itself exits 0 without them."""
+    code = (
+        "import sys\n"
+        "from typer.testing import CliRunner\n"
+        "from forcecontrol.cli import app\n"
+        "print(sorted(m for m in ('numpy', 'numba', 'scipy', 'matplotlib', 'forcecontrol.scenarios') if m in sys.modules))\n"
+        "r = CliRunner().invoke(app, ['--help'])\n"
+        "print(r.exit_code, sorted(m for m in ('numpy', 'numba') if m in sys.modules))\n"
+    )
+    assert _python(code) == ["[]", "0 []"]
+
+
 def test_console_script_main_tunes_the_collector_for_the_command_and_restores_it():
     """``forcecontrol.cli:main`` (the console script and ``python -m forcecontrol``): the command runs
     with COMMAND_GC_THRESHOLDS, the thresholds are back to Python's after it, the heap is not frozen

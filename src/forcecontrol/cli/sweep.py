@@ -11,7 +11,6 @@ from typing import Annotated, Any
 
 import typer
 
-from ..scenarios.units import SWEEP_METRIC_UNITS
 from .app import JsonOut, print_json
 from .overrides import SetOption, apply_sets, parse_sets
 
@@ -62,6 +61,7 @@ def sweep_command(
     from rich.text import Text
 
     from ..errors import ForceControlError
+    from ..scenarios.units import SWEEP_METRIC_UNITS
     from ..sweep.run import load_sweep_scenario, prepare_sweep, run_sweep
     from ..sweep.spec import SweepDefinition, SweepWarning
     from .app import _fail, _slug, compile_notice, console, err_console
