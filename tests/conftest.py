@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import forcecontrol as fc
-from forcecontrol.core.threads import SET_VARIABLES, USER_VARIABLES
+from forcecontrol.core.threads import one_blas_thread_for_new_processes
 
 #: modules whose tests stay together on one worker (their module/session fixture is expensive)
 ONE_WORKER = {
@@ -53,9 +53,8 @@ def pytest_configure(config: pytest.Config) -> None:
     25.9 s of wall time, with one thread 24.4 s for 25.1 s. A thread count the user set is kept; the tests of
     the thread rule (tests/test_blas_threads.py) clear these variables for their probes.
     """
-    if os.environ.get("PYTEST_XDIST_WORKER") is None and not any(os.environ.get(v) for v in USER_VARIABLES):
-        for v in SET_VARIABLES:
-            os.environ[v] = "1"
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        one_blas_thread_for_new_processes()
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

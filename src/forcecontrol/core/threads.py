@@ -20,7 +20,7 @@ from __future__ import annotations
 import os
 import sys
 
-__all__ = ["one_blas_thread", "USER_VARIABLES", "SET_VARIABLES"]
+__all__ = ["one_blas_thread", "one_blas_thread_for_new_processes", "USER_VARIABLES", "SET_VARIABLES"]
 
 #: a user who set any of these chose the BLAS's threads
 USER_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -30,7 +30,15 @@ SET_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 
 def one_blas_thread() -> bool:
     """Set :data:`SET_VARIABLES` to 1 when NumPy is not loaded and none of :data:`USER_VARIABLES` is set; True if it did."""
-    if "numpy" in sys.modules or any(os.environ.get(v) for v in USER_VARIABLES):
+    return "numpy" not in sys.modules and one_blas_thread_for_new_processes()
+
+
+def one_blas_thread_for_new_processes() -> bool:
+    """Set :data:`SET_VARIABLES` to 1 unless the user set any of :data:`USER_VARIABLES`; True if it did.
+
+    Whether or not this process has loaded NumPy: the processes it starts afterwards load theirs with one
+    thread (the test suite's pytest-xdist workers, started by a process that already loaded NumPy)."""
+    if any(os.environ.get(v) for v in USER_VARIABLES):
         return False
     for v in SET_VARIABLES:
         os.environ[v] = "1"

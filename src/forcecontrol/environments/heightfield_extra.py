@@ -62,7 +62,7 @@ class BumpField(HeightField):
         sp = float(spacing)
         x = o[0] + sp * np.arange(int(shape[0]))
         y = o[1] + sp * np.arange(int(shape[1]))
-        H = np.array([[self.height_formula(xi, yj)[0] for yj in y] for xi in x])
+        H = np.array([[self._height_slope(xi, yj)[0] for yj in y] for xi in x])
         super().__init__(H, o, sp, stiffness, damping, task_dim=task_dim)
 
     def height_formula(self, x: float, y: float) -> tuple[float, float, float, float, float, float]:
@@ -101,7 +101,7 @@ class BumpField(HeightField):
     def height(self, u: Any) -> float:
         """h at (x, y) [m] (the formula)."""
         u = np.atleast_1d(np.asarray(u, dtype=np.float64))
-        return self.height_formula(float(u[0]), float(u[1]))[0]
+        return self._height_slope(float(u[0]), float(u[1]))[0]
 
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """(φ, p_c, ν) by Gauss–Newton on |p − s(u)|², s(u) = (u, h(u)), from the point straight below/above."""
