@@ -56,7 +56,7 @@ class _Linear6:
 
     def pose(self, p: np.ndarray) -> np.ndarray:
         """The base-frame pose [o_e; φ_e] (XYZ Euler angles) of a model coordinate p."""
-        from ..spatial import euler_xyz_to_rotation, rotation_to_euler_xyz, rotvec_to_rotation
+        from ..spatial.closed_form import euler_xyz_to_rotation, rotation_to_euler_xyz, rotvec_to_rotation
 
         # the angles as the simulator reports them (each in (−π, π])
         if self.base:
@@ -66,7 +66,7 @@ class _Linear6:
 
     def coordinate(self, x: np.ndarray) -> np.ndarray:
         """The model coordinate p of a base-frame pose [o_e; φ_e]."""
-        from ..spatial import euler_xyz_to_rotation, rotation_vector
+        from ..spatial.closed_form import euler_xyz_to_rotation, rotation_vector
 
         if self.base:
             return np.concatenate([x[:3] - self.o_d, x[3:] - self.phi_d])
@@ -82,7 +82,8 @@ def _linear_model(parts: dict[str, Any]) -> _Linear6:
     Base frame (9.31): ``θ ≈ T(φ_d)(φ_e − φ_d) + rotvec(R_d R_rᵀ)`` and the wrench acts as
     ``h_A = T_Aᵀ h_e`` (9.29), so ``K' = T_Aᵀ K T_A`` with ``T_A = blockdiag(I, T(φ_d))``.
     """
-    from ..spatial import euler_xyz_T, euler_xyz_to_rotation, rotation_vector
+    from ..spatial import euler_xyz_T
+    from ..spatial.closed_form import euler_xyz_to_rotation, rotation_vector
 
     ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
     pose = np.asarray(ref.position, dtype=float)
@@ -243,7 +244,7 @@ def _spatial_hybrid_model(parts: dict[str, Any]) -> tuple[np.ndarray, np.ndarray
     ``λ̈ = K_f Ĉ f_λ``, so ``L_f = K_f Ĉ`` (= I when Ĉ = K_f⁻¹), and with λ̇ estimated through Ĉ
     (9.82) the force loop is ``λ̈ + K_Dλ λ̇ + L_f K_Pλ (λ − λ_d) = 0`` (9.84).
     """
-    from ..spatial import euler_xyz_to_rotation
+    from ..spatial.closed_form import euler_xyz_to_rotation
 
     ctl, env, ref = parts["controller"], parts["environment"], parts["reference"]
     final = ref.at(float(parts.get("duration", 0.0)))
