@@ -95,16 +95,43 @@ OutFolder = Annotated[Path | None, typer.Option(  # noqa: UP007 - typer needs Op
          "NAME-3, ... (said on stderr and in --json notes)")]
 
 
-def _next_free(out: Path, name: str) -> Path:
-    """``out/name``, or the first of ``out/name-2``, ``out/name-3``, ... that is missing or an empty folder."""
+def _empty(folder: Path) -> bool:
+    return not folder.exists() or (folder.is_dir() and not any(folder.iterdir()))
+
+
+def _next_free(out: Path, name: str) -> tuple[Path, Any, str | None]:
+    """``out/name``, or the first of ``out/name-2``, ``out/name-3``, ... that is missing or an empty folder and that
+    no other live command has claimed (:mod:`.claim`): the folder, its claim, and why ``out/name`` was passed over."""
+    from .claim import claim
+
+    why = None
     for i in range(1, 10_000):
         folder = out / (name if i == 1 else f"{name}-{i}")
-        if not folder.exists() or (folder.is_dir() and not any(folder.iterdir())):
-            return folder
-    return out / name  # pragma: no cover - 10,000 earlier runs: prepare_output refuses with the usual message
+        if not _empty(folder):
+            why = why or "already holds an earlier run's files (never overwritten)"
+            continue
+        held = claim(folder)
+        if isinstance(held, str):
+            why = why or f"is being written by another forcecontrol command (process {held})"
+            continue
+        if _empty(folder):  # still: a command that held it may have written its files meanwhile
+            return folder, held, why
+        held.release()
+        why = why or "already holds an earlier run's files (never overwritten)"
+    return out / name, None, why  # pragma: no cover - 10,000 earlier runs: prepare_output refuses with the usual message
 
 
-def prepare_output(out: Path | None, name: str, force: bool) -> tuple[Path, str | None]:
+def _mkdir(folder: Path, parents: bool = True) -> None:
+    from ..errors import OutputError
+
+    try:
+        folder.mkdir(parents=parents, exist_ok=True)
+    except OSError as exc:
+        why = exc.strerror or exc
+        raise OutputError(f"cannot create the output folder {str(folder)!r}: {why}; choose another --out") from exc
+
+
+def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context | None = None) -> tuple[Path, str | None]:
     """The folder for a run's files and a note when it is not ``out/<name>``.
 
     ``out`` given: the folder ``out/<name>``, created, writable, and not holding files unless ``force``.
@@ -112,42 +139,61 @@ def prepare_output(out: Path | None, name: str, force: bool) -> tuple[Path, str 
     already holds an earlier run's files (and not ``force``) the next free ``<name>-2``, ``<name>-3``, ...
     (nothing is overwritten and a re-run of the same command succeeds); the note says so.
 
+    The folder is claimed (:mod:`.claim`) until the command ends (``ctx`` closes; without it, until the
+    process exits): a folder another live command has claimed is passed over (default output) or refused.
+
     Raises:
-        OutputError: the folder cannot be created or written, or already holds files (``--force``).
+        OutputError: the folder cannot be created or written, already holds files (``--force``), or another
+            live command is writing in it.
     """
     from ..errors import OutputError
+    from .claim import claim
 
     note = None
-    if out is None:
-        out = DEFAULT_OUT
-        folder = out / name if force else _next_free(out, name)
+    default = out is None
+    out = DEFAULT_OUT if out is None else out
+    _mkdir(out)
+    if default and not force:
+        folder, held, why = _next_free(out, name)
         if folder != out / name:
-            note = (f"{str(out / name)!r} already holds an earlier run's files (never overwritten): this run writes in "
-                    f"{str(folder)!r}; --force overwrites them, --out DIR writes elsewhere")
+            note = (f"{str(out / name)!r} {why}: this run writes in {str(folder)!r}; --force overwrites an earlier run's "
+                    "files, --out DIR writes elsewhere")
     else:
         folder = out / name
+        held = claim(folder)
     try:
         folder.resolve().relative_to(out.resolve())
     except ValueError as exc:  # pragma: no cover - _slug makes this impossible; kept as the rule
         raise OutputError(f"output name {name!r} would write outside {str(out)!r}") from exc
+    if isinstance(held, str):
+        raise OutputError(f"another forcecontrol command (process {held}) is writing in {str(folder)!r}; wait for it to "
+                          "end, or choose another --out")
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        why = exc.strerror or exc
-        raise OutputError(f"cannot create the output folder {str(folder)!r}: {why}; choose another --out") from exc
-    existing = sorted(p.name for p in folder.iterdir())
-    if existing and not force:
-        shown = ", ".join(existing[:4]) + (", ..." if len(existing) > 4 else "")
-        raise OutputError(
-            f"{str(folder)!r} already holds {len(existing)} file(s) ({shown}); pass --force to overwrite them, "
-            "or --out to write elsewhere"
-        )
-    probe = folder / ".forcecontrol-write-test"
-    try:
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise OutputError(f"cannot write in {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
+        _mkdir(folder, parents=False)
+        existing = sorted(p.name for p in folder.iterdir())
+        if existing and not force:
+            shown = ", ".join(existing[:4]) + (", ..." if len(existing) > 4 else "")
+            raise OutputError(
+                f"{str(folder)!r} already holds {len(existing)} file(s) ({shown}); pass --force to overwrite them, "
+                "or --out to write elsewhere"
+            )
+        probe = folder / ".forcecontrol-write-test"
+        try:
+            probe.write_bytes(b"")
+            probe.unlink()
+        except OSError as exc:
+            raise OutputError(f"cannot write in {str(folder)!r}: {exc.strerror or exc}; choose another --out") from exc
+    except BaseException:
+        if held is not None:
+            held.release()
+        raise
+    if held is not None and held.held:
+        if ctx is not None:
+            ctx.call_on_close(held.release)
+        else:
+            import atexit
+
+            atexit.register(held.release)
     return folder, note
 
 
@@ -252,6 +298,7 @@ def schema_command(
 
 @app.command("run")
 def run_command(
+    ctx: typer.Context,
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
     json_out: JsonOut = False,
     out: OutFolder = None,
@@ -290,7 +337,7 @@ def run_command(
             for text in set_notes:
                 say_note(text)
             writes = figure or animate or view3d or data is not DataFormat.none
-            folder, note = prepare_output(out, _slug(scn.name), force) if writes else (Path(), None)
+            folder, note = prepare_output(out, _slug(scn.name), force, ctx) if writes else (Path(), None)
             say_note(note)
             if json_out:
                 run = run_scenario(scn, engine=engine.value)

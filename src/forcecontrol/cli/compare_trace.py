@@ -44,6 +44,7 @@ def _max_shift(value: float) -> float:
 
 
 def compare_trace_command(
+    ctx: typer.Context,
     simulated: Annotated[str, typer.Argument(help="a scenario (simulated now) or a data file of a simulated trace")],
     recorded: RecordedLog,
     format: Annotated[RecordFormat, typer.Option("--format", help="format of RECORDED (default: from the path)")] = (
@@ -71,7 +72,7 @@ def compare_trace_command(
         sim, name, m, stem = _simulated(simulated, case, format, args)
         rec = read_log(recorded, format, m, *args)
         cmp = compare_traces(sim, rec, max_shift=max_shift)
-        folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force)
+        folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force, ctx)
         say_note(note)
         figure = cmp.plot(folder / "compare-trace.png")
     except (ForceControlError, ImportError) as exc:

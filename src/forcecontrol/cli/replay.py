@@ -130,6 +130,7 @@ def _sensor_pose(text: str | None, rec: Any, robot: Any) -> Any:
 
 
 def replay_command(
+    ctx: typer.Context,
     scenario: Annotated[str, typer.Argument(help="built-in name or .toml file: its controller, robot and reference")],
     data: RecordedLog,
     format: Annotated[RecordFormat, typer.Option("--format", help="format of DATA (default: from the path)")] = RecordFormat.auto,
@@ -171,7 +172,7 @@ def replay_command(
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
             result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X)
-            folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force)
+            folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force, ctx)
             step(f"writing the table and the figure of {len(rec.t)} samples")
             stem = _slug(spec.label)
             table = folder / f"{stem}.csv"
