@@ -92,7 +92,7 @@ DEFAULT_OUT = Path("forcecontrol-out")
 OutFolder = Annotated[Path | None, typer.Option(  # noqa: UP007 - typer needs Optional
     "--out", show_default=str(DEFAULT_OUT),
     help="folder for the files; when left at the default, a re-run never overwrites nor fails: it writes in NAME-2, "
-         "NAME-3, ... (said on stderr and in --json notes)")]
+         "NAME-3, ... (said on stderr and in --json notes), as it does while another command writes in NAME")]
 
 
 def _empty(folder: Path) -> bool:
