@@ -7,6 +7,7 @@ claim is tested the way users meet it: real processes, the README's command with
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -15,6 +16,8 @@ from pathlib import Path
 import pytest
 
 from forcecontrol.cli.claim import claim, lock_path
+
+pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="no flock on Windows: folders are used unclaimed there")
 
 RUN_FILES = {"example-9.2.png", "example-9.2-k-x-1e3-n-m.csv", "example-9.2-k-x-1e3-n-m.json",
              "example-9.2-k-x-1e4-n-m.csv", "example-9.2-k-x-1e4-n-m.json"}
@@ -64,8 +67,9 @@ def test_a_claimed_folder_is_passed_over_by_default_and_refused_with_out(tmp_pat
         assert code == 0, stderr
         assert not (out / "example-9.2").exists() and {p.name for p in (out / "example-9.2-2").iterdir()} == RUN_FILES
         said = " ".join(stderr.split())
-        assert f"'forcecontrol-out/example-9.2' is being written by another forcecontrol command (process {os.getpid()})" in said
-        assert '"notes"' in stdout and "is being written by another forcecontrol command" in stdout  # and in --json
+        busy = f"'forcecontrol-out/example-9.2' is being written by another forcecontrol command (process {os.getpid()})"
+        assert busy in said and "--force" not in said  # --force would be refused too: not offered
+        assert any(busy in n for n in json.loads(stdout)["notes"])  # and in --json
         for extra in ((), ("--force",)):
             code, _, stderr = _finish(_start(tmp_path, "run", "example-9.2", "--out", "forcecontrol-out", *extra))
             assert code == 2, stderr
@@ -80,7 +84,6 @@ def test_a_claimed_folder_is_passed_over_by_default_and_refused_with_out(tmp_pat
     assert {p.name for p in (out / "example-9.2").iterdir()} == RUN_FILES
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="flock: Windows runs unclaimed")
 def test_a_claim_left_by_a_killed_command_is_taken_over(tmp_path: Path) -> None:
     """A lock file whose process is gone (written, never locked, like a killed command's): the next run uses the
     folder (no refusal) and removes the file when it ends."""
@@ -92,3 +95,23 @@ def test_a_claim_left_by_a_killed_command_is_taken_over(tmp_path: Path) -> None:
     assert code == 0, stderr
     assert _figure_line(stdout) == "figure: forcecontrol-out/example-9.2/example-9.2.png"
     assert not stale.exists()
+    stale.write_text("999999999\n")  # killed after writing its files: the next run goes on to -2 and removes the file
+    code, stdout, stderr = _finish(_start(tmp_path, "run", "example-9.2"))
+    assert code == 0, stderr
+    assert _figure_line(stdout) == "figure: forcecontrol-out/example-9.2-2/example-9.2.png"
+    assert not stale.exists() and sorted(p.name for p in out.iterdir()) == ["example-9.2", "example-9.2-2"]
+
+
+def test_a_command_run_twice_in_one_process_releases_its_claim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """In-process (typer's runner, as a notebook or a test calls the CLI): each command's claim ends with it, so the
+    same --out --force runs again in the same process, and no lock file is left."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli.app import app
+
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    for _ in range(2):
+        res = runner.invoke(app, ["run", "example-9.2", "--out", "mine", "--force", "--no-figure", "--data", "csv"])
+        assert res.exit_code == 0, res.output
+        assert sorted(p.name for p in (tmp_path / "mine").iterdir()) == ["example-9.2"]

@@ -101,23 +101,34 @@ def _empty(folder: Path) -> bool:
 
 def _next_free(out: Path, name: str) -> tuple[Path, Any, str | None]:
     """``out/name``, or the first of ``out/name-2``, ``out/name-3``, ... that is missing or an empty folder and that
-    no other live command has claimed (:mod:`.claim`): the folder, its claim, and why ``out/name`` was passed over."""
-    from .claim import claim
+    no other live command has claimed (:mod:`.claim`): the folder, its claim, and why ``out/name`` was passed over
+    (``None`` when it was not). A lock file a killed command left beside a folder holding files is removed."""
+    from .claim import claim, holder, lock_path
 
+    earlier = "already holds an earlier run's files (never overwritten)"
     why = None
     for i in range(1, 10_000):
         folder = out / (name if i == 1 else f"{name}-{i}")
         if not _empty(folder):
-            why = why or "already holds an earlier run's files (never overwritten)"
+            if lock_path(folder).exists():  # a stale claim (its command was killed) or a live one: a live one stays
+                stale = claim(folder)
+                if not isinstance(stale, str):
+                    stale.release()
+            why = why or earlier
             continue
         held = claim(folder)
         if isinstance(held, str):
-            why = why or f"is being written by another forcecontrol command (process {held})"
+            why = why or f"is being written by another forcecontrol command ({holder(held)})"
             continue
-        if _empty(folder):  # still: a command that held it may have written its files meanwhile
+        try:
+            empty = _empty(folder)  # still: a command that held it may have written its files meanwhile
+        except BaseException:
+            held.release()
+            raise
+        if empty:
             return folder, held, why
         held.release()
-        why = why or "already holds an earlier run's files (never overwritten)"
+        why = why or earlier
     return out / name, None, why  # pragma: no cover - 10,000 earlier runs: prepare_output refuses with the usual message
 
 
@@ -147,27 +158,27 @@ def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context 
             live command is writing in it.
     """
     from ..errors import OutputError
-    from .claim import claim
+    from .claim import claim, holder
 
     note = None
     default = out is None
     out = DEFAULT_OUT if out is None else out
+    try:
+        (out / name).resolve().relative_to(out.resolve())
+    except ValueError as exc:  # pragma: no cover - _slug makes this impossible; kept as the rule
+        raise OutputError(f"output name {name!r} would write outside {str(out)!r}") from exc
     _mkdir(out)
     if default and not force:
         folder, held, why = _next_free(out, name)
         if folder != out / name:
-            note = (f"{str(out / name)!r} {why}: this run writes in {str(folder)!r}; --force overwrites an earlier run's "
-                    "files, --out DIR writes elsewhere")
+            hint = "--force overwrites an earlier run's files, " if why and why.startswith("already") else ""
+            note = f"{str(out / name)!r} {why}: this run writes in {str(folder)!r}; {hint}--out DIR writes elsewhere"
     else:
         folder = out / name
         held = claim(folder)
-    try:
-        folder.resolve().relative_to(out.resolve())
-    except ValueError as exc:  # pragma: no cover - _slug makes this impossible; kept as the rule
-        raise OutputError(f"output name {name!r} would write outside {str(out)!r}") from exc
     if isinstance(held, str):
-        raise OutputError(f"another forcecontrol command (process {held}) is writing in {str(folder)!r}; wait for it to "
-                          "end, or choose another --out")
+        raise OutputError(f"another forcecontrol command ({holder(held)}) is writing in {str(folder)!r}; wait for it to "
+                          "end, or write elsewhere with --out DIR")
     try:
         _mkdir(folder, parents=False)
         existing = sorted(p.name for p in folder.iterdir())

@@ -16,11 +16,13 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["FolderClaim", "claim", "lock_path"]
+__all__ = ["FolderClaim", "claim", "holder", "lock_path"]
 
 
 def lock_path(folder: Path) -> Path:
-    """The claim's lock file of ``folder``: hidden, beside it (never inside: the folder holds only the run's files)."""
+    """The claim's lock file of ``folder``: hidden, beside it (never inside: the folder holds only the run's files);
+    absolute, so that a release after a change of the working folder removes this file and no other."""
+    folder = folder.absolute()
     return folder.with_name(f".{folder.name}.forcecontrol-run.lock")
 
 
@@ -47,25 +49,45 @@ class FolderClaim:
         os.close(fd)
 
 
+def holder(owner: str) -> str:
+    """The words for a claim's holder in a message: 'process 1234', or 'a process that is starting'."""
+    return f"process {owner}" if owner.isdigit() else "a process that is starting"
+
+
 def _owner(fd: int) -> str:
+    """The holder's pid as its lock file says, or 'starting' (locked, its pid not written yet)."""
     try:
         os.lseek(fd, 0, os.SEEK_SET)
-        return os.read(fd, 32).decode("ascii", "replace").strip() or "?"
+        return os.read(fd, 32).decode("ascii", "replace").strip() or "starting"
     except OSError:  # pragma: no cover
-        return "?"
+        return "starting"
+
+
+def _open(lock: Path) -> int | None:
+    """The lock file opened for writing (created), or for reading only when it is another user's (a shared output
+    root: the lock then still tells a live holder; the pid is not written); None when it cannot be opened at all."""
+    try:
+        return os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+    except PermissionError:
+        try:
+            return os.open(lock, os.O_RDONLY)
+        except OSError:
+            return None
+    except OSError:
+        return None
 
 
 def claim(folder: Path) -> FolderClaim | str:
-    """Claim ``folder`` (its parent must exist): the held claim, or the pid (text) of the live process holding it."""
+    """Claim ``folder`` (its parent must exist): the held claim, or the pid (text) of the live process holding it
+    (``'starting'`` when it has not written it yet)."""
     lock = lock_path(folder)
     try:
         import fcntl
     except ImportError:  # pragma: no cover - Windows: no claim, as before
         return FolderClaim(lock, None)
     for _ in range(100):  # the holder may remove the file between our open and our lock: open the new one
-        try:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError:  # a parent we cannot write in: prepare_output's own checks say so
+        fd = _open(lock)
+        if fd is None:  # a parent we cannot write in: prepare_output's own checks say so
             return FolderClaim(lock, None)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -81,8 +103,11 @@ def claim(folder: Path) -> FolderClaim | str:
         except FileNotFoundError:
             same = False
         if same:
-            os.ftruncate(fd, 0)
-            os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+            try:  # the pid only names the holder in messages: a full disk does not stop the claim
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode("ascii"))
+            except OSError:
+                pass
             return FolderClaim(lock, fd)
         os.close(fd)
-    return "?"  # pragma: no cover - the file kept being replaced: treat the folder as busy
+    return "starting"  # pragma: no cover - the file kept being replaced: treat the folder as busy
