@@ -287,3 +287,51 @@ def test_laws_compiled_in_separate_processes_run_their_own_code_when_loaded_toge
     assert sorted(reference) == sorted(laws)
     together = _finish(_worker(script, shared, laws))
     assert together == reference
+
+
+PICKLE_FIRST = textwrap.dedent(
+    r'''
+    import pickle, sys
+    from numba.core import event
+    from forcecontrol.sweep import SweepDefinition, prepare_sweep
+    from forcecontrol.sweep.block import run_fast
+
+    compiled = []
+
+    class Compiles(event.Listener):
+        def on_start(self, ev):
+            func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+            if str(getattr(func, "__module__", "")).startswith("forcecontrol"):
+                compiled.append(func.__qualname__)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", Compiles())
+    prep = prepare_sweep("example-9.2", SweepDefinition.from_options({"duration": [0.2]}))
+    jobs = [j for j in prep.jobs if j.fast][:1]  # one case (impedance control) for a compiled batch kernel
+    if sys.argv[1] == "pickle-first":  # what a sweep on a Dask cluster does with its cases, before any kernel is built
+        pickle.dumps(jobs)
+    run_fast(jobs[0].law, jobs, 0.02, 0.05, kernel="scalar")
+    print("compiled:", len(compiled), sorted(set(compiled)))
+    '''
+)
+
+
+def test_sweep_cases_pickled_before_any_kernel_is_built_find_the_cached_kernels(tmp_path: Path) -> None:
+    """A process that pickles sweep cases (their law and every function it calls) before building a kernel, as a sweep
+    on a Dask cluster does, then runs them through the batch kernel loads what an earlier process cached: nothing
+    compiles. Before, the pickling drew random identities, which entered the kernels' cache keys: every such process
+    (and each Dask worker that unpickled them) compiled again (in the suite: the lanes kernels after the Dask sweep
+    journey, about 60 s of CPU)."""
+    script = tmp_path / "pickle_first.py"
+    script.write_text(PICKLE_FIRST)
+    cache = tmp_path / "nb"
+    warm = subprocess.run([sys.executable, str(script), "plain"], env=_env(cache), capture_output=True, text=True,
+                          timeout=900)
+    assert warm.returncode == 0, warm.stderr[-3000:]
+    assert not warm.stdout.startswith("compiled: 0 "), warm.stdout  # the cache was empty: this one compiled
+    again = subprocess.run([sys.executable, str(script), "pickle-first"], env=_env(cache), capture_output=True,
+                           text=True, timeout=900)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert again.stdout.strip() == "compiled: 0 []", again.stdout

@@ -209,11 +209,31 @@ def _patch_dispatcher(module: object) -> None:
             from .kernel_cache import KernelCache
 
             self._cache = KernelCache(self.py_func)  # type: ignore[attr-defined]
+            _identity_at_creation(self)
         else:  # other libraries' and the user's functions keep Numba's own cache
             original(self)
 
     enable_caching._forcecontrol = True  # type: ignore[attr-defined]
     cls.enable_caching = enable_caching  # type: ignore[union-attr]
+
+
+def _identity_at_creation(dispatcher: Any) -> None:
+    """A module-level function of the package gets its stable identity as it is decorated, before anything can pickle it.
+
+    :func:`stable_identities` ran only where a loop or a kernel was built: a program that pickled a
+    controller first (a sweep on a Dask cluster sends its cases' laws to the workers) drew random
+    uuids for the laws and everything they call, so every per-law kernel built afterwards in that
+    process, and in the workers that unpickled them, had a cache key of its own and compiled again
+    (found in the test suite: the lanes kernels, about 60 s of CPU, recompiled in every run on the
+    worker that had run the Dask journey first). A closure (``<locals>`` in its name) is left to
+    :func:`kernel_identity`, which names it per law.
+    """
+    qualname = str(getattr(dispatcher.py_func, "__qualname__", "<locals>"))
+    if "<locals>" in qualname:
+        return
+    with identity_lock():
+        if getattr(dispatcher, "_MemoMixin__uuid", None) is None:
+            dispatcher._set_uuid(f"forcecontrol:{dispatcher.py_func.__module__}.{qualname}")
 
 
 class _AfterNumbaDispatcher:

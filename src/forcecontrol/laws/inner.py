@@ -121,7 +121,8 @@ def _composed(acceleration: Any, inner: Any, name: str) -> Any:
     law.__doc__ = (f"{name}: :func:`{acceleration.py_func.__name__}` through the inner loop (9.30) "
                    f"(:func:`{inner.py_func.__name__}`).")
     fn = njit(cache=True, inline="always")(law)
-    fn._set_uuid(f"forcecontrol:{law.__module__}.{name}")
+    if fn._MemoMixin__uuid is None:  # named at creation (core.numba_cache) unless Numba's dispatcher was not patched
+        fn._set_uuid(f"forcecontrol:{law.__module__}.{name}")
     return fn
 
 
