@@ -154,6 +154,41 @@ def test_saved_scenario_loads_and_reproduces_the_tuned_run(tmp_path):
     run = scn.run().cases[0].result
     np.testing.assert_allclose(run.wrench, s.evaluate().result.wrench, rtol=1e-12, atol=1e-9)
     assert "force_gain[0] 0.00064 -> 0.001" in scn.description
+    assert sorted(p.name for p in path.parent.iterdir()) == ["tuned.toml"]  # no temporary file left beside it
+
+
+def test_save_appears_whole_or_not_at_all(tmp_path, monkeypatch):
+    """The tuned file is written beside its target, checked, then moved into place: a reader never sees it half
+    written (a browser test read it as soon as it existed: an empty table). A file that does not load never appears;
+    overwrite=False refuses an existing file and leaves it as it was."""
+    import forcecontrol.scenarios as scenarios
+    from forcecontrol.errors import ScenarioError
+
+    s = TuneSession("example-9.2")
+    target = tmp_path / "tuned.toml"
+    seen = []
+    real = scenarios.load_scenario
+
+    def check(path, *a, **k):  # called on the written file before it is moved into place
+        seen.append(target.exists())
+        return real(path, *a, **k)
+
+    monkeypatch.setattr(scenarios, "load_scenario", check)
+    s.save(target)
+    assert seen == [False] and fc.scenario(target).name == "example-9.2-tuned"
+
+    def broken(path, *a, **k):
+        raise ScenarioError(f"{path}: broken")
+
+    monkeypatch.setattr(scenarios, "load_scenario", broken)
+    with pytest.raises(ScenarioError):
+        s.save(tmp_path / "other.toml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tuned.toml"]
+    monkeypatch.setattr(scenarios, "load_scenario", real)
+    before = target.read_bytes()
+    with pytest.raises(OutputError, match="exists and this server did not write it"):
+        s.save(target, overwrite=False)
+    assert target.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["tuned.toml"]
 
 
 # ----------------------------------------------------------------------------- the app, from Python

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -425,18 +426,28 @@ class TuneSession:
 
         path = Path(path)
         text = dumps_toml(self.tuned_scenario(values))
+        # written whole beside the target, checked, then moved into place: whoever watches ``path`` (a test, the
+        # user's editor, a script waiting for it) never reads a half-written file, and a file that does not load
+        # never appears (found by a browser test reading the file as soon as it existed: an empty table)
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            with path.open("w" if overwrite else "x", encoding="utf-8") as fh:
-                fh.write(text)
-        except FileExistsError as exc:
-            raise OutputError(f"save: {str(path)!r} exists and this server did not write it; expected a new file "
-                              "(pass --overwrite to replace it, or choose another --save)") from exc
+            tmp.write_text(text, encoding="utf-8")
         except OSError as exc:
             raise OutputError(f"cannot write the tuned scenario to {str(path)!r}: {exc.strerror or exc}") from exc
         try:
-            load_scenario(path)
+            load_scenario(tmp)
+            if overwrite:
+                os.replace(tmp, path)
+            else:
+                os.link(tmp, path)  # atomic: fails when path exists
+        except FileExistsError as exc:
+            raise OutputError(f"save: {str(path)!r} exists and this server did not write it; expected a new file "
+                              "(pass --overwrite to replace it, or choose another --save)") from exc
         except ScenarioError:
-            path.unlink(missing_ok=True)
             raise
+        except OSError as exc:
+            raise OutputError(f"cannot write the tuned scenario to {str(path)!r}: {exc.strerror or exc}") from exc
+        finally:
+            tmp.unlink(missing_ok=True)
         return path
