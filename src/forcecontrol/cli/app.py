@@ -142,7 +142,7 @@ def _mkdir(folder: Path, parents: bool = True) -> None:
         raise OutputError(f"cannot create the output folder {str(folder)!r}: {why}; choose another --out") from exc
 
 
-def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context | None = None) -> tuple[Path, str | None]:
+def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context) -> tuple[Path, str | None]:
     """The folder for a run's files and a note when it is not ``out/<name>``.
 
     ``out`` given: the folder ``out/<name>``, created, writable, and not holding files unless ``force``.
@@ -150,8 +150,8 @@ def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context 
     already holds an earlier run's files (and not ``force``) the next free ``<name>-2``, ``<name>-3``, ...
     (nothing is overwritten and a re-run of the same command succeeds); the note says so.
 
-    The folder is claimed (:mod:`.claim`) until the command ends (``ctx`` closes; without it, until the
-    process exits): a folder another live command has claimed is passed over (default output) or refused.
+    The folder is claimed (:mod:`.claim`) until the command ends (its context ``ctx`` closes): a folder another
+    live command has claimed is passed over (default output) or refused.
 
     Raises:
         OutputError: the folder cannot be created or written, already holds files (``--force``), or another
@@ -199,12 +199,7 @@ def prepare_output(out: Path | None, name: str, force: bool, ctx: typer.Context 
             held.release()
         raise
     if held is not None and held.held:
-        if ctx is not None:
-            ctx.call_on_close(held.release)
-        else:
-            import atexit
-
-            atexit.register(held.release)
+        ctx.call_on_close(held.release)
     return folder, note
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..core import locks
 from ..errors import OutputError
 from .spec import SweepError, SweepWarning
 
@@ -282,11 +283,7 @@ def _output_lock(out: Path):
     (Windows) or refused (``ENOLCK`` on some network file systems) the pid file alone is used.
     """
     lock = out.with_name(out.name + ".lock")
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows
-        fcntl = None  # type: ignore[assignment]
-    fd = _flock_output(lock, out, fcntl) if fcntl is not None else None
+    fd = _flock_output(lock, out)
     if fd is None:
         with _pid_lock(lock, out):
             yield
@@ -294,8 +291,7 @@ def _output_lock(out: Path):
     try:
         yield
     finally:
-        lock.unlink(missing_ok=True)  # while holding the flock: a waiting process then finds a new file
-        os.close(fd)
+        locks.release(lock, fd)  # removed while held: a waiting process then finds a new file
 
 
 def _refuse(out: Path, lock: Path, pid: int | str) -> SweepError:
@@ -305,44 +301,21 @@ def _refuse(out: Path, lock: Path, pid: int | str) -> SweepError:
     )
 
 
-def _read_pid(fd: int) -> int:
-    try:
-        os.lseek(fd, 0, os.SEEK_SET)
-        return int(os.read(fd, 32).decode().strip() or "0")
-    except (OSError, ValueError):
-        return 0
-
-
-def _flock_output(lock: Path, out: Path, fcntl: Any) -> int | None:
-    """Open and ``flock`` ``lock`` (the file at the path, not one a finished sweep removed); write this pid. None: no flock."""
-    while True:
-        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            pid = _read_pid(fd)
-            os.close(fd)
-            raise _refuse(out, lock, pid or "starting") from None
-        except OSError:  # ENOLCK (NFS without locking) and the like
-            os.close(fd)
-            return None
-        try:
-            same = os.stat(lock).st_ino == os.fstat(fd).st_ino
-        except FileNotFoundError:
-            same = False
-        if not same:  # removed by the sweep that just ended: open the new one
-            os.close(fd)
-            continue
-        pid = _read_pid(fd)
-        if pid and pid != os.getpid():
-            if _alive(pid):
-                os.close(fd)
-                raise _refuse(out, lock, pid)
-            warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=5)
-        os.ftruncate(fd, 0)
-        os.lseek(fd, 0, os.SEEK_SET)
-        os.write(fd, str(os.getpid()).encode())
-        return fd
+def _flock_output(lock: Path, out: Path) -> int | None:
+    """``flock`` ``lock`` (:func:`forcecontrol.core.locks.try_lock`) and write this pid. None: no flock here."""
+    got = locks.try_lock(lock)
+    if isinstance(got, str):
+        raise _refuse(out, lock, got)
+    if got is None:
+        return None
+    pid = locks.read_pid(got)
+    if pid and pid != os.getpid():
+        if _alive(pid):  # written by a live process that holds no flock (an older version)
+            os.close(got)
+            raise _refuse(out, lock, pid)
+        warnings.warn(f"taking over the stale lock {lock} (process {pid} is gone)", SweepWarning, stacklevel=5)
+    locks.write_pid(got)
+    return got
 
 
 @contextlib.contextmanager
