@@ -143,3 +143,55 @@ def test_benchmark_skips_the_cpp_baseline_when_the_build_fails(tmp_path, monkeyp
     monkeypatch.setenv("PATH", str(tmp_path))  # no g++, no python on PATH
     assert bench.build() is None
     assert "C++ baseline skipped" in capsys.readouterr().err
+
+
+ONE_VERSION = r'''
+import numpy as np
+from forcecontrol.controllers.spatial import SpatialImpedanceController
+from forcecontrol.environments.spatial import ConstantWrench, Table
+from forcecontrol.laws.spatial import spatial_impedance_torque
+from forcecontrol.robots.pinocchio import PANDA_READY, panda, ur5
+from forcecontrol.scenarios import build_case, load_scenario
+from forcecontrol.sim.loop_tree import impedance_loop, run_impedance_loop
+from forcecontrol.sim.metrics import case_metrics, step_metrics
+from forcecontrol.sim.simulation import simulate
+from forcecontrol.spatial import rotation_to_euler_xyz
+from forcecontrol.trajectories import Setpoint
+
+MD = np.diag([2.0, 2.0, 2.0, 0.05, 0.05, 0.05])
+KP = np.diag([400.0, 400.0, 400.0, 10.0, 10.0, 10.0])
+KD = np.diag(2 * 0.7 * np.sqrt(np.diag(MD) * np.diag(KP)))
+robot = panda()
+R, p = robot.frame_pose(PANDA_READY)
+ref = Setpoint(np.concatenate([p - [0.0, 0.0, 0.02], rotation_to_euler_xyz(R)]))
+ctrl = SpatialImpedanceController(robot, MD, KD, KP, posture=PANDA_READY)
+table = Table(p, (0.0, 0.0, 1.0), 5000.0, 50.0)
+run_impedance_loop(robot, table, ctrl, ref, PANDA_READY, 0.01, 2)                       # impedance on a table
+simulate(robot, table, ctrl, ref, q0=PANDA_READY, duration=0.01, engine="python")       # the law called from Python
+arm = ur5()
+q0 = np.array([0.3, -1.2, 1.5, -1.8, -1.5, 0.4])
+R, p = arm.frame_pose(q0)
+run_impedance_loop(arm, ConstantWrench([3.0, -2.0, 1.0, 0.1, 0.2, -0.1]), SpatialImpedanceController(arm, MD, KD, KP),
+                   Setpoint(np.concatenate([p, rotation_to_euler_xyz(R)])), q0, 0.01, 1)  # a frozen wrench
+parts = build_case(load_scenario("panda-admittance-contact").cases[0])                   # admittance: frozen gains
+run_impedance_loop(parts["robot"], parts["environment"], parts["controller"], parts["reference"], parts["q0"], 0.01, 1)
+res = simulate(robot, table, ctrl, ref, q0=PANDA_READY, duration=0.05, engine="python")
+step_metrics(res.t, res.wrench[:, 2], reference=-10.0)                                   # a column of a log
+print({f.py_func.__name__: [str(s) for s in f.signatures]
+       for f in (impedance_loop, spatial_impedance_torque, case_metrics)})
+'''
+
+
+def test_every_path_into_the_6d_loop_and_its_callees_uses_one_compiled_version():
+    """The 6-D loop on a table, under a frozen constant wrench and with the admittance scenario's frozen gains, the
+    law called from the Python engine and the metrics of a log's column: one compiled version each of the loop, the
+    law and case_metrics (fails before: Numba compiles again for a read-only or a strided array; the loop had three
+    versions, 8 s each on a cold cache). The loop's callees given literal flags: test_kernel_cache.py."""
+    import ast
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", ONE_VERSION], capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-3000:]
+    versions = ast.literal_eval(out.stdout.strip().splitlines()[-1])
+    assert {name: len(sigs) for name, sigs in versions.items()} == {
+        "impedance_loop": 1, "spatial_impedance_torque": 1, "case_metrics": 1}, versions

@@ -335,3 +335,41 @@ def test_sweep_cases_pickled_before_any_kernel_is_built_find_the_cached_kernels(
                            text=True, timeout=900)
     assert again.returncode == 0, again.stderr[-3000:]
     assert again.stdout.strip() == "compiled: 0 []", again.stdout
+
+
+def _decorated(fn: object) -> tuple[bool, bool]:
+    """(compiled with njit/jit, inlined with inline="always") from a FunctionDef's decorators."""
+    import ast
+
+    for d in fn.decorator_list:  # type: ignore[attr-defined]
+        call = d if isinstance(d, ast.Call) else None
+        target = call.func if call else d
+        if getattr(target, "id", getattr(target, "attr", None)) in ("njit", "jit"):
+            inline = any(k.arg == "inline" and isinstance(k.value, ast.Constant) and k.value.value == "always"
+                         for k in (call.keywords if call else []))
+            return True, inline
+    return False, False
+
+
+def test_no_compiled_function_calls_a_kernel_with_a_literal_flag() -> None:
+    """No compiled function of the package passes True or False as such to a compiled function it does not inline:
+    Numba types the constant as Literal[bool] and compiles the callee once more for each value, besides the version
+    Python calls (the 6-D loop compiled tree_terms and the 6-D impedance law three times each; a variable holding
+    ``bool(True)`` is a plain boolean). Read from the sources, so it holds whatever the kernel cache holds."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1] / "src" / "forcecontrol"
+    modules = [(p, ast.parse(p.read_text(encoding="utf-8"))) for p in sorted(root.rglob("*.py"))]
+    functions = [(p, f) for p, tree in modules for f in ast.walk(tree) if isinstance(f, ast.FunctionDef)]
+    assert len(functions) > 500  # the package was read
+    kernels = {f.name for _, f in functions if _decorated(f) == (True, False)}
+    assert {"tree_terms", "spatial_impedance_torque", "impedance_loop"} <= kernels
+    literal = [
+        f"{p.relative_to(root)}:{call.lineno} {f.name} calls {call.func.id}"
+        for p, f in functions if _decorated(f)[0]
+        for call in ast.walk(f)
+        if isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id in kernels
+        and any(isinstance(a, ast.Constant) and isinstance(a.value, bool)
+                for a in [*call.args, *(k.value for k in call.keywords)])
+    ]
+    assert literal == []

@@ -31,6 +31,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 
 from .. import laws
+from ..core.numba_cache import kernel_array
 from ..core.validate import as_gain_matrix
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
@@ -152,9 +153,11 @@ def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md
 
 
 def _f(a) -> np.ndarray:
-    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous:
+    """``a`` as the compiled law's array type (:func:`~forcecontrol.core.numba_cache.kernel_array`): float64,
+    C-contiguous and writable, as the compiled 6-D loop passes them (a frozen gain compiled the law a second time)."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
         return a
-    return np.ascontiguousarray(a, dtype=np.float64)
+    return kernel_array(a)
 
 
 def _spatial_robot(robot: RobotModel) -> None:
@@ -200,7 +203,7 @@ class _SpatialBase(Controller):
         s = self.singularity
         u, self.last_damping, c2 = spatial_impedance_torque(
             R_e, o_e, J, Jdq, B, nv, _f(q), _f(qd), _f(h), _f(reference.position), _f(reference.velocity),
-            _f(reference.acceleration), Md_inv, K_D, K_P, use_force, post, k_n, d_n, has, s.threshold, s.max_damping,
+            _f(reference.acceleration), _f(Md_inv), _f(K_D), _f(K_P), use_force, post, k_n, d_n, has, s.threshold, s.max_damping,
         )
         if c2 < 1e-3:
             raise SingularityError(

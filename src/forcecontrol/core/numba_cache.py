@@ -29,10 +29,24 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["configure", "CACHE_DIR", "is_cold", "notify_if_cold", "stable_identities", "kernel_identity", "install_kernel_cache",
-           "identity_lock", "build_once"]
+           "identity_lock", "build_once", "kernel_array"]
 
 CACHE_DIR: str | None = None
 _notified = False
+
+
+def kernel_array(a: Any) -> Any:
+    """``a`` as the one array type the package's kernels are compiled for: float64, C-contiguous, writable.
+
+    Numba compiles a function again for every new argument type, and an array's type includes its
+    layout and its read-only flag: a read-only array (a frozen attribute, a broadcast) or a strided
+    one (a column) given to a kernel that has run on ordinary arrays compiles all of it a second time
+    (the 6-D loop: 8 s). The same array is returned when it already is one; otherwise a copy. Kernels
+    only read the arrays given to them this way.
+    """
+    import numpy as np
+
+    return np.require(a, dtype=np.float64, requirements=("C", "W"))
 
 
 def _source_hash(root: Path) -> str:

@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from ..controllers.base import REFERENCE_FIELDS
+from ..core.numba_cache import kernel_array
 from ..errors import ParameterError
 from ..laws.spatial import _c3, _R_xyz, spatial_impedance_torque
 from ..robots.compiled_tree import chol_solve, compile_tree, tree_terms
@@ -144,9 +145,12 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
     hm = np.zeros(6)
     lam2 = 0.0
     pos_t, vel_t, acc_t = np.empty(6), np.empty(6), np.empty(6)
+    # the flags of tree_terms and the law as plain booleans: a constant argument would compile each callee once more,
+    # for its literal value (Numba types True as Literal[bool](True)), besides the version Python calls
+    yes, no = bool(True), bool(False)  # noqa: UP018 - not literals, on purpose
     for k in range(N + 1):
         tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
-                   q, qd, True, True, R_e, o_e, J, Jdq, B, nv, ws)
+                   q, qd, yes, yes, R_e, o_e, J, Jdq, B, nv, ws)
         for i in range(3):
             s = 0.0
             for j in range(n):
@@ -164,11 +168,11 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
             zdd = Mt_inv @ (h_d - K_Dt @ xa[6:] - K_Pt @ xa[:6])
             compliant_frame_arrays(row[0:6], row[6:12], row[12:18], xa[:6], xa[6:], zdd, pos_t, vel_t, acc_t)
             u, lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, hm, pos_t, vel_t, acc_t,
-                                                    Md_inv, K_D, K_P, False, posture, k_n, d_n, has_posture, thr, lmax)
+                                                    Md_inv, K_D, K_P, no, posture, k_n, d_n, has_posture, thr, lmax)
             xa[:] = Ad @ xa + Gd @ h_d
         else:
             u, lam2, _c2 = spatial_impedance_torque(R_e, o_e, J, Jdq, B, nv, q, qd, hm, row[0:6], row[6:12], row[12:18],
-                                                    Md_inv, K_D, K_P, True, posture, k_n, d_n, has_posture, thr, lmax)
+                                                    Md_inv, K_D, K_P, yes, posture, k_n, d_n, has_posture, thr, lmax)
         for i in range(n):
             Q[k, i] = q[i]
             QD[k, i] = qd[i]
@@ -203,7 +207,7 @@ def impedance_loop(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupli
                 for i in range(n):
                     vk[st, i] = vs[i]
                 tree_terms(kind, axis, Rp, pp, mass, com, Ic, armature, friction, coupling, gravity, fj, Rf, pf,
-                           qs, vs, True, False, R_e, o_e, J, Jdq, B, nv, ws)
+                           qs, vs, yes, no, R_e, o_e, J, Jdq, B, nv, ws)
                 for i in range(3):
                     s = 0.0
                     for j in range(n):
@@ -237,9 +241,9 @@ def env_params(environment: Any) -> tuple[int, np.ndarray]:
     name = type(environment).__name__
     if name == "Table":
         p = np.concatenate([environment.point, environment.normal, [environment.stiffness, environment.damping]])
-        return TABLE, np.ascontiguousarray(p, dtype=np.float64)
+        return TABLE, kernel_array(p)
     if name == "ConstantWrench":
-        return CONSTANT, np.ascontiguousarray(environment.value, dtype=np.float64)
+        return CONSTANT, kernel_array(environment.value)
     raise ParameterError(f"the compiled 6-D loop supports a Table or a ConstantWrench environment; got {name}")
 
 
@@ -298,9 +302,9 @@ def run_tree_loop(robot: Any, environment: Any, controller: Any, refs: np.ndarra
         z6 = np.zeros((6, 6))
         extra = (z6, z6, z6, np.zeros((12, 12)), np.zeros((12, 6)))
         xa = np.zeros(12)
-    f = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    f = kernel_array  # one argument type: a read-only gain or wrench would compile the loop again
     status, last, lam2 = impedance_loop(
-        *tree.arrays(), env_kind, env_p, f(refs), *(f(g) for g in gains), f(post), float(k_n), float(d_n), bool(has),
+        *tree.arrays(), env_kind, f(env_p), f(refs), *(f(g) for g in gains), f(post), float(k_n), float(d_n), bool(has),
         float(s.threshold), float(s.max_damping), f(q0), f(qd0), float(Ts), int(nsub), float(max_qd),
         logs["q"], logs["qd"], logs["wrench"], logs["torque"], adm, *(f(e) for e in extra),
         xa, f(bias), f(noise), float(alpha), logs["x"], logs["xd"], logs["wrench_measured"],

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from ..core.numba_cache import kernel_array
+
 __all__ = ["case_metrics", "step_metrics", "StepMetrics"]
 
 
@@ -118,7 +120,7 @@ def step_metrics(t: Any, y: Any, *, window: float = 0.1, band: float = 0.02, ref
             stable_band: see the module text.
     """
     t = np.asarray(t, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
+    y = kernel_array(y)  # a column of a log (strided) would compile case_metrics a second time
     Ts = float(t[1] - t[0]) if t.shape[0] > 1 else 1.0
     if final is not None:
         # the exact final value: appended as the "last window" of one sample
