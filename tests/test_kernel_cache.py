@@ -373,3 +373,34 @@ def test_no_compiled_function_calls_a_kernel_with_a_literal_flag() -> None:
                 for a in [*call.args, *(k.value for k in call.keywords)])
     ]
     assert literal == []
+
+
+LOAD_ONLY = textwrap.dedent(
+    r'''
+    import hashlib, sys
+    import numpy as np
+    from forcecontrol.scenarios import load_scenario
+    from forcecontrol.scenarios.core import run_scenario
+
+    run = run_scenario(load_scenario("example-9.2"), engine="compiled")
+    h = hashlib.sha256()
+    for c in run.cases:
+        for a in (c.result.q, c.result.wrench, c.result.torque):
+            h.update(np.ascontiguousarray(a).tobytes())
+    print(h.hexdigest(), sorted(m for m in ("numba.np.arraymath", "numba.np.linalg", "numba.typed.dictimpl") if m in sys.modules))
+    '''
+)
+
+
+def test_a_run_that_only_loads_kernels_skips_numbas_lowering_registries_and_gives_the_same_numbers(tmp_path: Path) -> None:
+    """A process whose kernels are all cached loads them without importing Numba's lowering registries (Numba's
+    load_overload refreshed the whole target context first: 0.25 s of CPU per command, only a compile needs it),
+    and its logs equal, bit for bit, those of the process that compiled or loaded them before (the shared cache)."""
+    script = tmp_path / "load_only.py"
+    script.write_text(LOAD_ONLY)
+    first, second = (subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=900)
+                     for _ in range(2))
+    assert first.returncode == 0 and second.returncode == 0, first.stderr[-2000:] + second.stderr[-2000:]
+    digest, modules = second.stdout.split(" ", 1)
+    assert digest == first.stdout.split(" ", 1)[0]
+    assert modules.strip() == "[]", modules  # nothing compiled in the second process: no registry was imported

@@ -46,6 +46,7 @@ from typing import Any
 
 import numba
 from numba.core.caching import FunctionCache, IndexDataCacheFile
+from numba.core.runtime import rtsys
 from numba.core.serialize import dumps
 
 __all__ = ["KernelCache", "set_identity", "key_digest", "scan", "FORMAT"]
@@ -195,6 +196,21 @@ class KernelCache(FunctionCache):
     @property
     def index_path(self) -> str:
         return self._cache_file._index_path
+
+    def load_overload(self, sig: Any, target_context: Any) -> Any:
+        """Load the cached machine code for ``sig``, or None; without refreshing the whole target context first.
+
+        Numba's ``Cache.load_overload`` calls ``target_context.refresh()`` before every load: the first
+        one in a process imports and installs every lowering registry of Numba (about 0.25 s of CPU, a
+        quarter of a short ``forcecontrol run``), which only a compile uses, and a compile refreshes the
+        contexts itself (``CompilerBase.__init__``). Linking cached code needs the symbols it calls:
+        Numba's C helpers and math functions are installed when the context is created, the runtime's
+        (NRT: arrays allocated in a kernel) by ``rtsys.initialize``, done here.
+        """
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+        return None  # pragma: no cover - an I/O error swallowed by the guard (Numba's own behaviour)
 
 
 def set_identity(dispatcher: Any, identity: str) -> None:
