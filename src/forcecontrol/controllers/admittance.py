@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.validate import as_gain_matrix, positive_scalar
+from ..core.validate import as_gain_matrix, positive_scalar, readonly
 from ..errors import BandwidthWarning, ParameterError
 from ..robots.base import RobotModel
 from ..spatial import euler_xyz_T, euler_xyz_T_dot
@@ -126,7 +126,7 @@ class AdmittanceController(_SpatialBase):
         self._Mt_inv = np.linalg.inv(self.inertia)
         self._discretise()
         self.state = np.zeros(12)
-        self._eye6 = np.eye(6)
+        self._eye6 = readonly(np.eye(6))  # M_d⁻¹ of the motion law: read-only like its gains (one compiled law)
         self.bandwidths = self.check_bandwidth()
 
     def _discretise(self) -> None:

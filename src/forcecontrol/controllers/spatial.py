@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import laws
 from ..core.numba_cache import kernel_array
-from ..core.validate import as_gain_matrix
+from ..core.validate import as_gain_matrix, readonly
 from ..errors import ParameterError, SingularityError
 from ..laws.impedance import impedance_core
 from ..laws.layout import OS_PD, REFERENCE
@@ -152,12 +152,13 @@ def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md
     return r
 
 
-def _f(a) -> np.ndarray:
-    """``a`` as the compiled law's array type (:func:`~forcecontrol.core.numba_cache.kernel_array`): float64,
-    C-contiguous and writable, as the compiled 6-D loop passes them (a frozen gain compiled the law a second time)."""
-    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+def _f(a, frozen: bool = False) -> np.ndarray:
+    """``a`` as the compiled law's array type (:func:`~forcecontrol.core.numba_cache.kernel_array`), as the
+    compiled 6-D loop passes it: float64, C-contiguous, writable; read-only for the gains (``frozen``), which the
+    controllers freeze when they are set (another flag compiled the law a second time)."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable != frozen:
         return a
-    return kernel_array(a)
+    return kernel_array(a, frozen=frozen)
 
 
 def _spatial_robot(robot: RobotModel) -> None:
@@ -203,7 +204,8 @@ class _SpatialBase(Controller):
         s = self.singularity
         u, self.last_damping, c2 = spatial_impedance_torque(
             R_e, o_e, J, Jdq, B, nv, _f(q), _f(qd), _f(h), _f(reference.position), _f(reference.velocity),
-            _f(reference.acceleration), _f(Md_inv), _f(K_D), _f(K_P), use_force, post, k_n, d_n, has, s.threshold, s.max_damping,
+            _f(reference.acceleration), _f(Md_inv, True), _f(K_D, True), _f(K_P, True), use_force, post, k_n, d_n, has,
+            s.threshold, s.max_damping,
         )
         if c2 < 1e-3:
             raise SingularityError(
@@ -263,7 +265,7 @@ class SpatialImpedanceController(_SpatialBase):
         self.inertia = as_gain_matrix("inertia", inertia, 6)
         self.damping = as_gain_matrix("damping", damping, 6)
         self.stiffness = as_gain_matrix("stiffness", stiffness, 6)
-        self._Md_inv = np.linalg.inv(self.inertia)
+        self._Md_inv = readonly(np.linalg.inv(self.inertia))
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
         """Torques of (9.30), (9.35) (or (9.30)-(9.31) in the base frame) for this sample."""

@@ -35,18 +35,25 @@ CACHE_DIR: str | None = None
 _notified = False
 
 
-def kernel_array(a: Any) -> Any:
-    """``a`` as the one array type the package's kernels are compiled for: float64, C-contiguous, writable.
+def kernel_array(a: Any, *, frozen: bool = False) -> Any:
+    """``a`` as the one array type a kernel's argument is compiled for: float64, C-contiguous, and writable, or
+    read-only with ``frozen`` (the controllers' gains, frozen when they are set: no copy on each control step).
 
     Numba compiles a function again for every new argument type, and an array's type includes its
     layout and its read-only flag: a read-only array (a frozen attribute, a broadcast) or a strided
     one (a column) given to a kernel that has run on ordinary arrays compiles all of it a second time
-    (the 6-D loop: 8 s). The same array is returned when it already is one; otherwise a copy. Kernels
-    only read the arrays given to them this way.
+    (the 6-D loop: 8 s). The same array is returned when it already is one; otherwise a copy (or, for
+    ``frozen``, a read-only view). Kernels only read the arrays given to them this way.
     """
     import numpy as np
 
-    return np.require(a, dtype=np.float64, requirements=("C", "W"))
+    if not frozen:
+        return np.require(a, dtype=np.float64, requirements=("C", "W"))
+    out = np.require(a, dtype=np.float64, requirements=("C",))
+    if out.flags.writeable:
+        out = out.view()
+        out.flags.writeable = False
+    return out
 
 
 def _source_hash(root: Path) -> str:

@@ -302,9 +302,12 @@ def run_tree_loop(robot: Any, environment: Any, controller: Any, refs: np.ndarra
         z6 = np.zeros((6, 6))
         extra = (z6, z6, z6, np.zeros((12, 12)), np.zeros((12, 6)))
         xa = np.zeros(12)
-    f = kernel_array  # one argument type: a read-only gain or wrench would compile the loop again
+    # one argument type each (a read-only wrench, or a writable gain, would compile the loop again): the law's gains
+    # read-only, as the controllers keep them and pass them to the law from Python; the other arrays writable
+    gains = tuple(kernel_array(g, frozen=True) for g in gains)
+    f = kernel_array
     status, last, lam2 = impedance_loop(
-        *tree.arrays(), env_kind, f(env_p), f(refs), *(f(g) for g in gains), f(post), float(k_n), float(d_n), bool(has),
+        *tree.arrays(), env_kind, f(env_p), f(refs), *gains, f(post), float(k_n), float(d_n), bool(has),
         float(s.threshold), float(s.max_damping), f(q0), f(qd0), float(Ts), int(nsub), float(max_qd),
         logs["q"], logs["qd"], logs["wrench"], logs["torque"], adm, *(f(e) for e in extra),
         xa, f(bias), f(noise), float(alpha), logs["x"], logs["xd"], logs["wrench_measured"],

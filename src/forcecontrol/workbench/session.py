@@ -444,8 +444,6 @@ class TuneSession:
         except FileExistsError as exc:
             raise OutputError(f"save: {str(path)!r} exists and this server did not write it; expected a new file "
                               "(pass --overwrite to replace it, or choose another --save)") from exc
-        except ScenarioError:
-            raise
         except OSError as exc:
             raise OutputError(f"cannot write the tuned scenario to {str(path)!r}: {exc.strerror or exc}") from exc
         finally:
