@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import base64
 import io
+import json
 import os
 import time
 from pathlib import Path
@@ -52,7 +53,8 @@ def offline_driver(tmp_path_factory):
                 "--disable-component-update", "--disable-sync", "--enable-unsafe-swiftshader",
                 f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}", "--window-size=1280,800"):
         opts.add_argument(arg)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    # the performance log records every request the page makes (Network.requestWillBeSent), blocked or not
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL", "performance": "ALL"})
     d = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=opts)
     d.set_page_load_timeout(120)
     d.set_script_timeout(90)
@@ -61,6 +63,9 @@ def offline_driver(tmp_path_factory):
     d.execute_cdp_cmd("Network.enable", {})
     d.execute_cdp_cmd("Network.emulateNetworkConditions", {"offline": True, "latency": 0, "downloadThroughput": -1,
                                                            "uploadThroughput": -1})
+    # Chromium 150 no longer carries that emulated offline state into a file:// page (navigator.onLine stays true
+    # there, measured): block every network scheme as well, which holds on any version
+    d.execute_cdp_cmd("Network.setBlockedURLs", {"urls": [f"{s}://*" for s in ("http", "https", "ws", "wss")]})
     yield d
     d.quit()
 
@@ -74,7 +79,7 @@ def _pixels(data_url: str) -> np.ndarray:
 def _open_and_scrub(driver, page: Path, name: str, tmp_path: Path) -> None:
     """Open ``page`` offline, wait for WebGL, scrub to the first and the last frame: the pixels differ, the
     read-out follows; save a 1280×800 screenshot at the last frame."""
-    assert driver.execute_script("return navigator.onLine") is False  # the network is off
+    driver.get_log("performance")  # drop what earlier pages requested
     driver.get(page.resolve().as_uri())
     assert driver.execute_async_script(_READY), "the WebGL view did not come up"
     last = int(driver.execute_script("return document.getElementById('fc-time').max"))
@@ -88,6 +93,9 @@ def _open_and_scrub(driver, page: Path, name: str, tmp_path: Path) -> None:
     assert changed > 0.001, f"scrubbing changed {changed:.4%} of the pixels"
     entries = driver.execute_script("return performance.getEntriesByType('resource').map(e => e.name)")
     assert not [e for e in entries if e.startswith(("http:", "https:"))], entries
+    asked = [json.loads(e["message"])["message"] for e in driver.get_log("performance")]
+    urls = [m["params"]["request"]["url"] for m in asked if m["method"] == "Network.requestWillBeSent"]
+    assert urls and all(u.startswith(("file:", "data:", "blob:")) for u in urls), urls  # nothing asked of the network
     assert _errors(driver) == [], _errors(driver)
     time.sleep(0.3)
     shot = Path(os.environ.get("FORCECONTROL_SCREENSHOTS") or tmp_path) / f"{name}.png"
