@@ -7,8 +7,9 @@
 (an egg-crate of bumps with a crest at (x_c, y_c), radius of curvature 1/(A k²) on the crests and in the
 troughs; Gaussian dips of depth d_i and width w_i). The heights are also sampled on a grid (the
 HeightField's spline, for the engines and drawings that read ``heights``), but the contact uses the formula
-itself: the Gauss–Newton projection of the base class on h and its exact gradient, in scalar arithmetic
-(about 20 times faster than the spline's evaluations, which matters at the contact's substeps).
+itself: the Gauss–Newton projection of the base class on h and its exact gradient, compiled
+(:func:`project_on_bump_field`): the contact is evaluated at every integrator stage, about 90,000 times in a
+2.6 s run of ``panda-spiral-search``, where the same arithmetic in Python took half of the run.
 """
 
 from __future__ import annotations
@@ -17,12 +18,57 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
+from ..core.numba_cache import kernel_array
 from ..core.validate import positive_scalar
 from ..errors import ParameterError
 from .surfaces import HeightField
 
-__all__ = ["BumpField"]
+__all__ = ["BumpField", "project_on_bump_field"]
+
+
+@njit(cache=True, inline="always")
+def _bump_height_slope(x, y, base, A, k, cx, cy, dips):  # pragma: no cover - compiled
+    """(h, h_x, h_y) of the module's formula at (x, y): :meth:`BumpField._height_slope`, compiled."""
+    ax, ay = k * (x - cx), k * (y - cy)
+    cosx, sinx, cosy, siny = math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay)
+    h = base + A * cosx * cosy
+    hx, hy = -A * k * sinx * cosy, -A * k * cosx * siny
+    for i in range(dips.shape[0]):
+        dx, dy = x - dips[i, 0], y - dips[i, 1]
+        w = dips[i, 3]
+        g = dips[i, 2] * math.exp(-(dx * dx + dy * dy) / (2.0 * w * w))
+        w2 = w * w
+        h -= g
+        hx += g * dx / w2
+        hy += g * dy / w2
+    return h, hx, hy
+
+
+@njit(cache=True)
+def project_on_bump_field(px, py, pz, base, A, k, cx, cy, dips):  # pragma: no cover - compiled
+    """The closest point s = (x, y, h(x, y)) of the field to p = (px, py, pz) by Gauss–Newton on |p − s(u)|²
+    from the point straight below/above, and the outward unit normal ν there: (φ = ν·(p − s), x, y, h, ν_x,
+    ν_y, ν_z). ``dips`` is (n, 4) rows [x_i, y_i, d_i, w_i]; base, A, k = 2π/L, (cx, cy) as in the module's
+    formula."""
+    x, y = px, py
+    for _ in range(20):
+        h, hx, hy = _bump_height_slope(x, y, base, A, k, cx, cy, dips)
+        # T = [[1, 0], [0, 1], [hx, hy]]: (TᵀT) step = Tᵀ (p − s)
+        r0, r1, r2 = px - x, py - y, pz - h
+        b0, b1 = r0 + hx * r2, r1 + hy * r2
+        a00, a01, a11 = 1.0 + hx * hx, hx * hy, 1.0 + hy * hy
+        det = a00 * a11 - a01 * a01
+        s0, s1 = (a11 * b0 - a01 * b1) / det, (a00 * b1 - a01 * b0) / det
+        x += s0
+        y += s1
+        if abs(s0) < 1e-13 and abs(s1) < 1e-13:
+            break
+    h, hx, hy = _bump_height_slope(x, y, base, A, k, cx, cy, dips)
+    nrm = math.sqrt(hx * hx + hy * hy + 1.0)
+    n0, n1, n2 = -hx / nrm, -hy / nrm, 1.0 / nrm
+    return n0 * (px - x) + n1 * (py - y) + n2 * (pz - h), x, y, h, n0, n1, n2
 
 
 class BumpField(HeightField):
@@ -57,6 +103,7 @@ class BumpField(HeightField):
         self.dips = rows
         self._k = 2.0 * math.pi / self.wavelength
         self._dips = [tuple(float(v) for v in r) for r in rows]
+        self._dip_rows = kernel_array(rows, frozen=True)  # the compiled projection's one argument type
         # Python floats for the contact's scalar arithmetic (NumPy scalars give the same numbers, three times slower)
         self._cx, self._cy = float(self.crest[0]), float(self.crest[1])
         sp = float(spacing)
@@ -104,26 +151,11 @@ class BumpField(HeightField):
         return self._height_slope(float(u[0]), float(u[1]))[0]
 
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """(φ, p_c, ν) by Gauss–Newton on |p − s(u)|², s(u) = (u, h(u)), from the point straight below/above."""
-        px, py, pz = float(p[0]), float(p[1]), float(p[2])
-        x, y = px, py
-        for _ in range(20):
-            h, hx, hy = self._height_slope(x, y)
-            # T = [[1, 0], [0, 1], [hx, hy]]: (TᵀT) step = Tᵀ (p − s)
-            r0, r1, r2 = px - x, py - y, pz - h
-            b0, b1 = r0 + hx * r2, r1 + hy * r2
-            a00, a01, a11 = 1.0 + hx * hx, hx * hy, 1.0 + hy * hy
-            det = a00 * a11 - a01 * a01
-            s0, s1 = (a11 * b0 - a01 * b1) / det, (a00 * b1 - a01 * b0) / det
-            x += s0
-            y += s1
-            if abs(s0) < 1e-13 and abs(s1) < 1e-13:
-                break
-        h, hx, hy = self._height_slope(x, y)
-        nrm = math.sqrt(hx * hx + hy * hy + 1.0)
-        nu = np.array([-hx / nrm, -hy / nrm, 1.0 / nrm])
-        s = np.array([x, y, h])
-        return float(nu @ (np.asarray(p[:3], dtype=np.float64) - s)), s, nu
+        """(φ, p_c, ν) by Gauss–Newton on |p − s(u)|², s(u) = (u, h(u)), from the point straight below/above
+        (:func:`project_on_bump_field`)."""
+        phi, x, y, h, n0, n1, n2 = project_on_bump_field(float(p[0]), float(p[1]), float(p[2]), self.base,
+                                                         self.amplitude, self._k, self._cx, self._cy, self._dip_rows)
+        return phi, np.array((x, y, h)), np.array((n0, n1, n2))
 
     def path_curvature(self, x: float, y: float, direction: Any) -> float:
         """The normal curvature κ [1/m] of the surface at (x, y) along the horizontal ``direction`` (2,):
