@@ -298,3 +298,65 @@ def test_panda_sphere_scenario_traces_at_10_newtons():
     assert np.max(np.abs(r.signals["normal_force"][cruise] - expected)) < 1.0
     np.testing.assert_allclose(r.signals["tangential_speed"][cruise], 0.05, rtol=0.02)
     assert run.all_checks_pass and run.cases[0].checks
+
+
+def _narrow_dip(width: float, stiffness: float = 1e4, damping: float = 0.0) -> HeightField:
+    """A profile 0.3 m high with a Gaussian dip 2 cm deep at x = 1 m, sampled every mm: its radius of curvature at
+    the bottom is w²/d (0.8 mm for w = 4 mm, 12.5 cm for w = 5 cm)."""
+    xs = np.linspace(0.8, 1.2, 401)
+    return HeightField(0.3 - 0.02 * np.exp(-(xs - 1.0) ** 2 / (2 * width**2)), [0.8], 0.001, stiffness, damping)
+
+
+def test_a_contact_deeper_than_the_curvature_is_said_and_a_shallow_one_is_not():
+    """Below the bottom of a dip by more than its radius of curvature (|φ| κ > 1) the closest point is not unique and
+    Gauss–Newton does not settle: the surface says so (once, with the first point), for the spline and the formula
+    field; within the curvature, or in free space, it says nothing."""
+    from forcecontrol.environments.heightfield_extra import BumpField
+
+    hf = _narrow_dip(0.004)
+    hf.geometry(np.array([1.0015, 0.275]))  # 5 mm below the bottom, radius 0.8 mm
+    hf.geometry(np.array([1.0025, 0.276]))
+    note = hf.take_projection_note()
+    assert note is not None and note.startswith("HeightField:") and "at 2 contact evaluation(s)" in note
+    assert "p = [1.0015, 0.275] m" in note and "radius of curvature" in note
+    assert hf.take_projection_note() is None  # taken: cleared
+    hf.geometry(np.array([1.05, 0.299]))  # 1 mm into the flat part
+    hf.geometry(np.array([1.0015, 0.29]))  # in free space above the dip
+    assert hf.take_projection_note() is None
+    bf = BumpField([0.0, -0.05], 0.005, [41, 21], 0.1, dips=[[0.06, 0.0, 0.02, 0.004]], stiffness=1e4)
+    bf.geometry(np.array([0.0615, 0.0, 0.075]))
+    note = bf.take_projection_note()
+    assert note is not None and note.startswith("BumpField:") and "50 steps" in note
+    bf.geometry(np.array([0.1, 0.02, 0.099]))
+    assert bf.take_projection_note() is None
+
+
+def test_a_run_pressed_deeper_than_the_curvature_warns_and_logs_the_event():
+    """The arm pressed 9 cm below a soft, narrow dip (radius of curvature 0.8 mm, penetration about 7 cm): the run
+    warns (ContactModelWarning) and logs a ``contact-projection`` event, which ``run --json`` lists among the case's
+    warnings; the same press into a wide dip (radius 12.5 cm) says nothing."""
+    from types import SimpleNamespace
+
+    from forcecontrol.errors import ContactModelWarning
+    from forcecontrol.scenarios.summary import case_warnings
+
+    kp = 2000.0
+
+    def press(env):
+        ctl = fc.ImpedanceController(ARM, 10.0, np.diag([2 * math.sqrt(10 * kp)] * 2), kp * np.eye(2))
+        return fc.simulate(ARM, env, ctl, fc.Setpoint([1.002, 0.2]), q0=ARM.inverse_kinematics([1.002, 0.31]),
+                           duration=0.5, label="press")
+
+    with pytest.warns(ContactModelWarning, match=r"^press: HeightField: the closest surface point was not found"):
+        narrow = press(_narrow_dip(0.004, stiffness=300.0, damping=20.0))
+    events = [e for e in narrow.events if e["event"] == "contact-projection"]
+    assert len(events) == 1 and "radius of curvature" in events[0]["detail"]
+    case = SimpleNamespace(result=narrow, metrics={}, checks=[])
+    assert [w["kind"] for w in case_warnings(case)] == ["contact-projection"]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ContactModelWarning)
+        wide = press(_narrow_dip(0.05, stiffness=300.0, damping=20.0))
+    assert not [e for e in wide.events or () if e["event"] == "contact-projection"]
+    assert wide.wrench[-1, 1] < -5.0  # in contact: the tip pushes the surface down (h_e = −f_n ν)

@@ -21,6 +21,7 @@ __all__ = [
     "RealtimeError",
     "DriftWarning",
     "BandwidthWarning",
+    "ContactModelWarning",
 ]
 
 
@@ -102,3 +103,10 @@ class BandwidthWarning(UserWarning):
     Stability of the scheme of Fig. 9.5 needs the motion loop's bandwidth to exceed the
     impedance loop's; the message gives both.
     """
+
+
+class ContactModelWarning(UserWarning):
+    """An elastic contact evaluated where its model has no unique answer: a curved surface penetrated deeper than
+    its radius of curvature, where the closest surface point (and so the contact normal) is not unique
+    (:meth:`forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`; the run's
+    ``contact-projection`` event)."""

@@ -27,6 +27,8 @@ from .surfaces import HeightField
 
 __all__ = ["BumpField", "project_on_bump_field"]
 
+PROJECTION_STEPS = 50  # at most, of the closest point's Gauss–Newton (one or a few where |φ| κ is small)
+
 
 @njit(cache=True, inline="always")
 def _bump_height_slope(x, y, base, A, k, cx, cy, dips):  # pragma: no cover - compiled
@@ -50,10 +52,13 @@ def _bump_height_slope(x, y, base, A, k, cx, cy, dips):  # pragma: no cover - co
 def project_on_bump_field(px, py, pz, base, A, k, cx, cy, dips):  # pragma: no cover - compiled
     """The closest point s = (x, y, h(x, y)) of the field to p = (px, py, pz) by Gauss–Newton on |p − s(u)|²
     from the point straight below/above, and the outward unit normal ν there: (φ = ν·(p − s), x, y, h, ν_x,
-    ν_y, ν_z). ``dips`` is (n, 4) rows [x_i, y_i, d_i, w_i]; base, A, k = 2π/L, (cx, cy) as in the module's
-    formula."""
+    ν_y, ν_z, converged). ``dips`` is (n, 4) rows [x_i, y_i, d_i, w_i]; base, A, k = 2π/L, (cx, cy) as in the
+    module's formula. The steps stop below 1e-13 m, after 50 at most; ``converged`` is False when the last one
+    was still over 1e-9 m: Gauss–Newton converges at the rate |φ| κ, so not near or beyond the surface's radius
+    of curvature 1/κ, where the closest point stops being unique; the last iterate is returned."""
     x, y = px, py
-    for _ in range(20):
+    converged = False
+    for _ in range(PROJECTION_STEPS):
         h, hx, hy = _bump_height_slope(x, y, base, A, k, cx, cy, dips)
         # T = [[1, 0], [0, 1], [hx, hy]]: (TᵀT) step = Tᵀ (p − s)
         r0, r1, r2 = px - x, py - y, pz - h
@@ -63,12 +68,13 @@ def project_on_bump_field(px, py, pz, base, A, k, cx, cy, dips):  # pragma: no c
         s0, s1 = (a11 * b0 - a01 * b1) / det, (a00 * b1 - a01 * b0) / det
         x += s0
         y += s1
+        converged = abs(s0) <= 1e-9 and abs(s1) <= 1e-9
         if abs(s0) < 1e-13 and abs(s1) < 1e-13:
             break
     h, hx, hy = _bump_height_slope(x, y, base, A, k, cx, cy, dips)
     nrm = math.sqrt(hx * hx + hy * hy + 1.0)
     n0, n1, n2 = -hx / nrm, -hy / nrm, 1.0 / nrm
-    return n0 * (px - x) + n1 * (py - y) + n2 * (pz - h), x, y, h, n0, n1, n2
+    return n0 * (px - x) + n1 * (py - y) + n2 * (pz - h), x, y, h, n0, n1, n2, converged
 
 
 class BumpField(HeightField):
@@ -153,8 +159,10 @@ class BumpField(HeightField):
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """(φ, p_c, ν) by Gauss–Newton on |p − s(u)|², s(u) = (u, h(u)), from the point straight below/above
         (:func:`project_on_bump_field`)."""
-        phi, x, y, h, n0, n1, n2 = project_on_bump_field(float(p[0]), float(p[1]), float(p[2]), self.base,
-                                                         self.amplitude, self._k, self._cx, self._cy, self._dip_rows)
+        phi, x, y, h, n0, n1, n2, converged = project_on_bump_field(
+            float(p[0]), float(p[1]), float(p[2]), self.base, self.amplitude, self._k, self._cx, self._cy, self._dip_rows)
+        if not converged and phi < 0.0:  # in contact (in free space the force is nil whatever the normal)
+            self._projection_unresolved(p, phi, PROJECTION_STEPS)
         return phi, np.array((x, y, h)), np.array((n0, n1, n2))
 
     def path_curvature(self, x: float, y: float, direction: Any) -> float:

@@ -94,6 +94,31 @@ class ElasticSurface(Environment):
         point of the undeformed surface and the outward unit normal there."""
         raise NotImplementedError
 
+    def _projection_unresolved(self, p: Any, phi: float, steps: int) -> None:
+        """Record that :meth:`geometry` did not find the closest point to ``p`` in ``steps`` iterations (its last
+        step still over 1e-9 m; said by :meth:`take_projection_note`)."""
+        count, first = getattr(self, "_unresolved", (0, None))
+        if first is None:
+            first = (np.array(p[: self.space], dtype=np.float64), float(phi), int(steps))
+        self._unresolved = (count + 1, first)
+
+    def take_projection_note(self) -> str | None:
+        """Why some contact evaluations since the last call had no unique closest point (the text of a warning),
+        or None; the record is cleared. The simulator calls it before and after a run (the ``contact-projection``
+        event of the run's log)."""
+        count, first = getattr(self, "_unresolved", (0, None))
+        self._unresolved = (0, None)
+        if not count or first is None:
+            return None
+        p, phi, steps = first
+        where = ", ".join(f"{v:.5g}" for v in p)
+        return (f"{type(self).__name__}: the closest surface point was not found at {count} contact evaluation(s) "
+                f"in contact (Gauss–Newton did not settle in {steps} steps), first at p = [{where}] m, φ = {phi:.4g} m: "
+                "it converges at the rate |φ| κ, so the penetration there is near or beyond the surface's radius of "
+                "curvature 1/κ, where the closest point stops being unique; the contact's normal and force there "
+                "follow the last iterate (a stiffer surface or a smaller force keeps the penetration within the "
+                "curvature)")
+
     def signed_distance(self, p: Any) -> float:
         """φ(p) [m]: positive in free space, negative inside the environment."""
         return self.geometry(np.asarray(p, dtype=np.float64)[: self.space])[0]
@@ -307,11 +332,14 @@ class HeightField(ElasticSurface):
 
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         u = p[: self.space - 1].copy()
-        for _ in range(12):  # Gauss–Newton on |p − s(u)|²: the foot of the perpendicular
+        settled = False
+        for _ in range(50):  # Gauss–Newton on |p − s(u)|²: the foot of the perpendicular (rate |φ| κ)
             s, T = self._surface(u)
             step = np.linalg.solve(T.T @ T, T.T @ (p - s))
             u += step
-            if float(np.max(np.abs(step))) < 1e-13:
+            last = float(np.max(np.abs(step)))
+            settled = last <= 1e-9
+            if last < 1e-13:
                 break
         s, T = self._surface(u)
         if self.space == 2:
@@ -319,7 +347,10 @@ class HeightField(ElasticSurface):
         else:
             nu = np.array([-T[2, 0], -T[2, 1], 1.0])
         nu /= np.linalg.norm(nu)
-        return float(nu @ (p - s)), s, nu
+        phi = float(nu @ (p - s))
+        if not settled and phi < 0.0:  # in contact deeper than the radius of curvature (see take_projection_note)
+            self._projection_unresolved(p, phi, 50)
+        return phi, s, nu
 
     def describe(self) -> dict[str, Any]:
         out = super().describe()

@@ -22,7 +22,7 @@ __all__ = ["settled_table", "checks_table", "contact_warnings", "case_events", "
 #: the logged events that are warnings (a limit or a protective layer changed what was asked, or contact was
 #: lost); the others (a contact transition) are reported in ``events`` only.
 WARNING_EVENTS = frozenset({"servo-limit", "ik-limit", "force-mode-deviation", "safety", "stability", "contact lost",
-                            "hole not found"})
+                            "hole not found", "contact-projection"})
 
 def task_axes(run: ScenarioRun) -> tuple[list[str], list[str]]:
     """The position and force axes every case of the run has (``x y`` planar; ``x y z``, ``fx fy fz``
@@ -96,7 +96,8 @@ def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     """What the run warned about this case (on stderr), as ``{"kind", "t", "text"}`` (``t`` None when it is
     not an instant): the reader's notes on a controller's configuration file (``config-note``), the logged
     events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
-    ``safety``, ``stability``, ``contact lost``, ``hole not found``) and contact lost after touching (``contact-lost``, with its
+    ``safety``, ``stability``, ``contact lost``, ``hole not found``, ``contact-projection``: a curved surface
+    penetrated beyond its radius of curvature) and contact lost after touching (``contact-lost``, with its
     count): the ``warnings`` list of a case in ``run --json``."""
     out = config_warnings((case.result.metadata.get("controller") or {}).get("config_notes") or ())
     for e in case_events(case):

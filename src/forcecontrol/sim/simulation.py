@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import platform
+import warnings
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -35,7 +36,7 @@ from .. import __version__
 from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from ..core.validate import as_vector, positive_scalar
 from ..environments.base import Environment
-from ..errors import DimensionError, ParameterError, SimulationDivergedError, SingularityError
+from ..errors import ContactModelWarning, DimensionError, ParameterError, SimulationDivergedError, SingularityError
 from ..robots.base import RobotModel
 from ..robots.planar_2r import PlanarTwoLink
 from ..sensors import ForceSensor, RealisticForceSensor
@@ -200,6 +201,10 @@ def simulate(
     check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python",
                    rate=rate, explicit=substeps is not None)
 
+    # a curved surface's projection that found no unique closest point (said after the run); friction wraps its surface
+    take_projection_note = getattr(getattr(environment, "surface", environment), "take_projection_note", None)
+    if take_projection_note is not None:
+        take_projection_note()  # forget what was evaluated before this run
     if getattr(environment, "stateful", False):  # e.g. friction's stick/slip (Python loop only: such environments have kind 0)
         environment.start(robot, q0, qd0, N + 1)  # type: ignore[attr-defined]
     # initial measurement for controllers whose reset depends on it
@@ -249,6 +254,10 @@ def simulate(
             actuator=actuator,
         )
     events = [dict(e) for e in getattr(controller, "events", [])]
+    projection = take_projection_note() if take_projection_note is not None else None
+    if projection:
+        warnings.warn(f"{label or 'simulate'}: {projection}", ContactModelWarning, stacklevel=2)
+        events.append({"event": "contact-projection", "detail": projection})
     if events:
         meta["events"] = events  # saved with the log's metadata
     signals = _controller_signals(controller, times.shape[0])
