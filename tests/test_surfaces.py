@@ -332,9 +332,9 @@ def test_a_contact_deeper_than_the_curvature_is_said_and_a_shallow_one_is_not():
 
 
 def test_a_run_pressed_deeper_than_the_curvature_warns_and_logs_the_event():
-    """The arm pressed 9 cm below a soft, narrow dip (radius of curvature 0.8 mm, penetration about 7 cm): the run
-    warns (ContactModelWarning) and logs a ``contact-projection`` event, which ``run --json`` lists among the case's
-    warnings; the same press into a wide dip (radius 12.5 cm) says nothing."""
+    """The arm pressed toward a point 8 cm below the bottom of a soft, narrow dip (radius of curvature 0.8 mm; the tip
+    sinks centimetres in): the run warns (ContactModelWarning) and logs a ``contact-projection`` event, which
+    ``run --json`` lists among the case's warnings; the same press into a wide dip (radius 12.5 cm) says nothing."""
     from types import SimpleNamespace
 
     from forcecontrol.errors import ContactModelWarning
@@ -345,7 +345,7 @@ def test_a_run_pressed_deeper_than_the_curvature_warns_and_logs_the_event():
     def press(env):
         ctl = fc.ImpedanceController(ARM, 10.0, np.diag([2 * math.sqrt(10 * kp)] * 2), kp * np.eye(2))
         return fc.simulate(ARM, env, ctl, fc.Setpoint([1.002, 0.2]), q0=ARM.inverse_kinematics([1.002, 0.31]),
-                           duration=0.5, label="press")
+                           duration=0.3, label="press")
 
     with pytest.warns(ContactModelWarning, match=r"^press: HeightField: the closest surface point was not found"):
         narrow = press(_narrow_dip(0.004, stiffness=300.0, damping=20.0))

@@ -106,7 +106,7 @@ class BandwidthWarning(UserWarning):
 
 
 class ContactModelWarning(UserWarning):
-    """An elastic contact evaluated where its model has no unique answer: a curved surface penetrated deeper than
-    its radius of curvature, where the closest surface point (and so the contact normal) is not unique
+    """An elastic contact evaluated where its model has no clear answer: a curved surface penetrated near or beyond
+    its radius of curvature, where the closest surface point (and so the contact normal) stops being unique
     (:meth:`forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`; the run's
     ``contact-projection`` event)."""
