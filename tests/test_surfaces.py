@@ -327,6 +327,11 @@ def test_a_contact_deeper_than_the_curvature_is_said_and_a_shallow_one_is_not():
     bf.geometry(np.array([0.0615, 0.0, 0.075]))
     note = bf.take_projection_note()
     assert note is not None and note.startswith("BumpField:") and "50 steps" in note
+    from forcecontrol.environments.friction import FrictionalContact
+
+    rubbed = FrictionalContact(bf, 0.5, 0.4)  # friction passes its surface's note on (what simulate asks it)
+    bf.geometry(np.array([0.0615, 0.0, 0.075]))
+    assert rubbed.take_projection_note().startswith("BumpField:") and bf.take_projection_note() is None
     bf.geometry(np.array([0.1, 0.02, 0.099]))
     assert bf.take_projection_note() is None
 

@@ -148,17 +148,9 @@ def spatial_impedance_acceleration(err: DesiredFrameError, h_e_d: np.ndarray, Md
     """
     r = np.empty(6)
     G = np.concatenate([np.ravel(Md_inv), np.ravel(K_D), np.ravel(K_P)])  # IMPEDANCE's M_d_inv, K_D, K_P (per sample: no checks)
-    impedance_core(G, _f(err.x), _f(err.xd), _f(err.c), _f(h_e_d), use_force, np.empty(6), r)
+    f = kernel_array
+    impedance_core(G, f(err.x), f(err.xd), f(err.c), f(h_e_d), use_force, np.empty(6), r)
     return r
-
-
-def _f(a, frozen: bool = False) -> np.ndarray:
-    """``a`` as the compiled law's array type (:func:`~forcecontrol.core.numba_cache.kernel_array`), as the
-    compiled 6-D loop passes it: float64, C-contiguous, writable; read-only for the gains (``frozen``), which the
-    controllers freeze when they are set (another flag compiled the law a second time)."""
-    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable != frozen:
-        return a
-    return kernel_array(a, frozen=frozen)
 
 
 def _spatial_robot(robot: RobotModel) -> None:
@@ -202,9 +194,11 @@ class _SpatialBase(Controller):
         R_e, o_e, J, Jdq, B, nv, _g = self._spatial.spatial_terms(q, qd)
         post, k_n, d_n, has = self._post
         s = self.singularity
+        f = kernel_array  # the law's argument types: one compiled version (gains frozen, as the controllers keep them)
         u, self.last_damping, c2 = spatial_impedance_torque(
-            R_e, o_e, J, Jdq, B, nv, _f(q), _f(qd), _f(h), _f(reference.position), _f(reference.velocity),
-            _f(reference.acceleration), _f(Md_inv, True), _f(K_D, True), _f(K_P, True), use_force, post, k_n, d_n, has,
+            R_e, o_e, J, Jdq, B, nv, f(q), f(qd), f(h), f(reference.position), f(reference.velocity),
+            f(reference.acceleration), f(Md_inv, frozen=True), f(K_D, frozen=True), f(K_P, frozen=True), use_force,
+            post, k_n, d_n, has,
             s.threshold, s.max_damping,
         )
         if c2 < 1e-3:

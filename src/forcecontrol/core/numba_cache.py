@@ -47,6 +47,8 @@ def kernel_array(a: Any, *, frozen: bool = False) -> Any:
     """
     import numpy as np
 
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable != frozen:
+        return a  # already the kernel's type: the common case, on every control step of the 6-D laws
     if not frozen:
         return np.require(a, dtype=np.float64, requirements=("C", "W"))
     out = np.require(a, dtype=np.float64, requirements=("C",))

@@ -212,6 +212,11 @@ class FrictionalContact(Environment):
     def max_stiffness(self) -> float:
         return max(float(self.surface.stiffness), self.sigma0)
 
+    def take_projection_note(self) -> str | None:
+        """The surface's (:meth:`~forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`), or None."""
+        take = getattr(self.surface, "take_projection_note", None)
+        return take() if take is not None else None
+
     # -- the stick/slip state (the simulator calls start, advance, log_sample, signals)
     def _update(self, x: np.ndarray, xd: np.ndarray) -> None:
         p = np.asarray(x, dtype=np.float64)[: self.space]

@@ -106,10 +106,9 @@ class BumpField(HeightField):
             if np.size(dips) % 4 == 0 else None
         if rows is None or (rows.shape[0] and np.any(rows[:, 3] <= 0)):
             raise ParameterError(f"dips must be rows [x, y, depth, width] with width > 0 [m]; got {dips!r}")
-        self.dips = rows
+        self.dips = kernel_array(rows, frozen=True)  # read-only (_dips below copies it) and the compiled projection's type
         self._k = 2.0 * math.pi / self.wavelength
         self._dips = [tuple(float(v) for v in r) for r in rows]
-        self._dip_rows = kernel_array(rows, frozen=True)  # the compiled projection's one argument type
         # Python floats for the contact's scalar arithmetic (NumPy scalars give the same numbers, three times slower)
         self._cx, self._cy = float(self.crest[0]), float(self.crest[1])
         sp = float(spacing)
@@ -160,7 +159,7 @@ class BumpField(HeightField):
         """(φ, p_c, ν) by Gauss–Newton on |p − s(u)|², s(u) = (u, h(u)), from the point straight below/above
         (:func:`project_on_bump_field`)."""
         phi, x, y, h, n0, n1, n2, converged = project_on_bump_field(
-            float(p[0]), float(p[1]), float(p[2]), self.base, self.amplitude, self._k, self._cx, self._cy, self._dip_rows)
+            float(p[0]), float(p[1]), float(p[2]), self.base, self.amplitude, self._k, self._cx, self._cy, self.dips)
         if not converged and phi < 0.0:  # in contact (in free space the force is nil whatever the normal)
             self._projection_unresolved(p, phi, PROJECTION_STEPS)
         return phi, np.array((x, y, h)), np.array((n0, n1, n2))

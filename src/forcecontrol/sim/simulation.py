@@ -201,8 +201,8 @@ def simulate(
     check_substeps(nsub, N, Ts, float(environment.max_stiffness()), "compiled" if use_compiled else "python",
                    rate=rate, explicit=substeps is not None)
 
-    # a curved surface's projection that found no unique closest point (said after the run); friction wraps its surface
-    take_projection_note = getattr(getattr(environment, "surface", environment), "take_projection_note", None)
+    # a curved surface's projection that found no unique closest point (said after the run)
+    take_projection_note = getattr(environment, "take_projection_note", None)
     if take_projection_note is not None:
         take_projection_note()  # forget what was evaluated before this run
     if getattr(environment, "stateful", False):  # e.g. friction's stick/slip (Python loop only: such environments have kind 0)
