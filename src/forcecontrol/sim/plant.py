@@ -120,19 +120,28 @@ def rk4_sample(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1, T, h0, h1, Ts, ns
     sdt = dt / 6.0
     for j in range(nsub):
         if j == 0:  # the state of the sample: its terms and wrench are already in T, h
-            ok1, a10, a11 = _accel_terms2(T, h0, h1, u0, u1)
+            ok, a10, a11 = _accel_terms2(T, h0, h1, u0, u1)
         else:
-            ok1, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1)
-        v20 = w_0 + hdt * a10
-        v21 = w_1 + hdt * a11
-        ok2, a20, a21 = _accel2(K, env_kind, env_p, q_0 + hdt * w_0, q_1 + hdt * w_1, v20, v21, u0, u1)
-        v30 = w_0 + hdt * a20
-        v31 = w_1 + hdt * a21
-        ok3, a30, a31 = _accel2(K, env_kind, env_p, q_0 + hdt * v20, q_1 + hdt * v21, v30, v31, u0, u1)
-        v40 = w_0 + dt * a30
-        v41 = w_1 + dt * a31
-        ok4, a40, a41 = _accel2(K, env_kind, env_p, q_0 + dt * v30, q_1 + dt * v31, v40, v41, u0, u1)
-        if not (ok1 and ok2 and ok3 and ok4):
+            ok, a10, a11 = _accel2(K, env_kind, env_p, q_0, q_1, w_0, w_1, u0, u1)
+        # stages 2, 3, 4 through one call of the inlined _accel2 (a quarter of its compile time per site): stage s
+        # is at q + c ṽ, q̇ + c ã, with (c, ṽ, ã) = (dt/2, q̇, a1), (dt/2, v2, a2), (dt, v3, a3)
+        v20 = v21 = v30 = v31 = v40 = v41 = 0.0
+        a20 = a21 = a30 = a31 = a40 = a41 = 0.0
+        pv0, pv1, pa0, pa1 = w_0, w_1, a10, a11
+        for s in range(3):
+            c = dt if s == 2 else hdt
+            vs0 = w_0 + c * pa0
+            vs1 = w_1 + c * pa1
+            oks, as0, as1 = _accel2(K, env_kind, env_p, q_0 + c * pv0, q_1 + c * pv1, vs0, vs1, u0, u1)
+            ok = ok and oks
+            if s == 0:
+                v20, v21, a20, a21 = vs0, vs1, as0, as1
+            elif s == 1:
+                v30, v31, a30, a31 = vs0, vs1, as0, as1
+            else:
+                v40, v41, a40, a41 = vs0, vs1, as0, as1
+            pv0, pv1, pa0, pa1 = vs0, vs1, as0, as1
+        if not ok:
             return False, q_0, q_1, w_0, w_1
         q_0 += sdt * (w_0 + 2.0 * v20 + 2.0 * v30 + v40)
         q_1 += sdt * (w_1 + 2.0 * v21 + 2.0 * v31 + v41)
