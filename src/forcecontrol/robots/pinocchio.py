@@ -396,7 +396,7 @@ class PinocchioRobot:
         x, xd = self.pose_twist(q, qd)
         h = np.asarray(wrench(x, xd), dtype=np.float64)
         tau = u - (self._F_diag * qd if self._F_diag is not None else self.friction @ qd)
-        if h.any():
+        if np.count_nonzero(h):  # h.any(), a fifth of its cost
             J = pin.computeFrameJacobian(model, data, q, fid, self._lwa)
             tau = tau - J[self._rows].T @ h
         return pin.aba(model, data, q, qd, tau), h
