@@ -216,9 +216,19 @@ class PlanarTwoLink:
     nq: int = field(default=2, init=False)
     task_dim: int = field(default=2, init=False)
     _K: np.ndarray = field(init=False, repr=False, compare=False)
+    _Kf: tuple[float, ...] = field(init=False, repr=False, compare=False)  # _K as floats, for the closed forms
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_K", self.parameters.kernel_vector())
+        object.__setattr__(self, "_Kf", tuple(self._K.tolist()))
+
+    # The single quantities (J, J̇q̇, B, g, n) in plain Python: the expressions of _terms_into, term for term, so equal
+    # to the compiled terms() to the bit (tests/test_planar_arm.py); a quarter of the cost of a call into _terms
+    # (which boxes seven arrays), and nothing to compile for a run that only asks for them before its loop
+    # (contact_rate, the held torque g(q0): 0.6 s of Example 9.2's cold run).
+    def _trig(self, q) -> tuple[float, float, float, float, float, float]:
+        q0, q1 = _state("q", q).tolist()
+        return math.cos(q0), math.sin(q0), math.cos(q1), math.sin(q1), math.cos(q0 + q1), math.sin(q0 + q1)
 
     # -- kinematics
     def forward_kinematics(self, q) -> np.ndarray:
@@ -238,12 +248,17 @@ class PlanarTwoLink:
 
     def jacobian(self, q) -> np.ndarray:
         """Geometric Jacobian of the tip position, (2, 2)."""
-        q = _state("q", q)
-        return _terms(q, np.zeros(2), self._K)[2]
+        a1, a2 = self._Kf[0], self._Kf[1]
+        c1, s1, _, _, c12, s12 = self._trig(q)
+        return np.array(((-a1 * s1 - a2 * s12, -a2 * s12), (a1 * c1 + a2 * c12, a2 * c12)))
 
     def jdot_qdot(self, q, qd) -> np.ndarray:
         """``J̇(q, q̇) q̇`` [m/s²]."""
-        return _terms(_state("q", q), _state("qd", qd), self._K)[3]
+        a1, a2 = self._Kf[0], self._Kf[1]
+        c1, s1, _, _, c12, s12 = self._trig(q)
+        w1, w2 = _state("qd", qd).tolist()
+        w12 = w1 + w2
+        return np.array((-a1 * c1 * w1 * w1 - a2 * c12 * w12 * w12, -a1 * s1 * w1 * w1 - a2 * s12 * w12 * w12))
 
     def inverse_kinematics(self, position, elbow: Literal["up", "down"] = "up") -> np.ndarray:
         """Joint angles that put the tip at ``position``.
@@ -276,7 +291,10 @@ class PlanarTwoLink:
     # -- dynamics
     def mass_matrix(self, q) -> np.ndarray:
         """B(q) [kg m²]."""
-        return _terms(_state("q", q), np.zeros(2), self._K)[4]
+        K = self._Kf
+        c2 = self._trig(q)[2]
+        b12 = K[4] + K[5] * c2
+        return np.array(((K[2] + K[3] * c2, b12), (b12, K[6])))
 
     def coriolis_matrix(self, q, qd) -> np.ndarray:
         """C(q, q̇) of Example 7.2 (Christoffel form, so Ḃ − 2C is skew-symmetric)."""
@@ -288,11 +306,18 @@ class PlanarTwoLink:
 
     def gravity(self, q) -> np.ndarray:
         """g(q) [N m]."""
-        return _terms(_state("q", q), np.zeros(2), self._K)[6]
+        K = self._Kf
+        c1, _, _, _, c12, _ = self._trig(q)
+        return np.array((K[8] * c1 + K[9] * c12, K[9] * c12))
 
     def nonlinear_effects(self, q, qd) -> np.ndarray:
         """n(q, q̇) = C q̇ + F q̇ + g (8.56) [N m]."""
-        return _terms(_state("q", q), _state("qd", qd), self._K)[5]
+        K = self._Kf
+        c1, _, _, s2, c12, _ = self._trig(q)
+        w0, w1 = _state("qd", qd).tolist()
+        h = -K[7] * s2
+        g0, g1 = K[8] * c1 + K[9] * c12, K[9] * c12
+        return np.array((h * w1 * w0 + h * (w0 + w1) * w1 + K[10] * w0 + g0, -h * w0 * w0 + K[11] * w1 + g1))
 
     def potential_energy(self, q) -> float:
         """Gravitational potential energy U(q) [J] (zero at y = 0 for every mass)."""
@@ -309,9 +334,17 @@ class PlanarTwoLink:
 
     # -- the simulator's hot path (Environment.sampled_wrench and .acceleration use these when present)
     def pose_twist(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(x, ẋ) of the tip from the kinematics alone, the same numbers as ``terms(q, qd).x, .xd`` (no checks)."""
-        x0, x1, v0, v1 = _pose_twist(q, qd, self._K)
-        return np.array((x0, x1)), np.array((v0, v1))
+        """(x, ẋ) of the tip from the kinematics alone, the same numbers as ``terms(q, qd).x, .xd`` (no checks).
+
+        In plain Python, the expressions of :func:`_pose_twist` (the compiled loops' copy) term for term: equal to
+        the bit, at half the cost of calling it (and nothing to compile for the held wrench before a compiled run).
+        """
+        a1, a2 = self._Kf[0], self._Kf[1]
+        q0, q1 = np.asarray(q, dtype=np.float64).tolist()
+        w0, w1 = np.asarray(qd, dtype=np.float64).tolist()
+        c1, s1, c12, s12 = math.cos(q0), math.sin(q0), math.cos(q0 + q1), math.sin(q0 + q1)
+        j00, j01, j10, j11 = -a1 * s1 - a2 * s12, -a2 * s12, a1 * c1 + a2 * c12, a2 * c12
+        return np.array((a1 * c1 + a2 * c12, a1 * s1 + a2 * s12)), np.array((j00 * w0 + j01 * w1, j10 * w0 + j11 * w1))
 
     def elastic_acceleration(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench) -> tuple[np.ndarray, np.ndarray]:
         """The plant (9.1) on an elastic environment: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)`` with ``h_e = wrench(x, ẋ)``.
