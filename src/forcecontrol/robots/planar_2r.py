@@ -223,7 +223,7 @@ class PlanarTwoLink:
         object.__setattr__(self, "_Kf", tuple(self._K.tolist()))
 
     # The single quantities (J, J̇q̇, B, g, n) in plain Python: the expressions of _terms_into, term for term, so equal
-    # to the compiled terms() to the bit (tests/test_planar_arm.py); a quarter of the cost of a call into _terms
+    # to the compiled terms() to the bit (tests/test_planar_2r.py); a quarter of the cost of a call into _terms
     # (which boxes seven arrays), and nothing to compile for a run that only asks for them before its loop
     # (contact_rate, the held torque g(q0): 0.6 s of Example 9.2's cold run).
     def _trig(self, q) -> tuple[float, float, float, float, float, float]:
