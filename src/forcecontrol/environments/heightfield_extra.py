@@ -23,12 +23,9 @@ from numba import njit
 from ..core.numba_cache import kernel_array
 from ..core.validate import positive_scalar
 from ..errors import ParameterError
-from .surfaces import HeightField
+from .surfaces import PROJECTION_SETTLED, PROJECTION_STEPS, PROJECTION_STOP, HeightField
 
 __all__ = ["BumpField", "project_on_bump_field"]
-
-PROJECTION_STEPS = 50  # at most, of the closest point's Gauss–Newton (one or a few where |φ| κ is small)
-
 
 @njit(cache=True, inline="always")
 def _bump_height_slope(x, y, base, A, k, cx, cy, dips):  # pragma: no cover - compiled
@@ -53,9 +50,10 @@ def project_on_bump_field(px, py, pz, base, A, k, cx, cy, dips):  # pragma: no c
     """The closest point s = (x, y, h(x, y)) of the field to p = (px, py, pz) by Gauss–Newton on |p − s(u)|²
     from the point straight below/above, and the outward unit normal ν there: (φ = ν·(p − s), x, y, h, ν_x,
     ν_y, ν_z, converged). ``dips`` is (n, 4) rows [x_i, y_i, d_i, w_i]; base, A, k = 2π/L, (cx, cy) as in the
-    module's formula. The steps stop below 1e-13 m, after 50 at most; ``converged`` is False when the last one
-    was still over 1e-9 m: Gauss–Newton converges at the rate |φ| κ, so not near or beyond the surface's radius
-    of curvature 1/κ, where the closest point stops being unique; the last iterate is returned."""
+    module's formula. The steps stop below PROJECTION_STOP, after PROJECTION_STEPS at most (the height fields'
+    constants of surfaces.py); ``converged`` is False when the last one was still over PROJECTION_SETTLED:
+    Gauss–Newton converges at the rate |φ| κ, so not near or beyond the surface's radius of curvature 1/κ,
+    where the closest point stops being unique; the last iterate is returned."""
     x, y = px, py
     converged = False
     for _ in range(PROJECTION_STEPS):
@@ -68,8 +66,8 @@ def project_on_bump_field(px, py, pz, base, A, k, cx, cy, dips):  # pragma: no c
         s0, s1 = (a11 * b0 - a01 * b1) / det, (a00 * b1 - a01 * b0) / det
         x += s0
         y += s1
-        converged = abs(s0) <= 1e-9 and abs(s1) <= 1e-9
-        if abs(s0) < 1e-13 and abs(s1) < 1e-13:
+        converged = abs(s0) <= PROJECTION_SETTLED and abs(s1) <= PROJECTION_SETTLED
+        if abs(s0) < PROJECTION_STOP and abs(s1) < PROJECTION_STOP:
             break
     h, hx, hy = _bump_height_slope(x, y, base, A, k, cx, cy, dips)
     nrm = math.sqrt(hx * hx + hy * hy + 1.0)
@@ -106,9 +104,9 @@ class BumpField(HeightField):
             if np.size(dips) % 4 == 0 else None
         if rows is None or (rows.shape[0] and np.any(rows[:, 3] <= 0)):
             raise ParameterError(f"dips must be rows [x, y, depth, width] with width > 0 [m]; got {dips!r}")
-        self.dips = kernel_array(rows, frozen=True)  # read-only (_dips below copies it) and the compiled projection's type
+        self.dips = kernel_array(rows, frozen=True)  # read-only: what the compiled projection reads
         self._k = 2.0 * math.pi / self.wavelength
-        self._dips = [tuple(float(v) for v in r) for r in rows]
+        self._dips = [tuple(float(v) for v in r) for r in rows]  # the same rows as floats, for the Python formula
         # Python floats for the contact's scalar arithmetic (NumPy scalars give the same numbers, three times slower)
         self._cx, self._cy = float(self.crest[0]), float(self.crest[1])
         sp = float(spacing)

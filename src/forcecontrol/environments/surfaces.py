@@ -31,6 +31,11 @@ from ..core.validate import as_matrix, as_vector, nonnegative_scalar, positive_s
 from ..errors import DimensionError, ParameterError
 from .base import Environment
 
+#: the closest-point Gauss–Newton of the height fields (:class:`HeightField`, ``heightfield_extra.BumpField``): at most
+#: this many steps; it stops on a step below PROJECTION_STOP [m] and has settled if its last step was at most
+#: PROJECTION_SETTLED [m] (it converges at the rate |φ| κ; see :meth:`ElasticSurface.take_projection_note`)
+PROJECTION_STEPS, PROJECTION_STOP, PROJECTION_SETTLED = 50, 1e-13, 1e-9
+
 __all__ = ["ElasticSurface", "ElasticSphere", "ElasticCylinder", "HeightField", "circle_wrench2"]
 
 
@@ -333,13 +338,13 @@ class HeightField(ElasticSurface):
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         u = p[: self.space - 1].copy()
         settled = False
-        for _ in range(50):  # Gauss–Newton on |p − s(u)|²: the foot of the perpendicular (rate |φ| κ)
+        for _ in range(PROJECTION_STEPS):  # Gauss–Newton on |p − s(u)|²: the foot of the perpendicular
             s, T = self._surface(u)
             step = np.linalg.solve(T.T @ T, T.T @ (p - s))
             u += step
             last = float(np.max(np.abs(step)))
-            settled = last <= 1e-9
-            if last < 1e-13:
+            settled = last <= PROJECTION_SETTLED
+            if last < PROJECTION_STOP:
                 break
         s, T = self._surface(u)
         if self.space == 2:
@@ -349,7 +354,7 @@ class HeightField(ElasticSurface):
         nu /= np.linalg.norm(nu)
         phi = float(nu @ (p - s))
         if not settled and phi < 0.0:  # in contact deeper than the radius of curvature (see take_projection_note)
-            self._projection_unresolved(p, phi, 50)
+            self._projection_unresolved(p, phi, PROJECTION_STEPS)
         return phi, s, nu
 
     def describe(self) -> dict[str, Any]:
