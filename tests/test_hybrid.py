@@ -352,3 +352,92 @@ def test_coupled_compliance_keeps_force_and_velocity_decoupled_only_with_c_prime
     lam = res.wrench @ n
     assert np.abs(nu).max() < 1e-4
     assert lam[-1] == pytest.approx(-30.0, rel=1e-3)
+
+
+def _products(A, x):
+    """``A @ x`` summed from 0.0 in column order, in Python floats (the order the compiled laws sum in)."""
+    out = []
+    for row in A:
+        acc = 0.0
+        for a_ij, x_j in zip(row, x):
+            acc += a_ij * x_j
+        out.append(acc)
+    return out
+
+
+def _hybrid_reference(rigid, d, k, position_mode, dt, x, xd, h, ref, p, s):
+    """(9.77)/(9.91) with (9.80)/(9.95) and (9.81)/(9.92)–(9.94), term by term in Python: (a, h_c, new state)."""
+    l = d - k
+    o = 3
+    blocks = {}
+    names = (("S_v", d, l), ("S_v_pinv", l, d), ("S_f", d, k), ("S_f_pinv", k, d), ("K_1", l, l), ("K_2", l, l),
+             ("K_Plam", k, k), ("K_Ilam", k, k), ("S_v_dot", d, l)) if rigid else (
+             ("S_v", d, l), ("S_v_pinv", l, d), ("S_f_pinv", k, d), ("CpS_f", d, k), ("L_hat", k, d), ("K_1", l, l),
+             ("K_2", l, l), ("K_Dlam", k, k), ("K_Plam", k, k))
+    for name, r, c in names:
+        blocks[name] = p[o : o + r * c].reshape(r, c).tolist()
+        o += r * c
+    B = blocks
+    x_d, v_d, a_d, f_d, fd_d, fdd_d = (ref[i * d : (i + 1) * d] for i in range(6))
+    nu, nu_d = _products(B["S_v_pinv"], xd), _products(B["S_v_pinv"], v_d)
+    alpha = _products(B["S_v_pinv"], a_d)
+    for i, acc in enumerate(_products(B["K_1"], [nu_d[j] - nu[j] for j in range(l)])):
+        alpha[i] += acc
+    if position_mode:
+        r_d, r = _products(B["S_v_pinv"], x_d), _products(B["S_v_pinv"], x)
+        second = _products(B["K_2"], [r_d[j] - r[j] for j in range(l)])
+    else:
+        second = _products(B["K_2"], s[:l])
+    for i, acc in enumerate(second):
+        alpha[i] += acc
+    lam_d, lam = _products(B["S_f_pinv"], f_d), _products(B["S_f_pinv"], h)
+    if rigid:
+        f_lam = list(lam_d)
+        for terms in (_products(B["K_Plam"], [lam_d[j] - lam[j] for j in range(k)]), _products(B["K_Ilam"], s[l:])):
+            for i, acc in enumerate(terms):
+                f_lam[i] += acc
+        a = _products(B["S_v"], alpha)
+        for i, acc in enumerate(_products(B["S_v_dot"], nu)):
+            a[i] += acc
+        hc = _products(B["S_f"], f_lam)
+    else:
+        f_lam = _products(B["S_f_pinv"], fdd_d)
+        lamdot_d, lamdot = _products(B["S_f_pinv"], fd_d), _products(B["L_hat"], xd)
+        for terms in (_products(B["K_Dlam"], [lamdot_d[j] - lamdot[j] for j in range(k)]),
+                      _products(B["K_Plam"], [lam_d[j] - lam[j] for j in range(k)])):
+            for i, acc in enumerate(terms):
+                f_lam[i] += acc
+        a = _products(B["S_v"], alpha)
+        for i, acc in enumerate(_products(B["CpS_f"], f_lam)):
+            a[i] += acc
+        hc = list(h)
+    s = list(s)
+    for j in range(l):
+        s[j] += dt * (nu_d[j] - nu[j])
+    if rigid:
+        for j in range(k):
+            s[l + j] += dt * (lam_d[j] - lam[j])
+    return a, hc, s
+
+
+@pytest.mark.parametrize("rigid", [False, True], ids=["compliant", "rigid"])
+def test_hybrid_accelerations_equal_the_equations_term_by_term_to_the_bit(rigid):
+    """The compiled (9.77)/(9.91) accelerations on random sizes (d = 2, 3, 6, every k), gains and states, both motion
+    servos: a, h_c and the integrals equal a Python evaluation of the equations, each product summed from 0.0 in
+    column order, to the bit (the engines' bit-for-bit agreement rests on this order)."""
+    fn = laws.hybrid_rigid_acceleration if rigid else laws.hybrid_compliant_acceleration
+    rng = np.random.default_rng(11)
+    for trial in range(120):
+        d = int(rng.choice([2, 3, 6]))
+        k = int(rng.integers(0, d + 1))
+        l = d - k
+        size = 3 + (3 * d * l + 2 * d * k if rigid else 2 * d * l + 3 * k * d) + 2 * l * l + 2 * k * k
+        p = rng.normal(size=size)
+        p[:3] = d, k, float(trial % 2)
+        s = rng.normal(size=l + k)
+        x, xd, h = rng.normal(size=d), rng.normal(size=d), rng.normal(size=d)
+        ref = rng.normal(size=6 * d)
+        want_a, want_hc, want_s = _hybrid_reference(rigid, d, k, trial % 2, 1e-3, x, xd, h, ref, p, s)
+        a, hc, ws = np.full(d, np.nan), np.full(d, np.nan), np.full(laws.workspace_size(d, d), np.nan)
+        assert fn(0.0, 1e-3, x, xd, h, ref, p, s, ws, a, hc)
+        assert a.tolist() == want_a and hc.tolist() == want_hc and s.tolist() == want_s, (d, k, trial % 2)

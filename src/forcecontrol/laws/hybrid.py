@@ -21,7 +21,6 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..core.linalg import mv_into
 from .inner import inverse_dynamics_law
 from .layout import (
     HYBRID_COMPLIANT_FORCE_DIM,
@@ -60,69 +59,64 @@ from .layout import (
 
 
 @njit(cache=True, inline="always")
-def _block(p, o, rows, cols):  # pragma: no cover - compiled
-    """The row-major (rows, cols) block of p at offset o (a view)."""
-    return p[o : o + rows * cols].reshape((rows, cols))
+def _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, s, ws):  # pragma: no cover - compiled
+    """α_ν of both hybrid laws: (9.80) ``ν̇_d + K_1 (ν_d − ν) + K_2 ∫(ν_d − ν)`` or, with
+    ``position_mode``, (9.95) ``r̈_d + K_1 (ṙ_d − ν) + K_2 (r_d − r)``, ``r = S_v† x``, with
+    ``ν = S_v† ẋ_e`` (9.60) and ``ν_d = S_v† ẋ_d``; returns the views (ν, ν_d, α_ν) of ``ws``.
 
-
-@njit(cache=True, inline="always")
-def _part(v, o, size):  # pragma: no cover - compiled
-    """The block of ``size`` floats of v at offset o (a view)."""
-    return v[o : o + size]
-
-
-@njit(cache=True, inline="always")
-def _velocity_servo(S_v_pinv, K, xd, ref, d, k, ws):  # pragma: no cover - compiled
-    """(9.80)/(9.95), the part both hybrid laws share: ``ν = S_v† ẋ_e``, ``ν_d = S_v† ẋ_d``,
-    ``α_ν = ν̇_d + K (ν_d − ν)``; returns views (ν, ν_d, α_ν, scratch) of ``ws`` and the force
-    loop's three k-vectors (f_λ and two scratch vectors for λ's)."""
+    Written as plain loops rather than calls of small inlined helpers: Numba copies and re-analyses
+    an inlined function's IR at each call site, and the hybrid laws' two dozen products cost
+    seconds of a first run that way. Each product still sums ``A[i, 0] x[0] + A[i, 1] x[1] + …``
+    from 0.0 in column order, and each sum is added to its target in the equations' order, so
+    the results are those of ``A @ x`` products taken one at a time, to the bit.
+    """
     l = S_v_pinv.shape[0]
     nu = ws[0:l]
     nu_d = ws[d : d + l]
     alpha = ws[2 * d : 2 * d + l]
-    tmp = ws[3 * d : 4 * d]
-    mv_into(S_v_pinv, xd, nu)
-    mv_into(S_v_pinv, _part(ref, ref_v_d(d), d), nu_d)
-    mv_into(S_v_pinv, _part(ref, ref_a_d(d), d), alpha)  # ν̇_d (r̈_d)
-    _mv_diff_add(K, nu_d, nu, alpha, tmp)
-    return nu, nu_d, alpha, tmp, ws[4 * d : 4 * d + k], ws[5 * d : 5 * d + k], ws[6 * d : 6 * d + k]
-
-
-@njit(cache=True, inline="always")
-def _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, k, s, ws):  # pragma: no cover - compiled
-    """α_ν of both hybrid laws: (9.80) ``ν̇_d + K_1 (ν_d − ν) + K_2 ∫(ν_d − ν)`` or, with
-    ``position_mode``, (9.95) ``r̈_d + K_1 (ṙ_d − ν) + K_2 (r_d − r)``, ``r = S_v† x``; returns the
-    views of :func:`_velocity_servo`."""
-    l = d - k
-    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _velocity_servo(S_v_pinv, K_1, xd, ref, d, k, ws)
-    if position_mode:
+    v_d = ref[ref_v_d(d) : ref_v_d(d) + d]
+    a_d = ref[ref_a_d(d) : ref_a_d(d) + d]
+    for i in range(l):  # ν, ν_d and ν̇_d (r̈_d): the three products with S_v† in one pass
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for j in range(d):
+            e = S_v_pinv[i, j]
+            s0 += e * xd[j]
+            s1 += e * v_d[j]
+            s2 += e * a_d[j]
+        nu[i] = s0
+        nu_d[i] = s1
+        alpha[i] = s2
+    for i in range(l):  # + K_1 (ν_d − ν)
+        acc = 0.0
+        for j in range(l):
+            acc += K_1[i, j] * (nu_d[j] - nu[j])
+        alpha[i] += acc
+    if position_mode:  # + K_2 (r_d − r), r = S_v† x
         r_d = ws[7 * d : 7 * d + l]
         r = ws[8 * d : 8 * d + l]
-        mv_into(S_v_pinv, _part(ref, REF_X_D, d), r_d)
-        mv_into(S_v_pinv, x, r)
-        _mv_diff_add(K_2, r_d, r, alpha, tmp)
-    else:
-        _mv_add(K_2, _part(s, HYBRID_STATE_NU_INTEGRAL, l), alpha)
-    return nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b
-
-
-@njit(cache=True, inline="always")
-def _mv_add(A, x, out):  # pragma: no cover - compiled
-    """``out += A x``."""
-    r, c = A.shape
-    for i in range(r):
-        acc = 0.0
-        for j in range(c):
-            acc += A[i, j] * x[j]
-        out[i] += acc
-
-
-@njit(cache=True, inline="always")
-def _mv_diff_add(A, x, y, out, tmp):  # pragma: no cover - compiled
-    """``out += A (x − y)`` (tmp: scratch of len(x))."""
-    for j in range(x.shape[0]):
-        tmp[j] = x[j] - y[j]
-    _mv_add(A, tmp, out)
+        for i in range(l):
+            s0 = 0.0
+            s1 = 0.0
+            for j in range(d):
+                e = S_v_pinv[i, j]
+                s0 += e * ref[REF_X_D + j]
+                s1 += e * x[j]
+            r_d[i] = s0
+            r[i] = s1
+        for i in range(l):
+            acc = 0.0
+            for j in range(l):
+                acc += K_2[i, j] * (r_d[j] - r[j])
+            alpha[i] += acc
+    else:  # + K_2 ∫(ν_d − ν)
+        for i in range(l):
+            acc = 0.0
+            for j in range(l):
+                acc += K_2[i, j] * s[HYBRID_STATE_NU_INTEGRAL + j]
+            alpha[i] += acc
+    return nu, nu_d, alpha
 
 
 @njit(cache=True, inline="always")
@@ -140,25 +134,69 @@ def hybrid_compliant_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pra
     k = int(p[HYBRID_COMPLIANT_FORCE_DIM])
     position_mode = p[HYBRID_COMPLIANT_POSITION_MODE] != 0.0
     l = d - k
-    S_v = _block(p, HYBRID_COMPLIANT_S_V, d, l)
-    S_v_pinv = _block(p, hybrid_compliant_S_v_pinv(d, l, k), l, d)
-    S_f_pinv = _block(p, hybrid_compliant_S_f_pinv(d, l, k), k, d)
-    CpS_f = _block(p, hybrid_compliant_CpS_f(d, l, k), d, k)
-    L_hat = _block(p, hybrid_compliant_L_hat(d, l, k), k, d)
-    K_1 = _block(p, hybrid_compliant_K_1(d, l, k), l, l)
-    K_2 = _block(p, hybrid_compliant_K_2(d, l, k), l, l)
-    K_Dlam = _block(p, hybrid_compliant_K_Dlam(d, l, k), k, k)
-    K_Plam = _block(p, hybrid_compliant_K_Plam(d, l, k), k, k)
-    nu, nu_d, alpha, tmp, f_lam, lam_a, lam_b = _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, k, s, ws)
-    mv_into(S_f_pinv, _part(ref, ref_fddot_d(d), d), f_lam)  # λ̈_d
-    mv_into(S_f_pinv, _part(ref, ref_fdot_d(d), d), lam_a)  # λ̇_d
-    mv_into(L_hat, xd, lam_b)  # λ̇
-    _mv_diff_add(K_Dlam, lam_a, lam_b, f_lam, tmp)
-    mv_into(S_f_pinv, _part(ref, ref_f_d(d), d), lam_a)  # λ_d
-    mv_into(S_f_pinv, h, lam_b)  # λ
-    _mv_diff_add(K_Plam, lam_a, lam_b, f_lam, tmp)
-    mv_into(S_v, alpha, a)
-    _mv_add(CpS_f, f_lam, a)
+    o = HYBRID_COMPLIANT_S_V
+    S_v = p[o : o + d * l].reshape((d, l))
+    o = hybrid_compliant_S_v_pinv(d, l, k)
+    S_v_pinv = p[o : o + l * d].reshape((l, d))
+    o = hybrid_compliant_S_f_pinv(d, l, k)
+    S_f_pinv = p[o : o + k * d].reshape((k, d))
+    o = hybrid_compliant_CpS_f(d, l, k)
+    CpS_f = p[o : o + d * k].reshape((d, k))
+    o = hybrid_compliant_L_hat(d, l, k)
+    L_hat = p[o : o + k * d].reshape((k, d))
+    o = hybrid_compliant_K_1(d, l, k)
+    K_1 = p[o : o + l * l].reshape((l, l))
+    o = hybrid_compliant_K_2(d, l, k)
+    K_2 = p[o : o + l * l].reshape((l, l))
+    o = hybrid_compliant_K_Dlam(d, l, k)
+    K_Dlam = p[o : o + k * k].reshape((k, k))
+    o = hybrid_compliant_K_Plam(d, l, k)
+    K_Plam = p[o : o + k * k].reshape((k, k))
+    nu, nu_d, alpha = _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, s, ws)
+    f_lam = ws[4 * d : 4 * d + k]
+    lamdot_d = ws[5 * d : 5 * d + k]
+    lamdot = ws[6 * d : 6 * d + k]
+    lam_d = ws[7 * d : 7 * d + k]  # r_d and r (position mode) are spent by now
+    lam = ws[8 * d : 8 * d + k]
+    f_d = ref[ref_f_d(d) : ref_f_d(d) + d]
+    fd_d = ref[ref_fdot_d(d) : ref_fdot_d(d) + d]
+    fdd_d = ref[ref_fddot_d(d) : ref_fddot_d(d) + d]
+    for i in range(k):  # λ̈_d, λ̇_d, λ_d, λ (the products with S_f†) and λ̇ = L̂ ẋ_e in one pass
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        s4 = 0.0
+        for j in range(d):
+            e = S_f_pinv[i, j]
+            s0 += e * fdd_d[j]
+            s1 += e * fd_d[j]
+            s2 += e * f_d[j]
+            s3 += e * h[j]
+            s4 += L_hat[i, j] * xd[j]
+        f_lam[i] = s0
+        lamdot_d[i] = s1
+        lam_d[i] = s2
+        lam[i] = s3
+        lamdot[i] = s4
+    for i in range(k):  # f_λ = λ̈_d + K_Dλ (λ̇_d − λ̇) + K_Pλ (λ_d − λ)
+        acc = 0.0
+        for j in range(k):
+            acc += K_Dlam[i, j] * (lamdot_d[j] - lamdot[j])
+        f_lam[i] += acc
+        acc = 0.0
+        for j in range(k):
+            acc += K_Plam[i, j] * (lam_d[j] - lam[j])
+        f_lam[i] += acc
+    for i in range(d):  # α = S_v α_ν + Ĉ′ S_f f_λ
+        acc = 0.0
+        for j in range(l):
+            acc += S_v[i, j] * alpha[j]
+        a[i] = acc
+        acc = 0.0
+        for j in range(k):
+            acc += CpS_f[i, j] * f_lam[j]
+        a[i] += acc
     for j in range(l):
         s[HYBRID_STATE_NU_INTEGRAL + j] += dt * (nu_d[j] - nu[j])
     for j in range(d):
@@ -180,26 +218,62 @@ def hybrid_rigid_acceleration(t, dt, x, xd, h, ref, p, s, ws, a, hc):  # pragma:
     k = int(p[HYBRID_RIGID_FORCE_DIM])
     position_mode = p[HYBRID_RIGID_POSITION_MODE] != 0.0
     l = d - k
-    S_v = _block(p, HYBRID_RIGID_S_V, d, l)
-    S_v_pinv = _block(p, hybrid_rigid_S_v_pinv(d, l, k), l, d)
-    S_f = _block(p, hybrid_rigid_S_f(d, l, k), d, k)
-    S_f_pinv = _block(p, hybrid_rigid_S_f_pinv(d, l, k), k, d)
-    K_1 = _block(p, hybrid_rigid_K_1(d, l, k), l, l)
-    K_2 = _block(p, hybrid_rigid_K_2(d, l, k), l, l)
-    K_Plam = _block(p, hybrid_rigid_K_Plam(d, l, k), k, k)
-    K_Ilam = _block(p, hybrid_rigid_K_Ilam(d, l, k), k, k)
-    S_v_dot = _block(p, hybrid_rigid_S_v_dot(d, l, k), d, l)
-    nu, nu_d, alpha, tmp, f_lam, lam_d, lam = _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, k, s, ws)
-    mv_into(S_f_pinv, _part(ref, ref_f_d(d), d), lam_d)
-    mv_into(S_f_pinv, h, lam)
-    for j in range(k):
-        f_lam[j] = lam_d[j]
-    _mv_diff_add(K_Plam, lam_d, lam, f_lam, tmp)
+    o = HYBRID_RIGID_S_V
+    S_v = p[o : o + d * l].reshape((d, l))
+    o = hybrid_rigid_S_v_pinv(d, l, k)
+    S_v_pinv = p[o : o + l * d].reshape((l, d))
+    o = hybrid_rigid_S_f(d, l, k)
+    S_f = p[o : o + d * k].reshape((d, k))
+    o = hybrid_rigid_S_f_pinv(d, l, k)
+    S_f_pinv = p[o : o + k * d].reshape((k, d))
+    o = hybrid_rigid_K_1(d, l, k)
+    K_1 = p[o : o + l * l].reshape((l, l))
+    o = hybrid_rigid_K_2(d, l, k)
+    K_2 = p[o : o + l * l].reshape((l, l))
+    o = hybrid_rigid_K_Plam(d, l, k)
+    K_Plam = p[o : o + k * k].reshape((k, k))
+    o = hybrid_rigid_K_Ilam(d, l, k)
+    K_Ilam = p[o : o + k * k].reshape((k, k))
+    o = hybrid_rigid_S_v_dot(d, l, k)
+    S_v_dot = p[o : o + d * l].reshape((d, l))
     o_lam = hybrid_state_lam_integral(l, k)
-    _mv_add(K_Ilam, _part(s, o_lam, k), f_lam)
-    mv_into(S_v, alpha, a)
-    _mv_add(S_v_dot, nu, a)
-    mv_into(S_f, f_lam, hc)
+    nu, nu_d, alpha = _motion_servo(S_v_pinv, K_1, K_2, position_mode, x, xd, ref, d, s, ws)
+    f_lam = ws[4 * d : 4 * d + k]
+    lam_d = ws[5 * d : 5 * d + k]
+    lam = ws[6 * d : 6 * d + k]
+    f_d = ref[ref_f_d(d) : ref_f_d(d) + d]
+    for i in range(k):  # λ_d = S_f† f_d and λ = S_f† h_e in one pass
+        s0 = 0.0
+        s1 = 0.0
+        for j in range(d):
+            e = S_f_pinv[i, j]
+            s0 += e * f_d[j]
+            s1 += e * h[j]
+        lam_d[i] = s0
+        lam[i] = s1
+    for i in range(k):  # f_λ = λ_d + K_Pλ (λ_d − λ) + K_Iλ ∫(λ_d − λ)
+        f_lam[i] = lam_d[i]
+        acc = 0.0
+        for j in range(k):
+            acc += K_Plam[i, j] * (lam_d[j] - lam[j])
+        f_lam[i] += acc
+        acc = 0.0
+        for j in range(k):
+            acc += K_Ilam[i, j] * s[o_lam + j]
+        f_lam[i] += acc
+    for i in range(d):  # a = S_v α_ν + Ṡ_v ν, h_c = S_f f_λ
+        acc = 0.0
+        for j in range(l):
+            acc += S_v[i, j] * alpha[j]
+        a[i] = acc
+        acc = 0.0
+        for j in range(l):
+            acc += S_v_dot[i, j] * nu[j]
+        a[i] += acc
+        acc = 0.0
+        for j in range(k):
+            acc += S_f[i, j] * f_lam[j]
+        hc[i] = acc
     for j in range(l):
         s[HYBRID_STATE_NU_INTEGRAL + j] += dt * (nu_d[j] - nu[j])
     for j in range(k):
