@@ -14,7 +14,7 @@ from numba import njit, types
 
 from ..core.numba_cache import build_once, kernel_identity, stable_identities
 from ..robots.planar_2r import _terms_into
-from .inner import on_planar_arm
+from .inner import law_parts, on_planar_arm
 from .layout import REF_X_D, ref_a_d, ref_f_d, ref_fddot_d, ref_fdot_d, ref_size, ref_v_d
 
 __all__ = ["on_arm", "arm_inputs", "arm_finish"]
@@ -108,10 +108,21 @@ def on_arm(law: Any) -> Any:
     def build() -> Any:
         stable_identities()
         arm_law = on_planar_arm(law)  # m = n = 2: its general-size path is not compiled
+        parts = law_parts(arm_law)
+        split = parts is not None  # an inverse-dynamics law: its two parts called here (compiles faster)
+        acceleration, inner = parts if split else (arm_law, arm_law)
 
         def run(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
             ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)
-            return ok and arm_finish(arm_law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u), s, ws, u)
+            if not ok:
+                return False
+            if split:  # a constant: Numba compiles one branch
+                m = x.shape[0]
+                comp = acceleration(t, dt, x, xd, h, ref, p, s, rest[2 * m :], rest[0:m], rest[m : 2 * m])
+                done = inner(B, nv, J, Jdq, rest[0:m], rest[m : 2 * m], comp, rest[2 * m :], u)
+            else:
+                done = arm_law(t, dt, q, qd, x, xd, J, Jdq, B, nv, g, h, ref, p, s, rest, u)
+            return arm_finish(done, s, ws, u)
 
         step = njit(_ON_ARM_SIGNATURE, cache=True)(run)
         kernel_identity(step, f"forcecontrol:laws.arm.on_arm:{law._uuid}")  # its own uuid and cache files, per law

@@ -38,6 +38,7 @@ from numba import njit
 
 from ..core.linalg import solve2_spd
 from ..core.numba_cache import build_once, kernel_identity, stable_identities
+from ..laws.inner import law_parts
 from .metrics import case_metrics
 from .plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR
 from .trig import sincos
@@ -253,6 +254,9 @@ def _make_helpers(sc: Any) -> dict[str, Any]:  # pragma: no cover - compiled
 
 def _make_kernel(law: Any, helpers: tuple[Any, Any]) -> Any:  # pragma: no cover - compiled
     sample, substep = helpers
+    parts = law_parts(law)
+    split = parts is not None  # an inverse-dynamics law: its two parts called here (compiles faster)
+    acceleration, inner = parts if split else (law, law)
 
     def kernel(order, nl, K, env_kind, env_p, ctrl_p, ctrl_s, ref_tab, ref_id, bias, noise_tab, noise_id,
                alpha, q0, qd0, Ts, nsub, N, max_qd, d, f_ref, window, settle_band, stable_band, out):
@@ -356,7 +360,13 @@ def _make_kernel(law: Any, helpers: tuple[Any, Any]) -> Any:  # pragma: no cover
                 g[0], g[1] = Z[(_T + 15) * _L + l], Z[(_T + 16) * _L + l]
                 hm[0], hm[1] = hm0, hm1
                 t = k * Ts[i]
-                law(t, Ts[i], q, qd, x, xd, J, Jdq, B, nv, g, hm, ref_tab[ref_id[i], k], ctrl_p[i], S[l], ws, u)
+                if split:  # a constant: Numba compiles one branch
+                    m = x.shape[0]
+                    comp = acceleration(t, Ts[i], x, xd, hm, ref_tab[ref_id[i], k], ctrl_p[i], S[l], ws[2 * m :], ws[0:m],
+                                        ws[m : 2 * m])
+                    inner(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], comp, ws[2 * m :], u)
+                else:
+                    law(t, Ts[i], q, qd, x, xd, J, Jdq, B, nv, g, hm, ref_tab[ref_id[i], k], ctrl_p[i], S[l], ws, u)
                 u0 = u[0]
                 u1 = u[1]
                 Z[(_U + 0) * _L + l] = u0

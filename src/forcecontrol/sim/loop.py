@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..core.numba_cache import build_once, kernel_identity, stable_identities
-from ..laws.inner import on_planar_arm
+from ..laws.inner import law_parts, on_planar_arm
 from .plant import NONFINITE_STATE, NONFINITE_TORQUE, OK, RUNAWAY, SINGULAR, fill_terms, rk4_sample, terms2, wrench2
 
 __all__ = ["planar_loop", "OK", "NONFINITE_STATE", "RUNAWAY", "SINGULAR", "NONFINITE_TORQUE"]
@@ -40,7 +40,8 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
     """
     def build() -> Any:
         stable_identities()
-        loop = njit(cache=True)(_make_loop(on_planar_arm(law), full_log))
+        arm_law = on_planar_arm(law)
+        loop = njit(cache=True)(_make_loop(arm_law, full_log, law_parts(arm_law)))
         tag = "" if full_log else ":h-only"
         # its own identity: found again on disk (see stable_identities), and its own cache files (per law and variant)
         kernel_identity(loop, f"forcecontrol:loop:{law._uuid}{tag}")
@@ -52,7 +53,10 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
 _LOOPS: dict[Any, Any] = {}
 
 
-def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
+def _make_loop(law: Any, full_log: bool, parts: tuple[Any, Any] | None) -> Any:  # pragma: no cover - compiled
+    split = parts is not None  # an inverse-dynamics law: its two parts called here (laws.inner.law_parts)
+    acceleration, inner = parts if split else (law, law)
+
     def run(
         K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
         q0, qd0, Ts, nsub, max_qd, Q, QD, X, XD, H, HM, U,
@@ -95,7 +99,11 @@ def _make_loop(law: Any, full_log: bool) -> Any:  # pragma: no cover - compiled
                 hm1 = hm1 + alpha * (raw1 - hm1)
             fill_terms(T, q_0, q_1, w_0, w_1, q, qd, x, xd, J, Jdq, B, nv, g)
             hm[0], hm[1] = hm0, hm1
-            law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
+            if split:  # a constant: Numba compiles one branch
+                comp = acceleration(t, Ts, x, xd, hm, refs[k], ctrl_p, ctrl_s, ws[2 * m :], ws[0:m], ws[m : 2 * m])
+                inner(B, nv, J, Jdq, ws[0:m], ws[m : 2 * m], comp, ws[2 * m :], u)
+            else:
+                law(t, Ts, q, qd, x, xd, J, Jdq, B, nv, g, hm, refs[k], ctrl_p, ctrl_s, ws, u)
             u0 = u[0]
             u1 = u[1]
             r = k if full_log else 0
