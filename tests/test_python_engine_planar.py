@@ -2,8 +2,9 @@
 
 Each fast path (the arm's terms as scalars and the 2x2 solve, friction, the frame estimator and the
 moving-frame hybrid on scalars, the layout's cached slices) is checked against a second
-implementation: the robot's terms with ``np.linalg.solve``, the same model in 3-D (whose code is the
-general NumPy one), or the general matrix products written out.
+implementation: the robot's terms with ``np.linalg.solve``, the same model in 3-D (the estimator's
+general NumPy code), the friction model written with NumPy vectors here, or the general matrix
+products written out.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from forcecontrol.controllers.base import Reference
 from forcecontrol.controllers.hybrid import HybridCompliantController
 from forcecontrol.environments import ElasticSphere
 from forcecontrol.environments.friction import FrictionalContact
+from forcecontrol.environments.spatial import Table
+from forcecontrol.environments.surfaces import ElasticCylinder
 from forcecontrol.errors import DimensionError, ParameterError
 from forcecontrol.laws.layout import HYBRID_COMPLIANT
 from forcecontrol.task.estimation import ConstraintFrameEstimator
@@ -70,8 +73,8 @@ def _twin3(env2: FrictionalContact) -> FrictionalContact:
 @pytest.mark.parametrize("surface", [ElasticSphere([0.0, 0.0], 0.5, 1e4, 50.0),
                                      fc.ElasticPlane([0.0, 0.5], [0.0, 1.0], 1e4, 50.0)])
 def test_planar_friction_equals_its_3d_twin(surface):
-    """FrictionalContact on a planar surface (scalar code) gives the wrench, components and stick/slip
-    transitions of the same surface in 3-D at z = 0 (the general NumPy code) to 1e-12, along a path
+    """FrictionalContact on a planar surface gives the wrench, components and stick/slip transitions of the same
+    surface in 3-D at z = 0 to 1e-12 (one scalar code, a planar point taken as (x, y, 0)), along a path
     that touches, sticks, breaks away, slides, reverses and leaves."""
     env2 = FrictionalContact(surface, 0.4, 0.3, 1.5, stick_stiffness=2e4, stick_damping=100.0, stick_speed=1e-3)
     env3 = _twin3(env2)
@@ -99,6 +102,112 @@ def test_planar_friction_equals_its_3d_twin(surface):
         np.testing.assert_allclose(env2.direction, env3.direction[:2], rtol=1e-12, atol=1e-12)
         modes.add(env2.mode)
     assert modes == {0, 1, 2}  # free, stick and slip were all met
+
+
+class _NumpyFriction:
+    """The stick/slip friction model of environments.friction written again with NumPy arrays (a second
+    implementation: the model's docstring, vector by vector), on the same surface object."""
+
+    def __init__(self, env: FrictionalContact):
+        self.env, self.space = env, env.space
+        self.mode, self.anchor, self.direction = 0, np.zeros(self.space), np.zeros(self.space)
+
+    def normal(self, p, v):
+        s = self.env.surface
+        if isinstance(s, (fc.ElasticPlane, Table)):
+            delta = float(s.normal @ (s.point - p))
+            return (0.0, s.normal) if delta <= 0.0 else (max(0.0, s.stiffness * delta - s.damping * float(s.normal @ v)),
+                                                        s.normal)
+        fn, nu, _ = s.normal_force(p, v)
+        return fn, nu
+
+    def components(self, x, xd):
+        e, p, v = self.env, np.asarray(x, float)[: self.space], np.asarray(xd, float)[: self.space]
+        fn, nu = self.normal(p, v)
+        if fn <= 0.0:
+            return 0.0, nu, np.zeros(self.space)
+        vt = v - float(nu @ v) * nu
+        if self.mode == 1:
+            a = p - self.anchor
+            ht = e.sigma0 * (a - float(nu @ a) * nu) + e.sigma1 * vt
+        else:
+            speed = float(np.linalg.norm(vt))
+            s = vt / speed if speed > 1e-12 else self.direction - float(nu @ self.direction) * nu
+            if speed <= 1e-12:
+                s = s / np.linalg.norm(s) if np.linalg.norm(s) > 1e-12 else np.zeros(self.space)
+            ht = e.mu_k * fn * s
+        return fn, nu, ht + e.viscous * vt
+
+    def update(self, x, xd):
+        e, p, v = self.env, np.asarray(x, float)[: self.space], np.asarray(xd, float)[: self.space]
+        fn, nu = self.normal(p, v)
+        if fn <= 0.0:
+            self.mode = 0
+            return
+        vt = v - float(nu @ v) * nu
+        speed = float(np.linalg.norm(vt))
+        if self.mode == 0:
+            if speed > e.stick_speed:
+                self.mode, self.direction = 2, vt / speed
+            else:
+                self.mode, self.anchor = 1, p.copy()
+        elif self.mode == 1:
+            a = p - self.anchor
+            f = e.sigma0 * (a - float(nu @ a) * nu) + e.sigma1 * vt
+            if np.linalg.norm(f) > e.mu_s * fn:
+                self.mode, self.direction = 2, vt / speed if speed > 1e-12 else f / np.linalg.norm(f)
+        elif speed <= e.stick_speed or float(vt @ self.direction) <= 0.0:
+            d = self.direction - float(nu @ self.direction) * nu
+            d = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-12 else np.zeros(self.space)
+            self.mode, self.anchor = 1, p - (e.mu_k * fn / e.sigma0) * d
+        else:
+            self.direction = vt / speed
+
+
+@pytest.mark.parametrize("surface", [
+    ElasticSphere([0.0, 0.0], 0.5, 1e4, 50.0), fc.ElasticPlane([0.0, 0.5], [0.0, 1.0], 1e4, 50.0),
+    ElasticSphere([0.0, 0.0, 0.0], 0.5, 1e4, 50.0), fc.ElasticPlane([0.0, 0.5, 0.0], [0.3, 1.0, 0.2], 1e4, 50.0),
+    Table([0.0, 0.0, 0.5], [0.0, 0.2, 1.0], 1e4, 40.0), ElasticCylinder([0, 0, 0], [0.2, 0.1, 1.0], 0.5, 1e4, 150.0),
+], ids=["circle", "line", "sphere", "plane-3d", "table", "cylinder"])
+def test_friction_equals_a_numpy_implementation_of_the_model(surface):
+    """FrictionalContact (scalar code, 2-D and 3-D) against the model written with NumPy vectors, along a path that
+    touches, sticks, breaks away, slides, reverses and leaves: the same modes at every sample, the wrench, normal
+    force, normal, tangential force, anchor and sliding direction to 1e-12 (round-off: NumPy's dot products may fuse
+    their multiply-adds)."""
+    env = FrictionalContact(surface, 0.4, 0.3, 1.5, stick_stiffness=2e4, stick_damping=100.0, stick_speed=1e-3)
+    ref = _NumpyFriction(env)
+    space, rng = env.space, np.random.default_rng(8)
+    t = np.linspace(0.0, 4.0, 3001)
+    depth = 0.5 - 0.004 * np.sin(np.pi * t / 4.0) ** 2 - 0.0005  # in contact for most of the path
+    ang = 0.05 * np.sin(2.0 * t) + 0.02 * np.sin(7.0 * t)
+    modes = []
+    for k in range(t.shape[0]):
+        if isinstance(surface, ElasticCylinder):  # at distance `depth` from the tilted axis, moving along it too
+            u = surface.axis / np.linalg.norm(surface.axis)
+            e1 = np.cross(u, [1.0, 0.0, 0.0])
+            e1 /= np.linalg.norm(e1)
+            x = depth[k] * (np.cos(ang[k]) * e1 + np.sin(ang[k]) * np.cross(u, e1)) + 0.1 * ang[k] * u
+        elif isinstance(surface, ElasticSphere):
+            x = np.array([depth[k] * np.cos(ang[k]), depth[k] * np.sin(ang[k]), 0.1 * ang[k]])[:space]
+        elif isinstance(surface, Table):  # a pose: the position, then three angles the contact ignores
+            x = np.array([ang[k], 0.3 * ang[k], 1.0 - depth[k], 0.1, 0.2, 0.3])
+        else:
+            x = np.array([ang[k], 0.0, 0.2 * ang[k]])[:space]
+            x[1] = depth[k] - 0.3 * x[0] - (0.2 * x[2] if space == 3 else 0.0)
+        v = rng.normal(0.0, 0.05, x.shape[0]) * (k % 3 != 0)  # some samples at rest (sticking)
+        fn, nu, ht = ref.components(x, v)
+        got = env.components(x, v)
+        np.testing.assert_allclose(got[0], fn, rtol=1e-12, atol=1e-9)
+        for a, b in zip(got[1:], (nu, -fn * nu, ht)):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(env.wrench(x, v)[:space], -fn * nu + ht, rtol=1e-12, atol=1e-9)
+        env._update(x, v)
+        ref.update(x, v)
+        assert env.mode == ref.mode, k
+        np.testing.assert_allclose(env.anchor, ref.anchor, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(env.direction, ref.direction, rtol=1e-12, atol=1e-12)
+        modes.append(env.mode)
+    assert set(modes) == {0, 1, 2}  # free, stick and slip were all met
 
 
 def test_planar_estimator_equals_its_3d_twin():

@@ -41,6 +41,13 @@ from .surfaces import ElasticSphere, ElasticSurface
 __all__ = ["FrictionalContact"]
 
 FREE, STICK, SLIP = 0, 1, 2
+_PLANE, _SPHERE = 1, 2
+
+
+def _xyz(a: np.ndarray) -> tuple[float, float, float]:
+    """A 2- or 3-vector as three floats (z = 0 for a planar one)."""
+    v = a.tolist()
+    return (v[0], v[1], v[2]) if len(v) == 3 else (v[0], v[1], 0.0)
 
 
 def _bounded(name: str, value: Any, low: float, high: float, unit: str = "") -> float:
@@ -77,6 +84,8 @@ class FrictionalContact(Environment):
         if getattr(surface, "stateful", False):
             raise ParameterError("surface must not itself be a FrictionalContact")
         self.surface = surface
+        #: the contact's geometry in closed form here: a plane or table, a sphere (or circle), else the surface's own.
+        self._kind = _PLANE if isinstance(surface, (ElasticPlane, Table)) else _SPHERE if type(surface) is ElasticSphere else 0
         self.dim = surface.dim
         self.space = surface.dim if isinstance(surface, ElasticPlane) else 3 if isinstance(surface, Table) else surface.space
         self.mu_s = _bounded("static", static, 0.0, 10.0)
@@ -100,115 +109,102 @@ class FrictionalContact(Environment):
         self.anchor = np.zeros(self.space)
         self.direction = np.zeros(self.space)
 
-    # -- geometry and forces
-    def _normal(self, x: np.ndarray, xd: np.ndarray) -> tuple[float, np.ndarray]:
-        s = self.surface
-        if isinstance(s, (ElasticPlane, Table)):
-            nu = s.normal
-            delta = float(nu @ (s.point - x))
-            if delta <= 0.0:
-                return 0.0, nu
-            return max(0.0, s.stiffness * delta - s.damping * float(nu @ xd)), nu
-        fn, nu, _ = s.normal_force(x, xd)
-        return fn, nu
+    # -- geometry and forces, on scalars (a planar point is (x, y, 0): the same arithmetic as in 2-D, to the bit)
+    def _normal(self, p0: float, p1: float, p2: float, v0: float, v1: float, v2: float) -> tuple[float, float, float, float]:
+        """(f_n, ν0, ν1, ν2): the surface's normal force (>= 0) [N] and outward normal at (p, v).
 
-    def _stick_force2(self, p0: float, p1: float, n0: float, n1: float, t0: float, t1: float) -> tuple[float, float]:
-        """The stuck contact's tangential spring and damper on scalars (planar): σ0 (the anchor offset in the tangent
-        plane) + σ1 (the tangential velocity (t0, t1))."""
-        a0, a1 = self.anchor.tolist()
-        e0 = p0 - a0
-        e1 = p1 - a1
-        en = n0 * e0 + n1 * e1
-        return self.sigma0 * (e0 - en * n0) + self.sigma1 * t0, self.sigma0 * (e1 - en * n1) + self.sigma1 * t1
-
-    def _normal2(self, p0: float, p1: float, v0: float, v1: float) -> tuple[float, float, float]:
-        """:meth:`_normal` on scalars for a planar surface: (f_n, ν0, ν1), the same arithmetic."""
+        A plane, a table and a sphere (or circle) in closed form; any other surface through its own
+        :meth:`~forcecontrol.environments.surfaces.ElasticSurface.normal_force`.
+        """
         s = self.surface
-        if type(s) is ElasticPlane:
-            n0, n1 = s.normal.tolist()
-            r0, r1 = s.point.tolist()
-            delta = n0 * (r0 - p0) + n1 * (r1 - p1)
+        if self._kind == _PLANE:
+            n0, n1, n2 = _xyz(s.normal)
+            r0, r1, r2 = _xyz(s.point)
+            delta = n0 * (r0 - p0) + n1 * (r1 - p1) + n2 * (r2 - p2)
             if delta <= 0.0:
-                return 0.0, n0, n1
-            return max(0.0, s.stiffness * delta - s.damping * (n0 * v0 + n1 * v1)), n0, n1
-        if type(s) is ElasticSphere:  # ElasticSphere.geometry and ElasticSurface.normal_force
-            c0, c1 = s.center.tolist()
+                return 0.0, n0, n1, n2
+            return max(0.0, s.stiffness * delta - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
+        if self._kind == _SPHERE:  # ElasticSphere.geometry and ElasticSurface.normal_force
+            c0, c1, c2 = _xyz(s.center)
             d0 = p0 - c0
             d1 = p1 - c1
-            r = math.sqrt(d0 * d0 + d1 * d1)
-            n0, n1 = (1.0, 0.0) if r < 1e-12 else (d0 / r, d1 / r)
+            d2 = p2 - c2
+            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            n0, n1, n2 = (1.0, 0.0, 0.0) if r < 1e-12 else (d0 / r, d1 / r, d2 / r)
             phi = r - s.radius
             if phi >= 0.0:
-                return 0.0, n0, n1
-            return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1)), n0, n1
-        fn, nu = self._normal(np.array((p0, p1)), np.array((v0, v1)))
-        n0, n1 = np.asarray(nu, dtype=np.float64).tolist()
-        return fn, n0, n1
+                return 0.0, n0, n1, n2
+            return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
+        x, xd = (p0, p1, p2), (v0, v1, v2)
+        fn, nu, _ = s.normal_force(np.array(x[: self.space]), np.array(xd[: self.space]))
+        n0, n1, n2 = _xyz(np.asarray(nu, dtype=np.float64))
+        return fn, n0, n1, n2
 
-    def _components2(self, p0: float, p1: float, v0: float, v1: float) -> tuple[float, float, float, float, float]:
-        """:meth:`components` on scalars for a planar surface (the same arithmetic, none of the small
-        arrays): (f_n, ν0, ν1, h_t0, h_t1); h_n = −f_n ν."""
-        fn, n0, n1 = self._normal2(p0, p1, v0, v1)
+    def _stick_force(self, p0: float, p1: float, p2: float, n0: float, n1: float, n2: float, t0: float, t1: float,
+                     t2: float) -> tuple[float, float, float]:
+        """The stuck contact's tangential spring and damper: σ0 (the anchor offset in the tangent plane) + σ1 (the
+        tangential velocity t)."""
+        a0, a1, a2 = _xyz(self.anchor)
+        e0 = p0 - a0
+        e1 = p1 - a1
+        e2 = p2 - a2
+        en = n0 * e0 + n1 * e1 + n2 * e2
+        k, c = self.sigma0, self.sigma1
+        return k * (e0 - en * n0) + c * t0, k * (e1 - en * n1) + c * t1, k * (e2 - en * n2) + c * t2
+
+    def _components(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                    v2: float) -> tuple[float, float, float, float, float, float, float]:
+        """(f_n, ν0, ν1, ν2, h_t0, h_t1, h_t2) under the current stick/slip state; h_n = −f_n ν."""
+        fn, n0, n1, n2 = self._normal(p0, p1, p2, v0, v1, v2)
         if fn <= 0.0:
-            return 0.0, n0, n1, 0.0, 0.0
-        vn = n0 * v0 + n1 * v1
+            return 0.0, n0, n1, n2, 0.0, 0.0, 0.0
+        vn = n0 * v0 + n1 * v1 + n2 * v2
         t0 = v0 - vn * n0
         t1 = v1 - vn * n1
+        t2 = v2 - vn * n2
         if self.mode == STICK:
-            h0, h1 = self._stick_force2(p0, p1, n0, n1, t0, t1)
+            h0, h1, h2 = self._stick_force(p0, p1, p2, n0, n1, n2, t0, t1, t2)
         else:  # sliding (or touching in this step: the state follows after it)
-            speed = math.sqrt(t0 * t0 + t1 * t1)
+            speed = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
             if speed > 1e-12:
-                s0, s1 = t0 / speed, t1 / speed
+                s0, s1, s2 = t0 / speed, t1 / speed, t2 / speed
             else:
-                d0, d1 = self.direction.tolist()
-                dn = n0 * d0 + n1 * d1
-                s0, s1 = d0 - dn * n0, d1 - dn * n1
-                ns = math.sqrt(s0 * s0 + s1 * s1)
-                s0, s1 = (s0 / ns, s1 / ns) if ns > 1e-12 else (0.0, 0.0)
+                d0, d1, d2 = _xyz(self.direction)
+                dn = n0 * d0 + n1 * d1 + n2 * d2
+                s0, s1, s2 = d0 - dn * n0, d1 - dn * n1, d2 - dn * n2
+                ns = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+                s0, s1, s2 = (s0 / ns, s1 / ns, s2 / ns) if ns > 1e-12 else (0.0, 0.0, 0.0)
             f = self.mu_k * fn
-            h0, h1 = f * s0, f * s1
+            h0, h1, h2 = f * s0, f * s1, f * s2
         b = self.viscous
-        return fn, n0, n1, h0 + b * t0, h1 + b * t1
+        return fn, n0, n1, n2, h0 + b * t0, h1 + b * t1, h2 + b * t2
+
+    def _point(self, x: Any) -> tuple[float, float, float]:
+        """The first ``space`` coordinates of x as three floats (a planar point gets z = 0)."""
+        v = np.asarray(x, dtype=np.float64).tolist()
+        return (v[0], v[1], v[2] if self.space == 3 else 0.0)
+
+    def _vector(self, a: float, b: float, c: float) -> np.ndarray:
+        return np.array((a, b, c) if self.space == 3 else (a, b))
 
     def components(self, x: Any, xd: Any) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """(f_n, ν, h_n, h_t) at (x, ẋ) under the current stick/slip state: the normal force [N], the
         normal, and the normal and tangential parts of h_e (space,) [N]."""
-        p = np.asarray(x, dtype=np.float64)[: self.space]
-        v = np.asarray(xd, dtype=np.float64)[: self.space]
-        if self.space == 2:
-            fn, n0, n1, h0, h1 = self._components2(*p.tolist(), *v.tolist())
-            return fn, np.array((n0, n1)), np.array((-fn * n0, -fn * n1)), np.array((h0, h1))
-        fn, nu = self._normal(p, v)
-        zero = np.zeros(self.space)
-        if fn <= 0.0:
-            return 0.0, nu, zero, zero
-        vt = v - float(nu @ v) * nu
-        if self.mode == STICK:
-            e = p - self.anchor
-            ht = self.sigma0 * (e - float(nu @ e) * nu) + self.sigma1 * vt
-        else:  # sliding (or touching in this step: the state follows after it)
-            speed = math.sqrt(float(vt @ vt))
-            if speed > 1e-12:
-                s = vt / speed
-            else:
-                s = self.direction - float(nu @ self.direction) * nu
-                ns = float(np.linalg.norm(s))
-                s = s / ns if ns > 1e-12 else zero
-            ht = self.mu_k * fn * s
-        return fn, nu, -fn * nu, ht + self.viscous * vt
+        fn, n0, n1, n2, h0, h1, h2 = self._components(*self._point(x), *self._point(xd))
+        return fn, self._vector(n0, n1, n2), self._vector(-fn * n0, -fn * n1, -fn * n2), self._vector(h0, h1, h2)
 
     def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
-        if self.space == 2 and self.dim == 2:  # the planar arm's hot path: scalars in, one array out
+        if self.dim == 2:  # the planar arm's hot path
             x0, x1 = np.asarray(x, dtype=np.float64).tolist()
             v0, v1 = np.asarray(xd, dtype=np.float64).tolist()
-            fn, n0, n1, h0, h1 = self._components2(x0, x1, v0, v1)
+            fn, n0, n1, _, h0, h1, _ = self._components(x0, x1, 0.0, v0, v1, 0.0)
             return np.array((-fn * n0 + h0, -fn * n1 + h1))
+        fn, n0, n1, n2, h0, h1, h2 = self._components(*self._point(x), *self._point(xd))
         out = np.zeros(self.dim)
-        _, _, hn, ht = self.components(x, xd)
-        out[: self.space] = hn + ht
+        out[0], out[1] = -fn * n0 + h0, -fn * n1 + h1
+        if self.space == 3:
+            out[2] = -fn * n2 + h2
         return out
-
     def max_stiffness(self) -> float:
         return max(float(self.surface.stiffness), self.sigma0)
 
@@ -219,77 +215,45 @@ class FrictionalContact(Environment):
 
     # -- the stick/slip state (the simulator calls start, advance, log_sample, signals)
     def _update(self, x: np.ndarray, xd: np.ndarray) -> None:
-        p = np.asarray(x, dtype=np.float64)[: self.space]
-        v = np.asarray(xd, dtype=np.float64)[: self.space]
-        if self.space == 2:
-            self._update2(*p.tolist(), *v.tolist())
-            return
-        fn, nu = self._normal(p, v)
+        p0, p1, p2 = self._point(x)
+        v0, v1, v2 = self._point(xd)
+        fn, n0, n1, n2 = self._normal(p0, p1, p2, v0, v1, v2)
         if fn <= 0.0:
             self.mode = FREE
             return
-        vt = v - float(nu @ v) * nu
-        speed = math.sqrt(float(vt @ vt))
-        if self.mode == FREE:
-            if speed > self.stick_speed:
-                self.mode, self.direction = SLIP, vt / speed
-            else:
-                self.mode, self.anchor = STICK, p.copy()
-            return
-        if self.mode == STICK:
-            e = p - self.anchor
-            et = e - float(nu @ e) * nu
-            f = self.sigma0 * et + self.sigma1 * vt
-            fmag = math.sqrt(float(f @ f))
-            if fmag > self.mu_s * fn:  # breakaway
-                self.mode = SLIP
-                self.direction = vt / speed if speed > 1e-12 else f / fmag
-            return
-        # sliding: stop on a reversal or below the sticking speed, with the kinetic force carried on
-        if speed <= self.stick_speed or float(vt @ self.direction) <= 0.0:
-            d = self.direction - float(nu @ self.direction) * nu
-            nd = float(np.linalg.norm(d))
-            d = d / nd if nd > 1e-12 else np.zeros(self.space)
-            self.mode = STICK
-            self.anchor = p - (self.mu_k * fn / self.sigma0) * d
-        else:
-            self.direction = vt / speed
-
-    def _update2(self, p0: float, p1: float, v0: float, v1: float) -> None:
-        """:meth:`_update` on scalars for a planar surface (the same arithmetic and transitions)."""
-        fn, n0, n1 = self._normal2(p0, p1, v0, v1)
-        if fn <= 0.0:
-            self.mode = FREE
-            return
-        vn = n0 * v0 + n1 * v1
+        vn = n0 * v0 + n1 * v1 + n2 * v2
         t0 = v0 - vn * n0
         t1 = v1 - vn * n1
-        speed = math.sqrt(t0 * t0 + t1 * t1)
+        t2 = v2 - vn * n2
+        speed = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
         if self.mode == FREE:
             if speed > self.stick_speed:
-                self.mode, self.direction = SLIP, np.array((t0 / speed, t1 / speed))
+                self.mode, self.direction = SLIP, self._vector(t0 / speed, t1 / speed, t2 / speed)
             else:
-                self.mode, self.anchor = STICK, np.array((p0, p1))
+                self.mode, self.anchor = STICK, self._vector(p0, p1, p2)
             return
         if self.mode == STICK:
-            f0, f1 = self._stick_force2(p0, p1, n0, n1, t0, t1)
-            fmag = math.sqrt(f0 * f0 + f1 * f1)
+            f0, f1, f2 = self._stick_force(p0, p1, p2, n0, n1, n2, t0, t1, t2)
+            fmag = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
             if fmag > self.mu_s * fn:  # breakaway
                 self.mode = SLIP
-                self.direction = np.array((t0 / speed, t1 / speed) if speed > 1e-12 else (f0 / fmag, f1 / fmag))
+                if speed > 1e-12:
+                    self.direction = self._vector(t0 / speed, t1 / speed, t2 / speed)
+                else:
+                    self.direction = self._vector(f0 / fmag, f1 / fmag, f2 / fmag)
             return
         # sliding: stop on a reversal or below the sticking speed, with the kinetic force carried on
-        d0, d1 = self.direction.tolist()
-        if speed <= self.stick_speed or t0 * d0 + t1 * d1 <= 0.0:
-            dn = n0 * d0 + n1 * d1
-            d0, d1 = d0 - dn * n0, d1 - dn * n1
-            nd = math.sqrt(d0 * d0 + d1 * d1)
-            d0, d1 = (d0 / nd, d1 / nd) if nd > 1e-12 else (0.0, 0.0)
+        d0, d1, d2 = _xyz(self.direction)
+        if speed <= self.stick_speed or t0 * d0 + t1 * d1 + t2 * d2 <= 0.0:
+            dn = n0 * d0 + n1 * d1 + n2 * d2
+            d0, d1, d2 = d0 - dn * n0, d1 - dn * n1, d2 - dn * n2
+            nd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2 = (d0 / nd, d1 / nd, d2 / nd) if nd > 1e-12 else (0.0, 0.0, 0.0)
             self.mode = STICK
             c = self.mu_k * fn / self.sigma0
-            self.anchor = np.array((p0 - c * d0, p1 - c * d1))
+            self.anchor = self._vector(p0 - c * d0, p1 - c * d1, p2 - c * d2)
         else:
-            self.direction = np.array((t0 / speed, t1 / speed))
+            self.direction = self._vector(t0 / speed, t1 / speed, t2 / speed)
 
     def _pose(self, robot: Any, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         pose_twist = getattr(robot, "pose_twist", None)
