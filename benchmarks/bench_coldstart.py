@@ -23,7 +23,9 @@ rounds, each a fresh warm process per source, in turn, timing the compiled Examp
 and the median (min–max) of the per-round ratios to the first source.
 Asserts nothing.
 
-Run: ``python benchmarks/bench_coldstart.py [--repeat 3] [--profile] [--speed 9] [--src DIR ...]``.
+``--command 'run example-9.3 --force'`` times another command line instead (``--out DIR`` is appended).
+
+Run: ``python benchmarks/bench_coldstart.py [--repeat 3] [--profile] [--speed 9] [--src DIR ...] [--command ARGS]``.
 """
 
 from __future__ import annotations
@@ -146,7 +148,7 @@ def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float, str]:
 
 def one_round(src: str | None, out: str) -> dict[str, float]:
     """cold, warm (same cache) and the numpy floor, as fresh processes."""
-    cli = [PY, "-m", "forcecontrol", *COMMAND, "--out", out]
+    cli = [PY, "-m", "forcecontrol", *COMMAND, "--out", out]  # COMMAND: --command, else the README's
     with tempfile.TemporaryDirectory(prefix="coldstart-cache-") as cache:
         env = _env(cache, src)
         cold, cold_cpu, err = timed(cli, env)
@@ -177,7 +179,12 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=10, help="compiles listed by --profile")
     ap.add_argument("--speed", type=int, default=0, metavar="R", help="also R interleaved rounds of run-time speed per source")
     ap.add_argument("--src", action="append", default=None, help="a source folder for PYTHONPATH (repeat to compare)")
+    ap.add_argument("--command", default=None, metavar="ARGS",
+                    help="another forcecontrol command line to time cold and warm (default: 'run example-9.2 --force'; "
+                         "e.g. 'run example-9.3 --force')")
     args = ap.parse_args()
+    if args.command:
+        COMMAND[:] = args.command.split()
     srcs = args.src or [None]
     rows: dict[str | None, list[dict[str, float]]] = {s: [] for s in srcs}
     if args.speed:
