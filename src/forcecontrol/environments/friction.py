@@ -36,12 +36,12 @@ from ..errors import ParameterError
 from .base import Environment
 from .elastic import ElasticPlane
 from .spatial import Table
-from .surfaces import ElasticSphere, ElasticSurface
+from .surfaces import ElasticCylinder, ElasticSphere, ElasticSurface
 
 __all__ = ["FrictionalContact"]
 
 FREE, STICK, SLIP = 0, 1, 2
-_PLANE, _SPHERE = 1, 2
+_PLANE, _SPHERE, _CYLINDER = 1, 2, 3
 
 
 def _xyz(a: np.ndarray) -> tuple[float, float, float]:
@@ -84,8 +84,9 @@ class FrictionalContact(Environment):
         if getattr(surface, "stateful", False):
             raise ParameterError("surface must not itself be a FrictionalContact")
         self.surface = surface
-        #: the contact's geometry in closed form here: a plane or table, a sphere (or circle), else the surface's own.
-        self._kind = _PLANE if isinstance(surface, (ElasticPlane, Table)) else _SPHERE if type(surface) is ElasticSphere else 0
+        #: the contact's geometry in closed form here (a plane or table, a sphere or circle, a cylinder), else the surface's.
+        self._kind = (_PLANE if isinstance(surface, (ElasticPlane, Table)) else
+                      {ElasticSphere: _SPHERE, ElasticCylinder: _CYLINDER}.get(type(surface), 0))
         self.dim = surface.dim
         self.space = surface.dim if isinstance(surface, ElasticPlane) else 3 if isinstance(surface, Table) else surface.space
         self.mu_s = _bounded("static", static, 0.0, 10.0)
@@ -113,7 +114,7 @@ class FrictionalContact(Environment):
     def _normal(self, p0: float, p1: float, p2: float, v0: float, v1: float, v2: float) -> tuple[float, float, float, float]:
         """(f_n, ν0, ν1, ν2): the surface's normal force (>= 0) [N] and outward normal at (p, v).
 
-        A plane, a table and a sphere (or circle) in closed form; any other surface through its own
+        A plane, a table, a sphere (or circle) and a cylinder in closed form; any other surface through its own
         :meth:`~forcecontrol.environments.surfaces.ElasticSurface.normal_force`.
         """
         s = self.surface
@@ -135,6 +136,23 @@ class FrictionalContact(Environment):
             if phi >= 0.0:
                 return 0.0, n0, n1, n2
             return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
+        if self._kind == _CYLINDER:  # ElasticCylinder.geometry and ElasticSurface.normal_force, off its axis
+            u0, u1, u2 = _xyz(s.axis)
+            a0, a1, a2 = _xyz(s.point)
+            d0 = p0 - a0
+            d1 = p1 - a1
+            d2 = p2 - a2
+            du = d0 * u0 + d1 * u1 + d2 * u2
+            r0 = d0 - du * u0
+            r1 = d1 - du * u1
+            r2 = d2 - du * u2
+            rn = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+            if rn >= 1e-12:  # (on the axis: the surface's own choice of a normal, below)
+                n0, n1, n2 = r0 / rn, r1 / rn, r2 / rn
+                phi = rn - s.radius
+                if phi >= 0.0:
+                    return 0.0, n0, n1, n2
+                return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
         x, xd = (p0, p1, p2), (v0, v1, v2)
         fn, nu, _ = s.normal_force(np.array(x[: self.space]), np.array(xd[: self.space]))
         n0, n1, n2 = _xyz(np.asarray(nu, dtype=np.float64))
