@@ -32,7 +32,8 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
 
     ``planar_loop(law)(K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha, q0, q̇0, Ts,
     nsub, max_q̇, Q, Q̇, X, Ẋ, H, H_m, U) -> (status, last_row)``. The law is a constant of the
-    loop (a closure), so Numba compiles the loop with the law inlined, specialised for it. With
+    loop (a closure), so Numba compiles the loop with the law inlined, specialised for it (an
+    inverse-dynamics law as its two parts, :func:`~forcecontrol.laws.inner.law_parts`). With
     ``full_log=False`` (the sweeps' batch, which keeps the contact force only) every log but ``H``
     may have one row: row 0 is overwritten at each sample, the same arithmetic otherwise.
     The law is compiled for the arm's sizes (:func:`forcecontrol.laws.inner.on_planar_arm`: its
