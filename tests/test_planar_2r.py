@@ -164,7 +164,7 @@ def test_bad_inputs_raise_clear_errors(call, exc, match):
 
 
 def test_the_python_closed_forms_equal_the_compiled_terms_to_the_bit():
-    """J, J̇q̇, B, g, n and (x, ẋ), written in plain Python for single calls, equal the compiled terms() and the compiled
+    """x, J, J̇q̇, B, g, n and (x, ẋ), written in plain Python for single calls, equal the compiled terms() and the compiled
     loops' _pose_twist bit for bit on 20,000 random states (the Python and compiled engines start from the same numbers)."""
     from forcecontrol.robots.planar_2r import _pose_twist, _terms
 
@@ -173,7 +173,7 @@ def test_the_python_closed_forms_equal_the_compiled_terms_to_the_bit():
         q, qd = rng.uniform(-7.0, 7.0, 2), rng.normal(scale=5.0, size=2)
         x, xd, J, Jdq, B, nv, g = _terms(q, qd, ARM._K)
         pose_twist = np.concatenate(ARM.pose_twist(q, qd))
-        for got, want in ((ARM.jacobian(q), J), (ARM.jdot_qdot(q, qd), Jdq), (ARM.mass_matrix(q), B),
-                          (ARM.gravity(q), g), (ARM.nonlinear_effects(q, qd), nv),
+        for got, want in ((ARM.forward_kinematics(q), x), (ARM.jacobian(q), J), (ARM.jdot_qdot(q, qd), Jdq),
+                          (ARM.mass_matrix(q), B), (ARM.gravity(q), g), (ARM.nonlinear_effects(q, qd), nv),
                           (pose_twist, np.array(_pose_twist(q, qd, ARM._K))), (pose_twist, np.concatenate([x, xd]))):
             assert np.array_equal(got, want), (q, qd, got, want)

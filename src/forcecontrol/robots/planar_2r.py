@@ -88,18 +88,6 @@ class PlanarTwoLinkParameters:
 # K = [a1, a2, b11_0, b11_1, b12_0, b12_1, b22, ch, gc1, gc2, F1, F2]
 
 
-@njit(cache=True)
-def _fk(q: np.ndarray, K: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    c1 = math.cos(q[0])
-    s1 = math.sin(q[0])
-    c12 = math.cos(q[0] + q[1])
-    s12 = math.sin(q[0] + q[1])
-    out = np.empty(2)
-    out[0] = K[0] * c1 + K[1] * c12
-    out[1] = K[0] * s1 + K[1] * s12
-    return out
-
-
 @njit(cache=True, inline="always")
 def _terms_into(q, qd, K, x, xd, J, Jdq, B, nv, g):  # pragma: no cover - compiled
     """Fill x, ẋ, J, J̇q̇, B, n = Cq̇ + Fq̇ + g and g for the state (q, q̇).
@@ -222,7 +210,7 @@ class PlanarTwoLink:
         object.__setattr__(self, "_K", self.parameters.kernel_vector())
         object.__setattr__(self, "_Kf", tuple(self._K.tolist()))
 
-    # The single quantities (J, J̇q̇, B, g, n) in plain Python: the expressions of _terms_into, term for term, so equal
+    # The single quantities (x, J, J̇q̇, B, g, n) in plain Python: the expressions of _terms_into, term for term, so equal
     # to the compiled terms() to the bit (tests/test_planar_2r.py); a quarter of the cost of a call into _terms
     # (which boxes seven arrays), and nothing to compile for a run that only asks for them before its loop
     # (contact_rate, the held torque g(q0): 0.6 s of Example 9.2's cold run).
@@ -233,7 +221,9 @@ class PlanarTwoLink:
     # -- kinematics
     def forward_kinematics(self, q) -> np.ndarray:
         """Tip position ``[a1 c1 + a2 c12, a1 s1 + a2 s12]`` [m]."""
-        return _fk(_state("q", q), self._K)
+        a1, a2 = self._Kf[0], self._Kf[1]
+        c1, s1, _, _, c12, s12 = self._trig(q)
+        return np.array((a1 * c1 + a2 * c12, a1 * s1 + a2 * s12))
 
     def joint_positions(self, q) -> np.ndarray:
         """Base, elbow and tip positions in the base frame, (3, 2) [m] (for drawing the arm).
