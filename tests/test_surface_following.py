@@ -77,6 +77,17 @@ def test_estimate_is_held_without_contact_and_frame_is_orthonormal():
         np.testing.assert_allclose(S.T @ S, np.eye(e.dim), atol=1e-12)
 
 
+def test_3d_selection_is_the_normal_the_tangent_and_their_cross_product_to_the_bit():
+    """S_v's second column is ν × t as np.cross computes it, bit for bit, along 500 random updates in 3-D."""
+    rng = np.random.default_rng(4)
+    e = ConstraintFrameEstimator([0.2, -0.3, 1.0], 0.05, TS, first_tangent=[1.0, 0.5, 0.0])
+    for _ in range(500):
+        e.update(rng.normal(0.0, 20.0, 3), rng.normal(0.0, 0.1, 3))
+        S_f, S_v = e.selection()
+        assert np.array_equal(S_f[:, 0], e.normal) and np.array_equal(S_v[:, 0], e.tangent)
+        assert np.array_equal(S_v[:, 1], np.cross(e.normal, e.tangent))
+
+
 def test_estimator_refuses_bad_inputs_by_name():
     """A wrong-size or zero first normal, a 2-D tangent guess and a non-positive time constant are refused by name."""
     with pytest.raises(DimensionError, match="first_normal must have 2"):

@@ -196,7 +196,10 @@ class ConstraintFrameEstimator:
         S_f = self.normal[:, None].copy()
         if self.dim == 2:
             return S_f, self.tangent[:, None].copy()
-        return S_f, np.column_stack([self.tangent, np.cross(self.normal, self.tangent)])
+        n0, n1, n2 = self.normal.tolist()
+        t0, t1, t2 = self.tangent.tolist()
+        # ν × t as np.cross computes it (each product, then the difference), without its 50 µs of overhead per call
+        return S_f, np.array(((t0, n1 * t2 - n2 * t1), (t1, n2 * t0 - n0 * t2), (t2, n0 * t1 - n1 * t0)))
 
     def signals(self) -> dict[str, np.ndarray]:
         """The logged signals, one row per update."""
