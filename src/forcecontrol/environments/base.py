@@ -7,7 +7,25 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-__all__ = ["Environment"]
+__all__ = ["Environment", "xyz", "plane_normal_force_at"]
+
+
+def xyz(a: np.ndarray, space: int) -> tuple[float, float, float]:
+    """The first ``space`` (2 or 3) entries of a vector as three floats, z = 0 for a planar one."""
+    v = a.tolist()
+    return (v[0], v[1], v[2] if space == 3 else 0.0)
+
+
+def plane_normal_force_at(surface: Any, space: int, p0: float, p1: float, p2: float, v0: float, v1: float,
+                          v2: float) -> tuple[float, float, float, float]:
+    """``normal_force_at`` of a one-sided elastic plane (``surface.normal``, ``.point``, ``.stiffness``,
+    ``.damping``): f_n = max(0, k δ − c ν·ẋ) while δ = ν·(p_r − x) > 0, else 0; and ν."""
+    n0, n1, n2 = xyz(surface.normal, space)
+    r0, r1, r2 = xyz(surface.point, space)
+    delta = n0 * (r0 - p0) + n1 * (r1 - p1) + n2 * (r2 - p2)
+    if delta <= 0.0:
+        return 0.0, n0, n1, n2
+    return max(0.0, surface.stiffness * delta - surface.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
 
 
 class Environment(ABC):

@@ -11,7 +11,7 @@ from numba import njit
 from ..core.linalg import mv
 from ..core.validate import as_gain_matrix, as_vector, nonnegative_scalar
 from ..errors import DimensionError, ParameterError
-from .base import Environment
+from .base import Environment, plane_normal_force_at
 from .surfaces import circle_wrench2
 
 __all__ = ["ElasticPlane", "LinearSpring", "environment_wrench"]
@@ -127,6 +127,12 @@ class ElasticPlane(Environment):
         if delta <= 0.0 or mag <= 0.0:
             return np.zeros(len(xs))
         return np.array([-mag * n for n in nu[: len(xs)]])
+
+    def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                        v2: float) -> tuple[float, float, float, float]:
+        """(f_n, ν0, ν1, ν2) at the point p moving at v, on scalars (a planar plane: p2 = v2 = 0, ν2 = 0), for the
+        contact models built on this plane (:class:`~forcecontrol.environments.friction.FrictionalContact`)."""
+        return plane_normal_force_at(self, self.dim, p0, p1, p2, v0, v1, v2)
 
     def stiffness_matrix(self) -> np.ndarray:
         """K = k ν νᵀ, the (m, m) positive semi-definite stiffness while in contact."""

@@ -33,21 +33,14 @@ import numpy as np
 
 from ..core.validate import nonnegative_scalar, positive_scalar
 from ..errors import ParameterError
-from .base import Environment
+from .base import Environment, xyz
 from .elastic import ElasticPlane
 from .spatial import Table
-from .surfaces import ElasticCylinder, ElasticSphere, ElasticSurface
+from .surfaces import ElasticSurface
 
 __all__ = ["FrictionalContact"]
 
 FREE, STICK, SLIP = 0, 1, 2
-_PLANE, _SPHERE, _CYLINDER = 1, 2, 3
-
-
-def _xyz(a: np.ndarray) -> tuple[float, float, float]:
-    """A 2- or 3-vector as three floats (z = 0 for a planar one)."""
-    v = a.tolist()
-    return (v[0], v[1], v[2]) if len(v) == 3 else (v[0], v[1], 0.0)
 
 
 def _bounded(name: str, value: Any, low: float, high: float, unit: str = "") -> float:
@@ -84,9 +77,6 @@ class FrictionalContact(Environment):
         if getattr(surface, "stateful", False):
             raise ParameterError("surface must not itself be a FrictionalContact")
         self.surface = surface
-        #: the contact's geometry in closed form here (a plane or table, a sphere or circle, a cylinder), else the surface's.
-        self._kind = (_PLANE if isinstance(surface, (ElasticPlane, Table)) else
-                      {ElasticSphere: _SPHERE, ElasticCylinder: _CYLINDER}.get(type(surface), 0))
         self.dim = surface.dim
         self.space = surface.dim if isinstance(surface, ElasticPlane) else 3 if isinstance(surface, Table) else surface.space
         self.mu_s = _bounded("static", static, 0.0, 10.0)
@@ -110,59 +100,13 @@ class FrictionalContact(Environment):
         self.anchor = np.zeros(self.space)
         self.direction = np.zeros(self.space)
 
-    # -- geometry and forces, on scalars (a planar point is (x, y, 0): the same arithmetic as in 2-D, to the bit)
-    def _normal(self, p0: float, p1: float, p2: float, v0: float, v1: float, v2: float) -> tuple[float, float, float, float]:
-        """(f_n, ν0, ν1, ν2): the surface's normal force (>= 0) [N] and outward normal at (p, v).
-
-        A plane, a table, a sphere (or circle) and a cylinder in closed form; any other surface through its own
-        :meth:`~forcecontrol.environments.surfaces.ElasticSurface.normal_force`.
-        """
-        s = self.surface
-        if self._kind == _PLANE:
-            n0, n1, n2 = _xyz(s.normal)
-            r0, r1, r2 = _xyz(s.point)
-            delta = n0 * (r0 - p0) + n1 * (r1 - p1) + n2 * (r2 - p2)
-            if delta <= 0.0:
-                return 0.0, n0, n1, n2
-            return max(0.0, s.stiffness * delta - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
-        if self._kind == _SPHERE:  # ElasticSphere.geometry and ElasticSurface.normal_force
-            c0, c1, c2 = _xyz(s.center)
-            d0 = p0 - c0
-            d1 = p1 - c1
-            d2 = p2 - c2
-            r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            n0, n1, n2 = (1.0, 0.0, 0.0) if r < 1e-12 else (d0 / r, d1 / r, d2 / r)
-            phi = r - s.radius
-            if phi >= 0.0:
-                return 0.0, n0, n1, n2
-            return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
-        if self._kind == _CYLINDER:  # ElasticCylinder.geometry and ElasticSurface.normal_force, off its axis
-            u0, u1, u2 = _xyz(s.axis)
-            a0, a1, a2 = _xyz(s.point)
-            d0 = p0 - a0
-            d1 = p1 - a1
-            d2 = p2 - a2
-            du = d0 * u0 + d1 * u1 + d2 * u2
-            r0 = d0 - du * u0
-            r1 = d1 - du * u1
-            r2 = d2 - du * u2
-            rn = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-            if rn >= 1e-12:  # (on the axis: the surface's own choice of a normal, below)
-                n0, n1, n2 = r0 / rn, r1 / rn, r2 / rn
-                phi = rn - s.radius
-                if phi >= 0.0:
-                    return 0.0, n0, n1, n2
-                return max(0.0, -s.stiffness * phi - s.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
-        x, xd = (p0, p1, p2), (v0, v1, v2)
-        fn, nu, _ = s.normal_force(np.array(x[: self.space]), np.array(xd[: self.space]))
-        n0, n1, n2 = _xyz(np.asarray(nu, dtype=np.float64))
-        return fn, n0, n1, n2
-
+    # -- forces, on scalars (a planar point is (x, y, 0): the same arithmetic as in 2-D, to the bit); the normal force
+    # and normal are the surface's own (normal_force_at)
     def _stick_force(self, p0: float, p1: float, p2: float, n0: float, n1: float, n2: float, t0: float, t1: float,
                      t2: float) -> tuple[float, float, float]:
         """The stuck contact's tangential spring and damper: σ0 (the anchor offset in the tangent plane) + σ1 (the
         tangential velocity t)."""
-        a0, a1, a2 = _xyz(self.anchor)
+        a0, a1, a2 = xyz(self.anchor, self.space)
         e0 = p0 - a0
         e1 = p1 - a1
         e2 = p2 - a2
@@ -173,7 +117,7 @@ class FrictionalContact(Environment):
     def _components(self, p0: float, p1: float, p2: float, v0: float, v1: float,
                     v2: float) -> tuple[float, float, float, float, float, float, float]:
         """(f_n, ν0, ν1, ν2, h_t0, h_t1, h_t2) under the current stick/slip state; h_n = −f_n ν."""
-        fn, n0, n1, n2 = self._normal(p0, p1, p2, v0, v1, v2)
+        fn, n0, n1, n2 = self.surface.normal_force_at(p0, p1, p2, v0, v1, v2)
         if fn <= 0.0:
             return 0.0, n0, n1, n2, 0.0, 0.0, 0.0
         vn = n0 * v0 + n1 * v1 + n2 * v2
@@ -187,7 +131,7 @@ class FrictionalContact(Environment):
             if speed > 1e-12:
                 s0, s1, s2 = t0 / speed, t1 / speed, t2 / speed
             else:
-                d0, d1, d2 = _xyz(self.direction)
+                d0, d1, d2 = xyz(self.direction, self.space)
                 dn = n0 * d0 + n1 * d1 + n2 * d2
                 s0, s1, s2 = d0 - dn * n0, d1 - dn * n1, d2 - dn * n2
                 ns = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
@@ -199,8 +143,7 @@ class FrictionalContact(Environment):
 
     def _point(self, x: Any) -> tuple[float, float, float]:
         """The first ``space`` coordinates of x as three floats (a planar point gets z = 0)."""
-        v = np.asarray(x, dtype=np.float64).tolist()
-        return (v[0], v[1], v[2] if self.space == 3 else 0.0)
+        return xyz(np.asarray(x, dtype=np.float64), self.space)
 
     def _vector(self, a: float, b: float, c: float) -> np.ndarray:
         return np.array((a, b, c) if self.space == 3 else (a, b))
@@ -235,7 +178,7 @@ class FrictionalContact(Environment):
     def _update(self, x: np.ndarray, xd: np.ndarray) -> None:
         p0, p1, p2 = self._point(x)
         v0, v1, v2 = self._point(xd)
-        fn, n0, n1, n2 = self._normal(p0, p1, p2, v0, v1, v2)
+        fn, n0, n1, n2 = self.surface.normal_force_at(p0, p1, p2, v0, v1, v2)
         if fn <= 0.0:
             self.mode = FREE
             return
@@ -261,7 +204,7 @@ class FrictionalContact(Environment):
                     self.direction = self._vector(f0 / fmag, f1 / fmag, f2 / fmag)
             return
         # sliding: stop on a reversal or below the sticking speed, with the kinetic force carried on
-        d0, d1, d2 = _xyz(self.direction)
+        d0, d1, d2 = xyz(self.direction, self.space)
         if speed <= self.stick_speed or t0 * d0 + t1 * d1 + t2 * d2 <= 0.0:
             dn = n0 * d0 + n1 * d1 + n2 * d2
             d0, d1, d2 = d0 - dn * n0, d1 - dn * n1, d2 - dn * n2

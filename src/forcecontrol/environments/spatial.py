@@ -16,7 +16,7 @@ from ..core.validate import as_gain_matrix, as_vector, nonnegative_scalar, posit
 from ..errors import ParameterError
 from ..spatial import check_rotation
 from ..spatial.closed_form import euler_xyz_to_rotation, rotation_vector  # per integrator stage
-from .base import Environment
+from .base import Environment, plane_normal_force_at
 
 __all__ = ["SpatialSpring", "Table", "ConstantWrench"]
 
@@ -108,6 +108,11 @@ class Table(Environment):
         if mag > 0.0:
             out[:3] = -mag * self.normal
         return out
+
+    def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                        v2: float) -> tuple[float, float, float, float]:
+        """(f_n, ν0, ν1, ν2) at the tool's position p moving at v, on scalars (for FrictionalContact)."""
+        return plane_normal_force_at(self, 3, p0, p1, p2, v0, v1, v2)
 
     def max_stiffness(self) -> float:
         return self.stiffness

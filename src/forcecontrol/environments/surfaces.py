@@ -29,7 +29,7 @@ from numba import njit
 from ..core.files import read_bytes_limited
 from ..core.validate import as_matrix, as_vector, nonnegative_scalar, positive_scalar
 from ..errors import DimensionError, ParameterError
-from .base import Environment
+from .base import Environment, xyz
 
 #: the closest-point Gauss–Newton of the height fields (:class:`HeightField`, ``heightfield_extra.BumpField``): at most
 #: this many steps; it stops on a step below PROJECTION_STOP [m] and has settled if its last step was at most
@@ -149,6 +149,22 @@ class ElasticSurface(Environment):
         vn = float(nu @ np.asarray(xd, dtype=np.float64)[: self.space])
         return max(0.0, -self.stiffness * phi - self.damping * vn), nu, -phi
 
+    def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                        v2: float) -> tuple[float, float, float, float]:
+        """(f_n, ν0, ν1, ν2): :meth:`normal_force` on scalars (a planar surface: p2 = v2 = 0, ν2 = 0), for the
+        contact models built on a surface (:class:`~forcecontrol.environments.friction.FrictionalContact`); the
+        sphere and the cylinder give it in closed form."""
+        fn, nu, _ = self.normal_force(np.array((p0, p1, p2)[: self.space]), np.array((v0, v1, v2)[: self.space]))
+        n0, n1, n2 = xyz(np.asarray(nu, dtype=np.float64), self.space)
+        return fn, n0, n1, n2
+
+    def _normal_force_of(self, phi: float, n0: float, n1: float, n2: float, v0: float, v1: float,
+                         v2: float) -> tuple[float, float, float, float]:
+        """:meth:`normal_force_at` from the signed distance φ and the normal (the closed forms' common end)."""
+        if phi >= 0.0:
+            return 0.0, n0, n1, n2
+        return max(0.0, -self.stiffness * phi - self.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
+
     def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
         out = np.zeros(self.dim)
         fn, nu, _ = self.normal_force(x, xd)
@@ -188,6 +204,16 @@ class ElasticSphere(ElasticSurface):
         """``[c (2), R, k, c]`` (the compiled circle, kind 3)."""
         return np.concatenate([self.center, [self.radius, self.stiffness, self.damping]])
 
+    def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                        v2: float) -> tuple[float, float, float, float]:
+        c0, c1, c2 = xyz(self.center, self.space)
+        d0 = p0 - c0
+        d1 = p1 - c1
+        d2 = p2 - c2
+        r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        n0, n1, n2 = (1.0, 0.0, 0.0) if r < 1e-12 else (d0 / r, d1 / r, d2 / r)  # at the centre: the first axis
+        return self._normal_force_of(r - self.radius, n0, n1, n2, v0, v1, v2)
+
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         d = p - self.center
         r = float(math.sqrt(float(d @ d)))
@@ -219,6 +245,22 @@ class ElasticCylinder(ElasticSurface):
         self.axis = _unit("axis", axis, 3)
         self.radius = positive_scalar("radius", radius, "m")
         self._common(3, stiffness, damping, task_dim)
+
+    def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
+                        v2: float) -> tuple[float, float, float, float]:
+        u0, u1, u2 = self.axis.tolist()
+        a0, a1, a2 = self.point.tolist()
+        d0 = p0 - a0
+        d1 = p1 - a1
+        d2 = p2 - a2
+        du = d0 * u0 + d1 * u1 + d2 * u2
+        r0 = d0 - du * u0
+        r1 = d1 - du * u1
+        r2 = d2 - du * u2
+        rn = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        if rn < 1e-12:  # on the axis: geometry's choice of a normal
+            return super().normal_force_at(p0, p1, p2, v0, v1, v2)
+        return self._normal_force_of(rn - self.radius, r0 / rn, r1 / rn, r2 / rn, v0, v1, v2)
 
     def geometry(self, p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         d = p - self.point
