@@ -108,9 +108,7 @@ def on_arm(law: Any) -> Any:
     def build() -> Any:
         stable_identities()
         arm_law = on_planar_arm(law)  # m = n = 2: its general-size path is not compiled
-        parts = law_parts(arm_law)
-        split = parts is not None  # an inverse-dynamics law: its two parts called here (compiles faster)
-        acceleration, inner = parts if split else (arm_law, arm_law)
+        split, acceleration, inner = law_parts(arm_law)  # an inverse-dynamics law: its two parts called here
 
         def run(K, t, dt, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, p, s, ws, u):  # pragma: no cover - compiled
             ok, x, xd, J, Jdq, B, nv, g, ref, rest = arm_inputs(K, t, q, qd, h, x_d, v_d, a_d, f_d, fd_d, fdd_d, s, ws)

@@ -133,16 +133,19 @@ _ON_PLANAR_ARM: dict[Any, Any] = {}
 _PARTS: dict[Any, Any] = {}
 
 
-def law_parts(law: Any) -> tuple[Any, Any] | None:
-    """``(acceleration, inner)`` of an inverse-dynamics law (or of its twin for the chapter's arm), else None.
+def law_parts(law: Any) -> tuple[bool, Any, Any]:
+    """``(True, acceleration, inner)`` of an inverse-dynamics law (or of its twin for the chapter's arm), else
+    ``(False, law, law)``.
 
     A compiled kernel that calls these two in turn, as the law does (``comp = acceleration(t, dt,
     x, ẋ, h, ref, p, s, ws[2m:], ws[:m], ws[m:2m])``, then ``inner(B, n, J, J̇q̇, ws[:m], ws[m:2m],
     comp, ws[2m:], u)``), runs the law's operations in the law's order, and compiles about 0.5 s
     faster per law than one that calls the law: Numba inlines a function by copying its IR, once
-    per level it is inlined through, and the acceleration is the bulk of the law.
+    per level it is inlined through, and the acceleration is the bulk of the law. The flag is a
+    constant of the kernel, so Numba compiles only the branch it selects.
     """
-    return _PARTS.get(law)
+    parts = _PARTS.get(law)
+    return (True, *parts) if parts is not None else (False, law, law)
 
 
 def on_planar_arm(law: Any) -> Any:

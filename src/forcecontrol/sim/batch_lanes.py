@@ -254,9 +254,7 @@ def _make_helpers(sc: Any) -> dict[str, Any]:  # pragma: no cover - compiled
 
 def _make_kernel(law: Any, helpers: tuple[Any, Any]) -> Any:  # pragma: no cover - compiled
     sample, substep = helpers
-    parts = law_parts(law)
-    split = parts is not None  # an inverse-dynamics law: its two parts called here (compiles faster)
-    acceleration, inner = parts if split else (law, law)
+    split, acceleration, inner = law_parts(law)  # an inverse-dynamics law: its two parts called here
 
     def kernel(order, nl, K, env_kind, env_p, ctrl_p, ctrl_s, ref_tab, ref_id, bias, noise_tab, noise_id,
                alpha, q0, qd0, Ts, nsub, N, max_qd, d, f_ref, window, settle_band, stable_band, out):

@@ -54,9 +54,8 @@ def planar_loop(law: Any, full_log: bool = True) -> Any:
 _LOOPS: dict[Any, Any] = {}
 
 
-def _make_loop(law: Any, full_log: bool, parts: tuple[Any, Any] | None) -> Any:  # pragma: no cover - compiled
-    split = parts is not None  # an inverse-dynamics law: its two parts called here (laws.inner.law_parts)
-    acceleration, inner = parts if split else (law, law)
+def _make_loop(law: Any, full_log: bool, parts: tuple[bool, Any, Any]) -> Any:  # pragma: no cover - compiled
+    split, acceleration, inner = parts  # an inverse-dynamics law: its two parts called here (laws.inner.law_parts)
 
     def run(
         K, env_kind, env_p, ctrl_p, ctrl_s, refs, bias, noise, alpha,
