@@ -22,6 +22,7 @@ from ..core import numba_cache as _numba_cache
 from ..core.paths import MAX_NAME, inside
 from ..errors import ForceControlError
 from ..viz import render_process
+from .notices import show_library_warnings
 from .overrides import SetOption, apply_sets, parse_sets
 from .safe import escape, terminal_safe
 
@@ -53,11 +54,13 @@ def _version_callback(value: bool) -> None:
 
 @app.callback()
 def _main_options(
+    ctx: typer.Context,
     version: Annotated[
         bool, typer.Option("--version", "-V", help="print the version and exit", callback=_version_callback, is_eager=True)
     ] = False,
 ) -> None:
     """Force control of robot manipulators: the chapter's schemes, simulated, analysed and checked."""
+    ctx.call_on_close(show_library_warnings())  # the library's warnings as plain note:/warning: lines meanwhile
 
 
 def compile_notice() -> None:

@@ -147,32 +147,8 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
 class ConfigNote(UserWarning):
     """What a configuration file's reader did not read, mapped or defaulted (the notes of ``read_config``).
 
-    Shown as one clean ``note: ...`` line on stderr (no library file and line), kept in ``--json``'s ``warnings``."""
-
-
-def _show_config_notes() -> None:
-    """Print ConfigNote warnings as ``note: <text>`` lines; every other warning as Python prints it."""
-    previous = warnings.showwarning
-    if getattr(previous, "_config_note", False):
-        return
-
-    def show(message, category, filename, lineno, file=None, line=None):  # type: ignore[no-untyped-def]
-        if isinstance(category, type) and issubclass(category, ConfigNote):
-            import sys
-
-            out = sys.stderr if file is None else file
-            try:
-                out.write(f"note: {message}\n")
-            except OSError:
-                pass
-            return
-        previous(message, category, filename, lineno, file, line)
-
-    show._config_note = True  # type: ignore[attr-defined]
-    warnings.showwarning = show
-
-
-_show_config_notes()
+    A command shows it as one clean ``note: ...`` line on stderr (:mod:`forcecontrol.cli.notices`) and keeps it in
+    ``--json``'s ``warnings``."""
 
 
 _SAID: set[Any] = set()
