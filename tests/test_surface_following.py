@@ -145,6 +145,65 @@ def test_frame_hook_with_a_constant_frame_equals_the_fixed_selection_law():
         np.testing.assert_allclose(a.step(k * TS, m, ra), b.step(k * TS, m, rb), rtol=0, atol=1e-12)
 
 
+class _TurningFrame:
+    """A 3-D frame provider whose normal turns by 0.3 rad about x at every update (tangent along x)."""
+
+    SIGNALS = ()
+
+    def __init__(self):
+        self.k = 0
+
+    def update(self, force, velocity, x):
+        self.k += 1
+
+    def selection(self):
+        a = 0.3 * self.k
+        n, t = np.array([0.0, math.sin(a), math.cos(a)]), np.array([1.0, 0.0, 0.0])
+        return n[:, None], np.column_stack([t, np.cross(n, t)])
+
+    def reset(self):
+        self.k = 0
+
+    def signals(self):
+        return {}
+
+    def describe(self):
+        return {"type": "turning"}
+
+
+def test_6d_frame_hook_rebuilds_every_block_of_the_law_each_sample():
+    """SpatialHybridController with a moving frame: after each sample the law's selection blocks are those of (9.77)-(9.82)
+    on the desired frame built afresh from that sample's n̂, [t̂ b̂] (S_v, S_v^T, S_f^T, C S_f, C^-1 S_f^T by a linear solve,
+    S_v^T K S_v), with nothing of an earlier sample's frame left."""
+    pytest.importorskip("pinocchio")
+    from forcecontrol.laws.layout import HYBRID_COMPLIANT
+    from forcecontrol.robots.pinocchio import PANDA_READY, panda
+    from forcecontrol.spatial import rotation_to_euler_xyz
+
+    arm = panda()
+    R, p = arm.frame_pose(PANDA_READY)
+    K_P, K_D = np.diag([400.0, 500.0, 600.0, 70.0, 80.0, 90.0]), np.diag([40.0, 41.0, 42.0, 7.0, 8.0, 9.0])
+    K_P[0, 1] = K_P[1, 0] = 30.0  # not diagonal: the products S_v^T K S_v mix the tangent directions
+    frame = _TurningFrame()
+    ctl = fc.SpatialHybridController(arm, [0, 0, 1, 0, 0, 0], 2e-4, K_P, K_D, 400.0, 40.0, posture=PANDA_READY, frame=frame)
+    x_d = np.concatenate([p, rotation_to_euler_xyz(R)])
+    ref = fc.Reference(x_d, np.zeros(6), np.zeros(6), np.array([12.0, 0, 0, 0, 0, 0]), np.array([3.0, 0, 0, 0, 0, 0]),
+                       np.zeros(6))
+    m = fc.Measurement(PANDA_READY.copy(), np.zeros(7), np.array([0.0, 0.0, -12.0, 0.0, 0.0, 0.0]))
+    for k in range(1, 4):
+        ctl.step((k - 1) * TS, m, ref)
+        n, tb = frame.selection()
+        Q = np.vstack([R.T @ n, np.zeros((3, 1))])  # the desired frame is the start pose's: R_d = R
+        S_v = np.block([[R.T @ tb, np.zeros((3, 3))], [np.zeros((3, 2)), np.eye(3)]])
+        want = {"S_v": S_v, "S_v_pinv": S_v.T, "S_f_pinv": Q.T, "CpS_f": Q * 2e-4, "L_hat": np.linalg.solve([[2e-4]], Q.T),
+                "K_1": S_v.T @ K_D @ S_v, "K_2": S_v.T @ K_P @ S_v}
+        for block, value in want.items():
+            got = ctl._params[HYBRID_COMPLIANT.slice(block, 6, 5, 1)]
+            scale = max(1.0, float(np.abs(value).max()))  # R_d is the start pose's through its Euler angles: round-off
+            np.testing.assert_allclose(got, value.ravel(), rtol=0, atol=1e-13 * scale, err_msg=f"sample {k}: {block}")
+        np.testing.assert_allclose(ctl.force_selection, Q, rtol=0, atol=1e-13)
+
+
 def test_frame_hook_refuses_an_object_without_the_methods():
     """A frame provider lacking update/selection/... is refused, naming what it lacks."""
     arm = fc.PlanarTwoLink()

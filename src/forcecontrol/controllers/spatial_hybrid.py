@@ -118,6 +118,10 @@ class _DesiredFrameHybrid(_SpatialBase):
         return reference
 
 
+#: the law's blocks that a frame provider's normal changes each sample (SpatialHybridController._frame_step)
+_FRAME_BLOCKS = ("S_v", "S_v_pinv", "S_f_pinv", "CpS_f", "L_hat", "K_1", "K_2")
+
+
 class SpatialHybridController(_DesiredFrameHybrid):
     """Hybrid force/motion control on the desired frame, for a compliant environment (Sect. 9.7.1 in 6-D).
 
@@ -201,6 +205,10 @@ class SpatialHybridController(_DesiredFrameHybrid):
         self._ws = np.zeros(9 * 6)
         self._ref = np.zeros(REFERENCE.size(6))
         self._hc = np.zeros(6)
+        if self.frame is not None:  # where _frame_step writes each sample's blocks, and S_v's constant part
+            self._frame_blocks = tuple(HYBRID_COMPLIANT.slice(b, 6, 5, 1) for b in _FRAME_BLOCKS)
+            self._frame_S_v = np.zeros((6, 5))
+            self._frame_S_v[3:, 2:] = np.eye(3)
 
     def _frame_step(self, err: Any, o_e: np.ndarray, v_e: np.ndarray, h: np.ndarray, reference: Reference) -> Reference:
         """With a frame provider: update it, rebuild the law's selection blocks on the desired frame, and
@@ -213,18 +221,20 @@ class SpatialHybridController(_DesiredFrameHybrid):
         RdT = err.R_d.T
         Q = np.zeros((6, 1))
         Q[:3, 0] = RdT @ n
-        S_v = np.zeros((6, 5))
+        S_v = self._frame_S_v  # [[R_dᵀ [t̂ b̂], O]; [O, I]]: only its first block changes
         S_v[:3, :2] = RdT @ tb.reshape(3, 2)
-        S_v[3:, 2:] = np.eye(3)
         self.force_selection = Q
-        blocks = {"S_v": S_v, "S_v_pinv": S_v.T, "S_f_pinv": Q.T, "CpS_f": Q @ self.compliance,
-                  "L_hat": np.linalg.solve(self.compliance, Q.T), "K_1": S_v.T @ self.damping @ S_v,
-                  "K_2": S_v.T @ self.stiffness @ S_v}
-        for block, value in blocks.items():
-            self._params[HYBRID_COMPLIANT.slice(block, 6, 5, 1)] = np.ravel(value)
+        # the blocks, in _FRAME_BLOCKS' order; L̂ = C⁻¹ S_fᵀ with C 1 x 1 (one direction), as LAPACK's solve computes it
+        C = self.compliance
+        blocks = (S_v, S_v.T, Q.T, Q @ C, Q.T * (1.0 / float(C[0, 0])), S_v.T @ self.damping @ S_v,
+                  S_v.T @ self.stiffness @ S_v)
+        params = self._params
+        for place, value in zip(self._frame_blocks, blocks):
+            params[place] = value.ravel()
         r = reference
-        lam = [float(np.asarray(w, dtype=np.float64)[0]) for w in (r.force, r.force_rate, r.force_accel)]
-        wr = [np.concatenate([n * v, np.zeros(3)]) for v in lam]
+        wr = np.zeros((3, 6))  # λ_d, λ̇_d, λ̈_d along n̂ (base frame), no moment
+        for row, w in zip(wr, (r.force, r.force_rate, r.force_accel)):
+            row[:3] = n * float(np.asarray(w, dtype=np.float64)[0])
         return Reference(r.position, r.velocity, r.acceleration, *wr)
 
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
