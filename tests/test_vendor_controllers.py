@@ -139,6 +139,30 @@ def test_franka_on_panda_settles_at_the_springs_in_series():
     assert res.x[-1][2] - x0[2] == pytest.approx(expected, rel=0.01)
 
 
+def test_franka_soft_start_begins_the_nullspace_stiffness_at_upstreams_20_and_filters_it_to_the_target():
+    """franka_ros's example starts nullspace_stiffness_ at 20 (its header) and K, D at 0 (init), then filters each towards
+    its target by 0.005 per cycle: k_ns = 0.5 + 19.5 * 0.995^k after k cycles (12.3, 7.7, 2.1 at 100, 200, 500 ms)."""
+    from forcecontrol.laws.vendor.layout import FRANKA_STATE
+
+    arm = panda()
+    ctl = FrankaCartesianImpedanceController(arm)  # soft start, nullspace_stiffness 0.5 (the .cfg default)
+    m = Measurement(PANDA_READY.copy(), np.zeros(7), np.zeros(6))
+    ref = Reference.setpoint(arm.forward_kinematics(PANDA_READY))
+    ctl.reset(m, ref)
+    k_ns, K = FRANKA_STATE.slice("k_ns", 6, 7), FRANKA_STATE.slice("K", 6, 7)
+    assert ctl.state[k_ns][0] == 20.0 and not ctl.state[K].any()
+    seen = {}
+    for k in range(1, 501):
+        ctl.step((k - 1) * 1e-3, m, ref)
+        seen[k] = float(ctl.state[k_ns][0])
+    for k, printed in ((100, 12.3), (200, 7.7), (500, 2.1)):
+        assert seen[k] == pytest.approx(0.5 + 19.5 * 0.995**k, rel=1e-9)
+        assert seen[k] == pytest.approx(printed, abs=0.05)
+    hard = FrankaCartesianImpedanceController(arm, soft_start=False)  # without the soft start: the targets at once
+    hard.reset(m, ref)
+    assert hard.state[k_ns][0] == 0.5 and hard.state[K][0] == 200.0
+
+
 def test_ur_force_mode_says_when_a_non_compliant_axis_exceeds_its_deviation_limit(arm, robot):
     """Program pose 5 cm above the arm, z non-compliant with a 1 cm limit: a 'force-mode-deviation' event (the
     protective stop a UR would make) is logged and warned, naming the axis, the deviation and the limit."""

@@ -13,7 +13,7 @@ from ...laws.vendor.layout import FRANKA, FRANKA_STATE
 from ..base import Controller, Measurement, Reference
 from .common import pose, require_pose_robot, target_pose
 
-__all__ = ["FrankaCartesianImpedanceController", "quat_from_matrix", "slerp"]
+__all__ = ["FrankaCartesianImpedanceController", "UPSTREAM_START_NULLSPACE_STIFFNESS", "quat_from_matrix", "slerp"]
 
 
 def quat_from_matrix(R: np.ndarray) -> np.ndarray:
@@ -54,6 +54,11 @@ def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
     return out / np.linalg.norm(out)
 
 
+#: k_ns at the start [N m/rad]: franka_ros's cartesian_impedance_example_controller.h initialises
+#: ``nullspace_stiffness_`` to 20 (and K, D to 0 in ``init``); its gain filter then moves it to the target.
+UPSTREAM_START_NULLSPACE_STIFFNESS = 20.0
+
+
 class FrankaCartesianImpedanceController(Controller):
     """franka_ros's ``cartesian_impedance_example_controller`` (commit c11f000c) on a torque robot.
 
@@ -67,8 +72,10 @@ class FrankaCartesianImpedanceController(Controller):
     added here because the robot adds gravity itself. The equilibrium pose is
     ``reference.position`` (``[o; φ]``, the ``equilibrium_pose`` topic); K, D, k_ns and the
     equilibrium are filtered towards their targets by ``filter_coefficient`` per sample (0.005).
-    With ``soft_start`` (the project's behaviour) K and D start at 0 and the equilibrium at the
-    pose at reset; q_ns is the posture at reset.
+    With ``soft_start`` (the project's behaviour) K and D start at 0, k_ns at
+    :data:`UPSTREAM_START_NULLSPACE_STIFFNESS` (20, the value the example's header initialises it to,
+    which the first samples filter down to the target) and the equilibrium at the pose at reset;
+    q_ns is the posture at reset.
 
     Args:
         robot: a 6-D torque robot (the Panda from example-robot-data).
@@ -111,7 +118,9 @@ class FrankaCartesianImpedanceController(Controller):
     def reset(self, measurement: Measurement | None = None, reference: Reference | None = None) -> None:
         n = int(self.robot.nq)
         self.state[:] = 0.0
-        if not self.soft_start:
+        if self.soft_start:
+            self.state[FRANKA_STATE.slice("k_ns", 6, n)] = UPSTREAM_START_NULLSPACE_STIFFNESS
+        else:
             for block in ("K", "D", "k_ns"):
                 self.state[FRANKA_STATE.slice(block, 6, n)] = self._p[FRANKA.slice(block, 6, n)]
         q = np.zeros(n) if measurement is None else np.asarray(measurement.q, dtype=np.float64)
