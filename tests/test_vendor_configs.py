@@ -153,6 +153,39 @@ def test_franka_cfg_default_rewritten_and_range_enforced():
         cfg.write(translational_stiffness=500.0)
 
 
+def _franka_yaml(extra: str) -> str:
+    return (CONFIGS / "franka_cartesian_impedance.yaml").read_text(encoding="utf-8") + extra
+
+
+def test_franka_gains_are_read_where_franka_ros_reads_them_and_clamped_to_the_cfg_range():
+    """The example's gains come from its dynamic_reconfigure server: <controller>/dynamic_reconfigure_compliance_param_node/
+    NAME is read (and clamped to compliance_param.cfg's range, as the server does); a gain at the controller's top level,
+    which franka_ros does not read, is not used and said so."""
+    node = "dynamic_reconfigure_compliance_param_node"
+    cfg = read_config("f.yaml", text=_franka_yaml(f"  translational_stiffness: 300\n  {node}:\n    rotational_stiffness: 50\n"
+                                                   "    nullspace_stiffness: 2\n"))
+    assert cfg.kind == "franka-cartesian-impedance"
+    assert cfg.parameters == {"translational_stiffness": 200.0, "rotational_stiffness": 30.0, "nullspace_stiffness": 2.0}
+    assert any(n.startswith("translational_stiffness = 300: not read by franka_ros") and f"{node}.translational_stiffness" in n
+               for n in cfg.notes), cfg.notes
+    clamped = f"{node}.rotational_stiffness = 50.0 is outside its .cfg range [0, 30]: dynamic_reconfigure clamps it to 30"
+    assert clamped in cfg.notes, cfg.notes
+    assert not any("unsupported" in n for n in cfg.notes), cfg.notes
+    out = cfg.write(nullspace_stiffness=3.0)  # in place, under the server's table
+    assert _changed_lines(cfg.text, out) == [("    nullspace_stiffness: 2", "    nullspace_stiffness: 3.0")]
+    with pytest.raises(ParameterError, match=r"rotational_stiffness must be within the \.cfg range \[0, 30\]; got 31"):
+        cfg.write(rotational_stiffness=31.0)
+    bare = read_config(CONFIGS / "franka_cartesian_impedance.yaml")  # no server table: compliance_param.cfg's defaults
+    assert bare.parameters == {"translational_stiffness": 200.0, "rotational_stiffness": 10.0, "nullspace_stiffness": 0.5}
+    assert any(n.startswith(f"no {node} table in the file") for n in bare.notes)
+    with pytest.raises(ParameterError, match=f"cannot write {node}.nullspace_stiffness: its parent key is not in the file"):
+        bare.write(nullspace_stiffness=3.0)
+    shipped = read_config(CONFIGS / "compliance_param.cfg")  # the ranges used are the .cfg's
+    from forcecontrol.realarm.conventions.configs import _FRANKA_RANGES
+
+    assert {name: span[3:] for name, span in shipped._spans.items()} == _FRANKA_RANGES
+
+
 @pytest.mark.parametrize("text, kind, match", [
     ("c:\n  ros__parameters:\n    admittance: {stiffness: [1, 2, 3, 4, 5, 6]}\n    kinematics: {}\n", None,
      r"key 'admittance.mass' is required \(6 values\); not found"),

@@ -7,8 +7,10 @@ Formats (detected from the keys, or named with ``kind``):
 * ``fzi-compliance`` / ``fzi-force``: FZI cartesian_controllers files, ROS 2 (``ros__parameters``,
   optional ``controller_manager`` section with ``update_rate``) or ROS 1 (flat, with ``type:``);
 * ``franka-cartesian-impedance``: franka_ros's YAML (``type``, ``arm_id``, ``joint_names``; the
-  gains ``translational_stiffness``, ``rotational_stiffness``, ``nullspace_stiffness`` when set, else
-  the defaults of ``compliance_param.cfg``) or that ``.cfg`` file itself (``gen.add(...)`` lines);
+  gains ``translational_stiffness``, ``rotational_stiffness``, ``nullspace_stiffness`` where the
+  example's dynamic_reconfigure server reads them, under ``dynamic_reconfigure_compliance_param_node``
+  in the controller's section, clamped to the ``.cfg`` ranges as that server does; else the defaults
+  of ``compliance_param.cfg``) or that ``.cfg`` file itself (``gen.add(...)`` lines);
 * ``ur-force-mode``: URScript lines (:mod:`.ur_script`).
 
 :func:`read_config` returns a :class:`VendorConfig`: the controller's parameters under the
@@ -44,6 +46,13 @@ _AX = ("trans_x", "trans_y", "trans_z", "rot_x", "rot_y", "rot_z")
 _REQ = object()  # a required key (no default)
 
 # library parameter -> [(path in the controller's parameters, default)]
+#: franka_ros's cartesian_impedance_example_controller reads its gains from a dynamic_reconfigure server in this
+#: namespace of the controller (``<controller>/dynamic_reconfigure_compliance_param_node/translational_stiffness``)
+_FRANKA_NODE = "dynamic_reconfigure_compliance_param_node"
+#: the gains' ranges in franka_example_controllers/cfg/compliance_param.cfg: the server clamps a value to them
+_FRANKA_RANGES = {"translational_stiffness": (0.0, 400.0), "rotational_stiffness": (0.0, 30.0),
+                  "nullspace_stiffness": (0.0, 100.0)}
+
 _SLOTS: dict[str, dict[str, list[tuple[tuple[Any, ...], Any]]]] = {
     "ros2-admittance": {
         "mass": [(("admittance", "mass", i), _REQ) for i in range(6)],
@@ -68,10 +77,10 @@ _SLOTS: dict[str, dict[str, list[tuple[tuple[Any, ...], Any]]]] = {
         "d": [(("pd_gains", a, "d"), 0.0) for a in _AX],
         "error_scale": [(("solver", "error_scale"), 1.0)],
     },
-    "franka-cartesian-impedance": {
-        "translational_stiffness": [(("translational_stiffness",), 200.0)],
-        "rotational_stiffness": [(("rotational_stiffness",), 10.0)],
-        "nullspace_stiffness": [(("nullspace_stiffness",), 0.5)],
+    "franka-cartesian-impedance": {  # where the example's dynamic_reconfigure server reads them
+        "translational_stiffness": [((_FRANKA_NODE, "translational_stiffness"), 200.0)],
+        "rotational_stiffness": [((_FRANKA_NODE, "rotational_stiffness"), 10.0)],
+        "nullspace_stiffness": [((_FRANKA_NODE, "nullspace_stiffness"), 0.5)],
     },
 }
 
@@ -104,7 +113,11 @@ _KNOWN: dict[str, dict[str, str]] = {
         "solver.forward_dynamics.link_mass": "not read: the virtual model is the measured end-effector inertia "
                                              "(virtual_mass 1.3 kg, virtual_inertia 1 kg m^2)",
     },
-    "franka-cartesian-impedance": {k: _NOT_NEEDED for k in ("type", "arm_id", "joint_names")},
+    "franka-cartesian-impedance": {
+        **{k: _NOT_NEEDED for k in ("type", "arm_id", "joint_names")},
+        **{k: f"not read by franka_ros here (its dynamic_reconfigure server reads {_FRANKA_NODE}.{k}): not used"
+           for k in _FRANKA_RANGES},
+    },
 }
 
 
@@ -137,7 +150,8 @@ class VendorConfig:
 
         Raises:
             ParameterError: a name that is not one of the file's parameters, a value of the wrong
-                length, or a key whose parent table is missing (the message names it).
+                length or (Franka's gains) outside its .cfg range, or a key whose parent table is
+                missing (the message names it).
         """
         unknown = sorted(k for k in changes if k not in self.parameters or k not in self.writable())
         if unknown:
@@ -146,6 +160,11 @@ class VendorConfig:
             return write_ur_script(self.text, self._spans, self.parameters, changes)
         if self.layout == "cfg":
             return _write_cfg(self.text, self._spans, self.parameters, changes)
+        if self.kind == "franka-cartesian-impedance":  # what dynamic_reconfigure would clamp is refused, as in a .cfg
+            for name, v in changes.items():
+                lo, hi = _FRANKA_RANGES[name]
+                if not (isinstance(v, int | float) and lo <= v <= hi):
+                    raise ParameterError(f"{name} must be within the .cfg range [{lo:g}, {hi:g}]; got {v!r}")
         return _write_yaml(self.text, self._node, _SLOTS[self.kind], self.parameters, changes)
 
     def writable(self) -> list[str]:
@@ -162,7 +181,7 @@ def detect_kind(params: Any) -> str | None:
     typ = str(params.get("type", ""))
     if "admittance" in params and "kinematics" in params:
         return "ros2-admittance"
-    if "CartesianImpedanceExample" in typ or "translational_stiffness" in params:
+    if "CartesianImpedanceExample" in typ or "translational_stiffness" in params or _FRANKA_NODE in params:
         return "franka-cartesian-impedance"
     if "pd_gains" in params or "solver" in params or "cartesian_" in typ.lower() or "Cartesian" in typ:
         if "Motion" in typ:
@@ -263,9 +282,16 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         values["control_frame"] = "base" if _get(params, ("control", "frame", "id")) == base else "tool"
         values["payload_frame"] = "base" if _get(params, ("gravity_compensation", "frame", "id")) == base else "tool"
         values["selected_axes"] = [bool(v) for v in values["selected_axes"]]
-    if k == "franka-cartesian-impedance" and not any(s in params for s in ("translational_stiffness", "rotational_stiffness")):
-        notes.append("no gains in the file: the defaults of franka_example_controllers/cfg/compliance_param.cfg are used "
-                     "(translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
+    if k == "franka-cartesian-impedance":
+        if not isinstance(params.get(_FRANKA_NODE), dict):
+            notes.append(f"no {_FRANKA_NODE} table in the file: the defaults of franka_example_controllers/cfg/"
+                         "compliance_param.cfg are used (translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
+        for gain, (lo, hi) in _FRANKA_RANGES.items():  # dynamic_reconfigure clamps a parameter to its .cfg range
+            v = values[gain]
+            if not lo <= v <= hi:
+                values[gain] = min(hi, max(lo, v))
+                notes.append(f"{_FRANKA_NODE}.{gain} = {v!r} is outside its .cfg range [{lo:g}, {hi:g}]: "
+                             f"dynamic_reconfigure clamps it to {values[gain]:g}")
     known = _KNOWN["fzi" if k.startswith("fzi") else k]
     read = {".".join(str(x) for x in path if not isinstance(x, int)) for slots in _SLOTS[k].values() for path, _ in slots}
     grouped: dict[str, list[str]] = {}
