@@ -226,6 +226,9 @@ def scenario_toml(cfg: Any, *, inline: bool = False) -> str:
         lines.append("offset = [0.0, 0.0, -0.02]")
     elif kind != "ur-force-mode":
         lines.append("force = [0.0, 0.0, -10.0, 0.0, 0.0, 0.0]")
+        if kind == "ros2-admittance":  # upstream's ~/wrench_reference is in the sensor frame, this is the base frame's
+            lines.append("# base frame; on the robot, ~/wrench_reference takes it in the ft_sensor frame: R_sensor^T f "
+                         "(at q0 the tool's z points down: about (0, 0, 10) there)")
     lines += ["", "[figure]", 'signals = ["z", "fz"]', ""]
     return "\n".join(lines)
 

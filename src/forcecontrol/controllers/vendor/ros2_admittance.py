@@ -32,8 +32,11 @@ class Ros2AdmittanceController(PositionInterfaceController):
     (``payload_weight`` = ``CoG.force`` at ``payload_cog`` = ``CoG.pos``) and the wrench reference
     (``reference.force``, the chapter's f_d, base frame) added, then filtered by the exponential
     smoothing α = ``filter_coefficient`` per cycle. The loop settles where ``h_e = f_d`` on the
-    selected axes. The joint reference q_ref follows ``reference.position`` (a pose ``[o; φ]``)
-    through a damped-least-squares IK step per cycle (a trajectory controller in front).
+    selected axes. (Upstream adds its ``~/wrench_reference`` to the raw reading in the
+    ``ft_sensor`` frame: the same f_d is published there as ``R_sᵀ f_d``, and a constant message
+    turns with the tool where ``reference.force`` stays in the base.) The joint reference q_ref
+    follows ``reference.position`` (a pose ``[o; φ]``) through a damped-least-squares IK step per
+    cycle (a trajectory controller in front).
 
     The sensor, control and payload frames are the robot's controlled frame (``"tool"``) or the
     base (``"base"``); the world frame is the base (gravity along −z).
