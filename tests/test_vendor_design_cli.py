@@ -114,3 +114,18 @@ def test_design_table_lists_key_old_new_and_the_checks(tmp_path):
                        "--k-min", "1e4", "--k-max", "1e5").stdout
     assert "error_scale" in out and "0.68" in out and "k_e limit" in out
     assert "31622.8" in out and "100000" in out and out.count("settles") == 3
+
+
+def test_vendor_design_runs_at_the_files_rate_unless_rate_is_given(tmp_path):
+    """fzi_compliance.yaml gives update_rate 100: the design's loop runs at 100 Hz without a note (as `analyze` does);
+    an explicit --rate 500 is used and said; a file without a rate (ros2_admittance.yaml) is designed at 500 Hz, said."""
+    args = ("fzi-compliance", "--config", str(CONFIGS / "fzi_compliance.yaml"), "--k-min", "1e3", "--k-max", "1e4")
+    own = _design(tmp_path, *args)
+    assert own["requirements"]["rate"] == 100.0 and not any("update_rate" in n for n in own["notes"]), own["notes"]
+    forced = _design(tmp_path, *args, "--rate", "500")
+    assert forced["requirements"]["rate"] == 500.0
+    assert "the file's update_rate 100 Hz differs from --rate 500 Hz: the loop runs at --rate" in forced["notes"]
+    bare = _design(tmp_path, "ros2-admittance", "--config", str(CONFIGS / "ros2_admittance.yaml"), "--k-min", "1e3",
+                   "--k-max", "2e4")
+    assert bare["requirements"]["rate"] == 500.0
+    assert "no update_rate in the file: the loop is analysed at 500 Hz (--rate sets another)" in bare["notes"]

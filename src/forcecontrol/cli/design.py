@@ -37,7 +37,9 @@ def design_command(
     inertia: Annotated[float, typer.Option(help="M_d / m_d [kg]")] = 100.0,
     stiffness: Annotated[float, typer.Option(help="K_P / k_P [N/m] (the task's choice, kept)")] = 2500.0,
     arm_inertia: Annotated[float | None, typer.Option(help="the arm's operational mass along the axis [kg]")] = None,
-    rate: Annotated[float, typer.Option(help="admittance-position: interface rate [Hz]")] = 500.0,
+    rate: Annotated[float | None, typer.Option(
+        help="admittance-position and vendor schemes: interface rate [Hz] (default 500; a vendor --config file's own "
+             "update_rate when it gives one)")] = None,
     servo_bandwidth: Annotated[float, typer.Option(help="admittance-position: joint servo ω_s [rad/s]")] = 44.7,
     servo_damping: Annotated[float, typer.Option(help="admittance-position: joint servo ζ_s")] = 0.67,
     lowpass_cutoff: Annotated[
@@ -71,7 +73,7 @@ def design_command(
         from ..analysis.gain_design import design_gains
         from ..errors import ParameterError
 
-        servo_opts = {"--rate": rate != 500.0, "--servo-bandwidth": servo_bandwidth != 44.7,
+        servo_opts = {"--rate": rate is not None, "--servo-bandwidth": servo_bandwidth != 44.7,
                       "--servo-damping": servo_damping != 0.67, "--lowpass-cutoff": lowpass_cutoff is not None,
                       "--robot": robot != "chapter-arm"}
         other_opts = {"--filter-cutoff": filter_cutoff is not None, "--arm-inertia": arm_inertia is not None}
@@ -89,7 +91,8 @@ def design_command(
             from ..analysis.servo_design import design_admittance_servo
 
             d = design_admittance_servo(
-                (k_min, k_max), rate=rate, servo_bandwidth=servo_bandwidth, servo_damping=servo_damping,
+                (k_min, k_max), rate=500.0 if rate is None else rate, servo_bandwidth=servo_bandwidth,
+                servo_damping=servo_damping,
                 delay_cycles=1 if delay is None else delay, lowpass_cutoff=lowpass_cutoff, inertia=inertia, stiffness=stiffness,
                 phase_margin=phase_margin, gain_margin=gain_margin, settling_time=settling_time, robot=robot,
                 sample_time=sample_time,

@@ -89,7 +89,7 @@ def _tune(kind: str, params: dict[str, Any], servo: tuple[float, float, float, i
     return {"gain_scaling": _floor4(_bisect(ok_gain, lo, min(2.0 * lo, s0))) if lo < s0 else s0}
 
 
-def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, *, rate: float, servo_bandwidth: float,
+def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, *, rate: float | None, servo_bandwidth: float,
                   servo_damping: float, delay: int | None, gain_margin: float, solver: str | None, out: Path | None,
                   force: bool, json_out: bool) -> None:
     """The ``design`` command for a vendor scheme (see the module)."""
@@ -115,7 +115,11 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
                 raise ParameterError(f"--solver applies to the fzi schemes; the scheme is {scheme!r}")
             params["solver"] = solver
             notes.append(f"--solver {solver}: the loop is analysed with that solver (not a key of the file)")
-        if cfg.rate is not None and abs(cfg.rate - rate) > 1e-9 * rate:
+        if rate is None:  # the file's own rate, else the project's usual 500 Hz (said)
+            rate = cfg.rate if cfg.rate is not None else 500.0
+            if cfg.rate is None:
+                notes.append("no update_rate in the file: the loop is analysed at 500 Hz (--rate sets another)")
+        elif cfg.rate is not None and abs(cfg.rate - rate) > 1e-9 * rate:
             notes.append(f"the file's update_rate {cfg.rate:g} Hz differs from --rate {rate:g} Hz: the loop runs at --rate")
         servo = (rate, servo_bandwidth, servo_damping, 1 if delay is None else int(delay))
         margin = 10.0 ** (gain_margin / 20.0)
