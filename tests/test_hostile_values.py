@@ -112,6 +112,22 @@ def test_sweep_parameter_limits(param, match):
         SweepDefinition.from_options([param])
 
 
+def test_a_grid_of_more_variations_than_a_sweep_may_have_is_refused_before_it_is_built(tmp_path):
+    """Two 10,000-point parameters make a 10^8-case grid: refused at once, naming the product and the limit (it was
+    materialised until the memory ran out); the same limit as a random design's samples. The CLI exits 2 at once."""
+    import time
+
+    params = ["environment.stiffness=logspace(3, 6, 10000)", "controller.damping[0]=linspace(100, 1000, 10000)"]
+    with pytest.raises(ForceControlError, match=r"the grid has 10,000 x 10,000 = 100,000,000 variations, more than the "
+                                                r"1,000,000 a sweep may have; use fewer points, or design = 'random'"):
+        SweepDefinition.from_options(params)
+    SweepDefinition.from_options(["environment.stiffness=logspace(3, 6, 1000)", "controller.damping[0]=linspace(1, 9, 1000)"])
+    start = time.monotonic()
+    proc = _cli("sweep", "example-9.2", "-p", params[0], "-p", params[1], cwd=tmp_path)
+    assert proc.returncode == 2 and "100,000,000 variations" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert time.monotonic() - start < 60
+
+
 def test_empty_table_in_a_case_names_the_case_and_key(tmp_path):
     """[[case]] with controller.stiffness = {} is an error naming the case and the key (it was dropped silently)."""
     text = _base_toml() + '\n[[case]]\nlabel = "a"\ncontroller.stiffness = {}\n'

@@ -318,6 +318,13 @@ class SweepDefinition:
                 raise SweepError(f"samples must be an integer in [1, {MAX_SWEEP_VALUES:,}] for design = 'random'; got {shown}")
         elif self.samples:
             raise SweepError(f"samples is only used by design = 'random'; got samples = {self.samples!r} with a grid")
+        else:  # a grid is the product of its parameters' values: bounded as a random design's samples are
+            sizes = [len(p.values) for p in self.parameters]
+            if math.prod(sizes) > MAX_SWEEP_VALUES:
+                raise SweepError(
+                    f"the grid has {' x '.join(f'{n:,}' for n in sizes)} = {math.prod(sizes):,} variations, more than the "
+                    f"{MAX_SWEEP_VALUES:,} a sweep may have; use fewer points, or design = 'random' with samples"
+                )
         for name in ("settle_band", "stable_band"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0.0 < v < 1.0):
