@@ -36,7 +36,7 @@ def test_a_library_note_is_one_plain_line_on_stderr_and_kept_in_json(tmp_path):
 
 
 def test_only_the_librarys_warnings_are_reformatted_and_the_display_is_put_back():
-    """forcecontrol's categories (and any warning naming a forcecontrol file) become note:/warning: lines with no
+    """forcecontrol's categories (and a plain UserWarning naming a forcecontrol file) become note:/warning: lines with no
     escape sequence; another package's warning keeps Python's format; the previous display comes back after."""
     import forcecontrol
     from forcecontrol.cli.notices import library_line, show_library_warnings
@@ -49,6 +49,7 @@ def test_only_the_librarys_warnings_are_reformatted_and_the_display_is_put_back(
     assert library_line("plain", UserWarning, ours) == "warning: plain\n"  # a bare warnings.warn in the library
     assert library_line("\x1b]0;title\x07red \x1b[31mtext", SearchNote, ours) == "note: red text\n"
     assert library_line("overflow", RuntimeWarning, "/site-packages/numpy/x.py") is None
+    assert library_line("overflow encountered in matmul", RuntimeWarning, ours) is None  # NumPy's, keeps its place
     passed_on = []
 
     def before(message, category, filename, lineno, file=None, line=None):  # the display installed before

@@ -353,8 +353,8 @@ def run_command(
             else:
                 with Progress(
                     TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
-                    TimeElapsedColumn(), console=err_console, transient=True,
-                ) as bar:
+                    TimeElapsedColumn(), console=err_console, transient=True, disable=not err_console.is_terminal,
+                ) as bar:  # transient: on a file or pipe it would leave only an empty line
                     task = bar.add_task(f"simulating {scn.name}", total=len(scn.cases))
                     run = run_scenario(scn, engine=engine.value, progress=lambda d, n, lab: bar.update(task, completed=d))
         except (ForceControlError, ImportError) as exc:
@@ -403,7 +403,7 @@ def _animate_cases(run, folder: Path, stem: str, quiet: bool = False) -> list[tu
     out = []
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
                   TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console, transient=True,
-                  disable=quiet, redirect_stdout=False, redirect_stderr=False) as bar:
+                  disable=quiet or not err_console.is_terminal, redirect_stdout=False, redirect_stderr=False) as bar:
         for i, (spec, c) in enumerate(zip(run.scenario.cases, run.cases)):
             parts = build_case(spec, where=f"{run.scenario.source}: [[case]] #{i + 1}")
             name = f"{stem}-{_slug(c.label)}" if len(run.cases) > 1 else stem

@@ -23,6 +23,7 @@ def busy(description: str, *, quiet: bool = False) -> Iterator[Callable[[str], N
     from .safe import escape
 
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console,
-                  transient=True, disable=quiet, redirect_stdout=False, redirect_stderr=False) as bar:
+                  transient=True, disable=quiet or not err_console.is_terminal, redirect_stdout=False,
+                  redirect_stderr=False) as bar:  # transient: on a file or pipe it would leave only an empty line
         task = bar.add_task(escape(description), total=None)
         yield lambda text: bar.update(task, description=escape(text))

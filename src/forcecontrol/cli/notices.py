@@ -5,8 +5,8 @@ or decided (:class:`~forcecontrol.scenarios.parts_vendor.ConfigNote`,
 :class:`~forcecontrol.controllers.search.SearchNote`, ...), a warning on what may be wrong
 (:class:`~forcecontrol.errors.DriftWarning`, ...). Python prints each one with the library file and
 line that raised it and that line's source, which tell a command's user nothing. While a command
-runs, a warning raised by forcecontrol (its category is defined in forcecontrol, or the warning
-names a forcecontrol file) is printed instead as ``note: TEXT`` (a category whose name ends in
+runs, a warning raised by forcecontrol (its category is defined in forcecontrol, or a plain
+``UserWarning`` naming a forcecontrol file) is printed instead as ``note: TEXT`` (a category whose name ends in
 ``Note``) or ``warning: TEXT`` (any other); every other package's warning is printed as Python
 prints it. The text keeps no escape sequence or control character (it may quote a file). Which
 warnings are shown, and how often, is still decided by the warning filters.
@@ -30,6 +30,8 @@ _PACKAGE = Path(__file__).resolve().parents[1]
 def _ours(category: Any, filename: str) -> bool:
     if str(getattr(category, "__module__", "")).split(".")[0] == "forcecontrol":
         return True
+    if category is not UserWarning:  # e.g. NumPy's RuntimeWarning in library code: Python's format, with its place
+        return False
     try:
         return Path(filename).resolve().is_relative_to(_PACKAGE)
     except (OSError, ValueError, TypeError):

@@ -127,7 +127,7 @@ def sweep_command(
             note(f"--workers {workers} is ignored: the Dask cluster at {scheduler} runs the blocks on its own workers")
         with Progress(TextColumn("[bold]checking and building cases"), BarColumn(),
                       TextColumn("{task.completed}/{task.total}"), console=err_console, transient=True,
-                      disable=json_out) as checking, noting():
+                      disable=json_out or not err_console.is_terminal) as checking, noting():
             job = checking.add_task("build", total=None)
             prep = prepare_sweep(scn, definition, progress=lambda d, n: checking.update(job, completed=d, total=n))
     except ForceControlError as exc:
