@@ -191,7 +191,8 @@ def _agree(cell: str, value: float) -> bool:
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_run_every_scenario_table_json_figures_and_the_book(name, journey_dirs):
     """`run NAME` and `run NAME --json` with figures on: exit 0, no traceback, no empty line on stderr (a progress bar's
-    leftover), valid PNGs of a sensible size, every check ok, the table equal to the JSON to its printed digits, and the settled values equal to the book's."""
+    leftover), valid PNGs of a sensible size, every check ok, the table equal to the JSON to its printed digits, and the
+    settled values equal to the book's."""
     table_dir, json_dir = journey_dirs
     table = forcecontrol(table_dir, "run", name)
     doc = json.loads(forcecontrol(json_dir, "run", name, "--json").stdout)

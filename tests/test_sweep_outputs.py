@@ -62,3 +62,18 @@ def test_plot_sweep_map_refuses_a_users_file_and_a_folder(tmp_path):
     (tmp_path / "dir.png").mkdir()
     with pytest.raises(OutputError, match="existing folder"):
         plot_sweep_map(res, "environment.stiffness", "controller.damping", tmp_path / "dir.png", resolution=4)
+
+
+def test_a_stable_two_parameter_map_draws_without_a_warning(tmp_path):
+    """A 2-D map whose cases are all stable and have no analytic boundary has nothing to explain: no legend, and no
+    matplotlib 'No artists with labels' warning (it reached the user's stderr on every such sweep)."""
+    import warnings
+
+    from forcecontrol.sweep.figures import plot_sweep_map
+
+    d = SweepDefinition.from_options({"environment.stiffness": [1000.0, 2000.0], "controller.damping[0]": [100.0, 200.0]})
+    res = run_sweep(prepare_sweep("example-9.2", d), tmp_path / "m.parquet", workers=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plot_sweep_map(res, "environment.stiffness", "controller.damping[0]", tmp_path / "m.png", resolution=4)
+    assert (tmp_path / "m.png").stat().st_size > 5_000

@@ -270,8 +270,8 @@ def plot_sweep_map(
             ax.set_xlabel(x)
             ax.set_ylabel(y)
             ax.set_title(f"{figure_safe(label)}\n{metric}", fontsize=9)
-            if c == 0:  # a row's cases are stable or not alike in every column
-                ax.legend(fontsize=7, loc="best")
+            if c == 0 and ax.get_legend_handles_labels()[0]:  # a row's cases are stable or not alike in every column
+                ax.legend(fontsize=7, loc="best")  # (nothing to explain: no legend, and no matplotlib warning)
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""),
                              TITLE_LIMIT), fontsize=10)
