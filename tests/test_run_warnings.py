@@ -71,3 +71,18 @@ def test_analyze_json_lists_the_config_notes_it_warned(tmp_path):
         notes = [w["text"] for w in case["warnings"] if w["kind"] == "config-note"]
         assert any("solver.error_scale not set" in n for n in notes)
         assert all(n in proc.stderr for n in notes)
+
+
+def test_a_force_asked_of_a_tool_that_never_touches_is_said_on_stderr_and_in_json(tmp_path):
+    """Example 9.3 (f_d = 10 N) with its plane moved 0.8 m beyond the start and 0.3 s to go: the tool never touches; the
+    run says so on stderr (`warning: LABEL: the reference asks a contact force ... never touched`) and as a 'no-contact'
+    warning of each case in --json; the unchanged scenario touches and says nothing of the kind."""
+    args = ("run", "example-9.3", "--set", "duration=0.3", "--set", "environment.point=[1.8, 0.0]")
+    table = forcecontrol(tmp_path, *args)
+    doc = json.loads(forcecontrol(tmp_path, *args, "--json", "--force").stdout)
+    for case in doc["cases"]:
+        kinds = [w for w in case["warnings"] if w["kind"] == "no-contact"]
+        assert len(kinds) == 1 and "up to 10 N along an axis" in kinds[0]["text"], case["warnings"]
+        assert f"warning: {case['label']}: the reference asks a contact force" in table.stdout + table.stderr
+    near = json.loads(forcecontrol(tmp_path, "run", "example-9.3", "--set", "duration=0.3", "--json", "--force").stdout)
+    assert all(w["kind"] != "no-contact" for c in near["cases"] for w in c["warnings"])

@@ -40,6 +40,41 @@ def test_import_config_prints_a_scenario_that_loads_and_says_its_notes(tmp_path)
     assert any("sensor_link" in n for n in doc["notes"])
 
 
+def test_imported_ros2_scenario_carries_the_tool_whose_weight_the_file_compensates(tmp_path):
+    """ros2_admittance.yaml compensates a 23 N tool (CoG.force, CoG.pos [0.1, 0, 0] in the tool frame): the imported
+    scenario's UR5 carries that tool (23/9.81 kg there), the controller keeps the file's compensation, and the run
+    touches the table it presses on (without the tool it rose 5 cm and never touched, silently)."""
+    import forcecontrol as fc
+
+    proc = _cli("import-config", str(CONFIGS / "ros2_admittance.yaml"))
+    assert proc.returncode == 0, proc.stderr
+    path = tmp_path / "r.toml"
+    path.write_text(proc.stdout, encoding="utf-8")
+    scn = fc.scenario(path)
+    robot = scn.cases[0].config["robot"]
+    assert robot["payload_mass"] == pytest.approx(23.0 / 9.81, rel=1e-12) and robot["payload_com"] == [0.1, 0.0, 0.0]
+    run = scn.with_(duration=1.0).run()
+    assert run.cases[0].result.metadata["controller"]["payload_weight"] == 23.0
+    assert run.cases[0].result.peak_contact_force_norm() > 5.0
+
+
+def test_values_the_controller_refuses_are_neither_imported_nor_written(tmp_path):
+    """export-config --set stiffness=[-1, ...] / error_scale=-5 exits 2 naming the key and writes nothing; a file holding
+    such a value is refused by import-config (both exited 0, and only `analyze` of the result refused it)."""
+    src = tmp_path / "ex.yaml"
+    src.write_text((CONFIGS / "fzi_compliance.yaml").read_text(encoding="utf-8"), encoding="utf-8")
+    out = tmp_path / "neg.yaml"
+    proc = _cli("export-config", str(src), "--set", "error_scale=-5", "--out", str(out))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and not out.exists()
+    assert "the fzi-compliance controller refuses these values" in proc.stderr
+    assert "key 'error_scale' must be at least 0 (solver.error_scale); got -5.0" in proc.stderr
+    proc = _cli("export-config", str(src), "--set", "stiffness=[-1, -1, -1, -1, -1, -1]", "--out", str(out))
+    assert proc.returncode == 2 and "stiffness" in proc.stderr and ">= 0" in proc.stderr and not out.exists(), proc.stderr
+    src.write_text(src.read_text(encoding="utf-8").replace("error_scale: 0.5", "error_scale: -0.5"), encoding="utf-8")
+    proc = _cli("import-config", str(src))
+    assert proc.returncode == 2 and "error_scale" in proc.stderr and proc.stdout == "", proc.stderr
+
+
 def test_import_config_refuses_an_unknown_type_naming_the_choices():
     """--type abb-egm is refused with the list of formats (exit 2, no traceback)."""
     proc = _cli("import-config", str(CONFIGS / "fzi_force.yaml"), "--type", "abb-egm")

@@ -38,10 +38,11 @@ def import_config_command(
     """Print the scenario (TOML) that runs a vendor or ROS controller from its own configuration file."""
     from ..errors import ForceControlError
     from ..realarm.conventions.configs import read_config
-    from ..scenarios.parts_vendor import scenario_toml
+    from ..scenarios.parts_vendor import check_vendor_parameters, scenario_toml
 
     try:
         cfg = read_config(file, kind, section)
+        check_vendor_parameters(cfg)  # values the controller refuses: an error here, not a scenario that cannot run
         text = scenario_toml(cfg, inline=inline)
     except ForceControlError as exc:
         _fail(exc)
@@ -105,6 +106,7 @@ def export_config_command(
     """Write tuned parameters back into a controller's own configuration file, in its format (comments kept)."""
     from ..errors import ForceControlError, OutputError, ParameterError
     from ..realarm.conventions.configs import read_config
+    from ..scenarios.parts_vendor import check_vendor_parameters
 
     try:
         cfg = read_config(file, kind, section)
@@ -117,6 +119,7 @@ def export_config_command(
         if skipped and scenario is None:
             raise ParameterError(f"cannot write {skipped[0]!r} to a {cfg.kind} file; writable: {', '.join(cfg.writable())}")
         text = cfg.write(**changes)
+        check_vendor_parameters(read_config(file, kind, section, text=text))  # never write values the controller refuses
         target = file if in_place else out
         if target is not None:
             if in_place and out is not None:

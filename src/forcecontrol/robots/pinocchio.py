@@ -444,10 +444,10 @@ def panda(frame: str = "panda_hand_tcp", task: Task = "pose") -> PinocchioRobot:
     )
 
 
-def ur5(frame: str = "tool0", task: Task = "pose") -> PinocchioRobot:
-    """Universal Robots UR5 from example-robot-data: 6 DOF; frame ``tool0``."""
+def ur5(frame: str = "tool0", task: Task = "pose", payload: Payload | None = None) -> PinocchioRobot:
+    """Universal Robots UR5 from example-robot-data: 6 DOF; frame ``tool0``; optional payload."""
     path = example_robot_data_dir() / "ur_description" / "urdf" / "ur5_robot.urdf"
-    return PinocchioRobot.from_urdf(path, frame, task=task, name="ur5")
+    return PinocchioRobot.from_urdf(path, frame, task=task, name="ur5", payload=payload)
 
 
 

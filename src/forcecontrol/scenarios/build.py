@@ -100,8 +100,10 @@ def build_case(case: CaseSpec, where: str = "<scenario>", memo: dict[Any, Any] |
             if share is not None:
                 share._store[("robot", share.keys["top"], share.keys["robot"])] = (rt, robot, q0.copy())
             return _build_rest(case, where, memo, rt, robot, q0.copy(), sensor, share)
-    if rt.get("payload_mass") is not None and rt["model"] != "ur10":
-        raise ScenarioError(f"{where}: [robot]: key 'payload_mass' needs model = 'ur10'; got model = {rt['model']!r}")
+    if rt.get("payload_weight_in_reading") and not rt.get("payload_mass"):
+        raise ScenarioError(f"{where}: [robot]: key 'payload_weight_in_reading' needs a payload_mass > 0")
+    if rt.get("payload_mass") is not None and rt["model"] not in ("ur5", "ur10"):
+        raise ScenarioError(f"{where}: [robot]: key 'payload_mass' needs model = 'ur5' or 'ur10'; got model = {rt['model']!r}")
     if rt["model"] in ("panda", "ur5", "ur10", "urdf"):
         from .parts_spatial import pinocchio_robot  # the 6-D robots (optional extra 'pinocchio')
 
@@ -195,7 +197,7 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
             raise ScenarioError(f"{where}: [sensor] cannot be combined with [robot] payload_mass (the payload's sensor is ideal)")
         from ..sensors import PayloadForceSensor
 
-        sensor = PayloadForceSensor(arm)
+        sensor = PayloadForceSensor(arm, gravity_compensated=not rt.get("payload_weight_in_reading"))
     actuator = _actuator(where, cfg.get("actuator"), robot.nq)
     _check_delays(where, duration, Ts, sensor, actuator)
     for name, part in (("environment", env), ("reference", ref)):

@@ -106,8 +106,13 @@ ROBOT_FIELDS: dict[str, Field] = {
     "elbow": Field("str", default="up", choices=("up", "down")),
     "qd0": Field("vector", low=-MAX_JOINT_SPEED, high=MAX_JOINT_SPEED, doc="initial joint velocities [rad/s]"),
     "parameters": Field("table", doc="planar-2r: overrides of PlanarTwoLinkParameters"),
-    "payload_mass": Field("number", high=1e3, doc="ur10: a payload on the controlled frame [kg] (the sensor reads its inertia)"),
+    "payload_mass": Field("number", high=1e3,
+                          doc="ur5, ur10: a payload on the controlled frame [kg] (the sensor reads its inertia)"),
     "payload_com": Field("vector", doc="its centre of mass in the controlled frame [m]"),
+    "payload_weight_in_reading": Field(
+        "bool", default=False,
+        doc="the force sensor reads the payload's weight too (a raw F/T sensor; the controller compensates it), "
+            "instead of leaving it out (the arm's own payload setting)"),
     "servo": Field("table", fields=SERVO_FIELDS, doc="the joint servo of a position/velocity-interface arm: see [robot.servo]"),
 }
 

@@ -34,13 +34,12 @@ def pinocchio_robot(where: str, rt: dict[str, Any]):
     try:
         if rt["model"] == "panda":
             return pm.panda(rt["frame"] or "panda_hand_tcp")
-        if rt["model"] == "ur5":
-            return pm.ur5(rt["frame"] or "tool0")
-        if rt["model"] == "ur10":  # with the payload, if any (issue 30, FZI #177)
+        if rt["model"] in ("ur5", "ur10"):  # with the payload, if any (issue 30, FZI #177)
             pay = rt.get("payload_mass")
             if rt.get("payload_com") is not None and not pay:
                 raise ScenarioError(f"{where}: [robot]: key 'payload_com' needs a payload_mass > 0; got {pay!r}")
-            return pm.ur10(rt["frame"] or "tool0", payload=pm.Payload(pay, rt.get("payload_com") or (0, 0, 0)) if pay else None)
+            make = pm.ur5 if rt["model"] == "ur5" else pm.ur10
+            return make(rt["frame"] or "tool0", payload=pm.Payload(pay, rt.get("payload_com") or (0, 0, 0)) if pay else None)
         if not rt["urdf"] or not rt["frame"]:
             raise ScenarioError(f"{where}: [robot]: model 'urdf' needs keys 'urdf' and 'frame'")
         return pm.PinocchioRobot.from_urdf(Path(rt["urdf"]), rt["frame"], locked_joints=tuple(rt["locked_joints"] or ()),

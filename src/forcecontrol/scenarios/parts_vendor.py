@@ -20,6 +20,9 @@ from typing import Any
 from ..errors import ScenarioError
 from .schema import Field, register_controller
 
+#: g [m/s²] of the simulated arms (Pinocchio's models): a configured weight [N] is this times a mass [kg]
+STANDARD_GRAVITY = 9.81
+
 __all__ = ["VENDOR_TYPES", "resolve_config_path", "vendor_controller"]
 
 _COMMON = {
@@ -206,7 +209,19 @@ def scenario_toml(cfg: Any, *, inline: bool = False) -> str:
     if torque:
         lines += ['model = "panda"', f"q0 = {_toml_value(_PANDA_Q0)}"]
     else:
-        lines += ['model = "ur5"', f"q0 = {_toml_value(_UR5_Q0)}", "", "[robot.servo]", 'preset = "ur-e-series"']
+        lines += ['model = "ur5"', f"q0 = {_toml_value(_UR5_Q0)}"]
+        weight = float(cfg.parameters.get("payload_weight") or 0.0) if kind == "ros2-admittance" else 0.0
+        if weight > 0.0 and cfg.parameters.get("payload_frame", "tool") == "tool":
+            # the tool whose weight the file's gravity compensation removes: carried by the simulated arm too
+            # (without it, the compensation reads as a force lifting the tool)
+            lines += [f"payload_mass = {weight / STANDARD_GRAVITY!r}  # gravity_compensation.CoG.force / g",
+                      f"payload_com = {_toml_value(list(cfg.parameters.get('payload_cog') or (0.0, 0.0, 0.0)))}",
+                      "payload_weight_in_reading = true  # the F/T reading holds the tool's weight; the file removes it"]
+        elif weight != 0.0:
+            lines.insert(2 + len(cfg.notes), f"# note: the file compensates a {weight:g} N tool that the simulated arm "
+                         "does not carry (a tool is simulated for a positive weight with CoG.pos in the tool frame): "
+                         "the compensation will read as a force on the tool")
+        lines += ["", "[robot.servo]", 'preset = "ur-e-series"']
         if cfg.rate is not None:
             lines.append(f"rate = {float(cfg.rate)!r}")
     lines += ["", "[environment]", 'type = "table"', "offset = [0.0, 0.0, -0.005]", "stiffness = 5000.0", "",
@@ -231,6 +246,34 @@ def scenario_toml(cfg: Any, *, inline: bool = False) -> str:
                          "(at q0 the tool's z points down: about (0, 0, 10) there)")
     lines += ["", "[figure]", 'signals = ["z", "fz"]', ""]
     return "\n".join(lines)
+
+
+def check_vendor_parameters(cfg: Any) -> None:
+    """Refuse a configuration whose values the library's controller refuses (a negative stiffness, an error_scale
+    below 0, ...), before a scenario or a file is written from it: the controller of :func:`scenario_toml`'s
+    scenario (parameters inline) is built once.
+
+    Raises:
+        ParameterError: naming the file, the parameter, the expected range and the value given.
+    """
+    import math
+
+    import tomllib
+
+    from ..errors import ForceControlError, ParameterError
+    from .build import build_case
+    from .core import load_scenario
+
+    for key, v in cfg.parameters.items():  # a non-finite value is refused here by name
+        vals = v if isinstance(v, list | tuple) else [v]
+        if any(isinstance(x, float) and not math.isfinite(x) for x in vals):
+            raise ParameterError(f"{cfg.source}: {key} must be finite; got {v!r}")
+    try:
+        scn = load_scenario(tomllib.loads(scenario_toml(cfg, inline=True)))
+        build_case(scn.cases[0], where=str(cfg.source))
+    except ForceControlError as exc:
+        said = str(exc).removeprefix("<dict>: ")  # the scenario is the file's: its name is said first
+        raise ParameterError(f"{cfg.source}: the {cfg.kind} controller refuses these values: {said}") from exc
 
 
 KIND_TITLES = {

@@ -11,6 +11,8 @@ from __future__ import annotations
 import html
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from .units import with_unit
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -67,10 +69,32 @@ def checks_table(run: ScenarioRun) -> tuple[list[str], list[list[str]]]:
     return cols, rows
 
 
+def never_touched(case: CaseResult) -> str | None:
+    """When the case's reference asks a contact force (f_d ≠ 0 at some sample) and the tool never touched the
+    environment (no contact force at any sample), what the run says of it; else None."""
+    from ..core.axes import REFERENCE_FIELDS
+
+    r = case.result
+    if getattr(r, "reference", None) is None:  # a result without its sampled reference: nothing to compare
+        return None
+    ref = np.asarray(r.reference, dtype=np.float64)
+    m = ref.shape[1] // len(REFERENCE_FIELDS) if ref.ndim == 2 else 0
+    fd = ref[:, 3 * m : 4 * m]
+    asked = float(np.max(np.abs(fd))) if fd.size else 0.0
+    if not asked > 0.0 or r.peak_contact_force_norm() != 0.0:
+        return None
+    return (f"the reference asks a contact force (up to {asked:.4g} N along an axis) but the tool never touched "
+            f"the environment in {float(r.t[-1]):.4g} s")
+
+
 def contact_warnings(run: ScenarioRun) -> list[str]:
-    """One line per case that lost contact after touching (allowed by the scenario or not)."""
+    """One line per case that lost contact after touching (allowed by the scenario or not), or that never touched
+    although its reference asks a force."""
     out = []
     for c in run.cases:
+        untouched = never_touched(c)
+        if untouched:
+            out.append(f"{c.label}: {untouched}")
         lost = int(c.metrics.get("contact_losses", 0))
         if lost:
             allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
@@ -97,13 +121,17 @@ def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     not an instant): the reader's notes on a controller's configuration file (``config-note``), the logged
     events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
     ``safety``, ``stability``, ``contact lost``, ``hole not found``, ``contact-projection``: a curved surface
-    penetrated beyond its radius of curvature) and contact lost after touching (``contact-lost``, with its
-    count): the ``warnings`` list of a case in ``run --json``."""
+    penetrated beyond its radius of curvature), a force asked of a tool that never touched (``no-contact``) and
+    contact lost after touching (``contact-lost``, with its count): the ``warnings`` list of a case in
+    ``run --json``."""
     out = config_warnings((case.result.metadata.get("controller") or {}).get("config_notes") or ())
     for e in case_events(case):
         kind = str(e.get("event", ""))
         if kind in WARNING_EVENTS:
             out.append({"kind": kind, "t": float(e["t"]) if "t" in e else None, "text": str(e.get("detail", kind))})
+    untouched = never_touched(case)
+    if untouched:
+        out.append({"kind": "no-contact", "t": None, "text": untouched})
     lost = int(case.metrics.get("contact_losses", 0))
     if lost:
         allowed = all(ch["metric"] != "contact_losses" for ch in case.checks)
