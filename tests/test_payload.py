@@ -115,12 +115,14 @@ def test_payload_sensor_adds_the_contact_wrench_and_refuses_a_bare_robot():
 
 
 @pytest.mark.parametrize("robot, word", [
-    ({"model": "ur5", "payload_mass": 5.0}, "payload_mass"),
+    ({"model": "panda", "payload_mass": 5.0}, "payload_mass"),
     ({"model": "ur10", "payload_com": [0.0, 0.0, 0.1]}, "payload_com"),
     ({"model": "ur10", "payload_mass": -1.0}, "mass"),
+    ({"model": "ur5", "payload_weight_in_reading": "true"}, "payload_weight_in_reading"),
 ])
 def test_scenario_payload_keys_are_refused_where_they_would_be_ignored(tmp_path, robot, word):
-    """[robot] payload_mass on a model without payload support, payload_com alone, or a negative mass: ScenarioError."""
+    """[robot] payload_mass on a model without payload support (the UR5 and UR10 have it), payload_com alone, a
+    negative mass, or payload_weight_in_reading without a payload: ScenarioError."""
     import tomllib
 
     from forcecontrol.errors import ScenarioError
