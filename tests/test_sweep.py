@@ -366,7 +366,8 @@ def test_rerun_of_a_finished_sweep_runs_nothing_and_a_different_sweep_is_refused
     again = run_sweep(prepare_sweep(_scenario(duration=0.2), d), out)
     assert (first.ran, again.ran, again.resumed) == (1, 0, 1)
     other = SweepDefinition.from_options({"environment.stiffness": [2e4]}, cases=["parallel"])
-    with pytest.raises(SweepError, match=r"holds a different sweep \(id \w+, this one \w+\)"):
+    with pytest.raises(SweepError, match=r"holds a different sweep \(id \w+, this one \w+\); choose another output path, "
+                                         r"or --overwrite \(overwrite=True\) to replace it"):
         run_sweep(prepare_sweep(_scenario(duration=0.2), other), out)
 
 

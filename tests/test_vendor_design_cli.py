@@ -129,3 +129,14 @@ def test_vendor_design_runs_at_the_files_rate_unless_rate_is_given(tmp_path):
                    "--k-max", "2e4")
     assert bare["requirements"]["rate"] == 500.0
     assert "no update_rate in the file: the loop is analysed at 500 Hz (--rate sets another)" in bare["notes"]
+
+
+def test_design_names_every_scheme_and_its_own_options_when_refusing(tmp_path):
+    """A misspelt scheme is refused listing all ten the command designs (the message listed the chapter's five); a
+    reversed range names --k-min and --k-max, as typed (it named an API argument, stiffness_range)."""
+    proc = forcecontrol(tmp_path, "design", "inner-velocty", "--k-min", "1e3", "--k-max", "1e4", ok=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert ("SCHEME must be one of impedance, inner-position, inner-velocity, parallel, hybrid, admittance-position, "
+            "fzi-compliance, fzi-force, ros2-admittance, ur-force-mode; got 'inner-velocty'") in proc.stderr
+    proc = forcecontrol(tmp_path, "design", "impedance", "--k-min", "1e5", "--k-max", "1e3", ok=False)
+    assert proc.returncode == 2 and "--k-min and --k-max must satisfy 0 < k_min <= k_max < inf; got 100000, 1000" in proc.stderr

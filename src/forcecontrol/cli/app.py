@@ -321,8 +321,9 @@ def run_command(
     animate: Annotated[
         bool, typer.Option("--animate", help="also write an animation (GIF) of each case: the arm, the environment, the force")
     ] = False,
-    view3d: Annotated[bool, typer.Option("--view3d", help="also write view3d.html: a scrubbable 3-D view of each case "
-                                         "(the robot's meshes, the contact surface, the force arrow; 'view3d' extra)")] = False,
+    view3d: Annotated[bool, typer.Option("--view3d", help="also write view3d.html (view3d-CASE.html per case when there "
+                                         "are several): a scrubbable 3-D view (the robot's meshes, the contact surface, "
+                                         "the force arrow; 'view3d' extra)")] = False,
     set_: SetOption = None,
 ) -> None:
     """Simulate a scenario: summary table, figure like the chapter's, optional data files, animations, 3-D views."""

@@ -62,16 +62,23 @@ def design_command(
     Prints the gains and, at k_min, √(k_min k_max) and k_max, the margins and 2 % settling time of
     the sampled loop (see forcecontrol.analysis.design); --out writes a runnable scenario.
     """
-    from ..errors import ForceControlError, OutputError
+    import math
+
+    from ..analysis.design import DESIGN_SCHEMES
+    from ..errors import ForceControlError, OutputError, ParameterError
     from .design_vendor import VENDOR_SCHEMES, design_vendor
 
+    schemes = (*DESIGN_SCHEMES, "admittance-position", *VENDOR_SCHEMES)
+    if scheme not in schemes:  # every scheme the command designs, not one analysis' list
+        _fail(ParameterError(f"SCHEME must be one of {', '.join(schemes)}; got {scheme!r}"))
+    if not (0 < k_min <= k_max < math.inf):  # named as the user typed them
+        _fail(ParameterError(f"--k-min and --k-max must satisfy 0 < k_min <= k_max < inf; got {k_min:g}, {k_max:g}"))
     if scheme in VENDOR_SCHEMES:
         design_vendor(scheme, config, k_min, k_max, rate=rate, servo_bandwidth=servo_bandwidth, servo_damping=servo_damping,
                       delay=delay, gain_margin=gain_margin, solver=solver, out=out, force=force, json_out=json_out)
         return
     try:
         from ..analysis.gain_design import design_gains
-        from ..errors import ParameterError
 
         servo_opts = {"--rate": rate is not None, "--servo-bandwidth": servo_bandwidth != 44.7,
                       "--servo-damping": servo_damping != 0.67, "--lowpass-cutoff": lowpass_cutoff is not None,

@@ -192,7 +192,7 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
             if not overwrite:
                 raise SweepError(
                     f"{out} holds a different sweep (id {meta.get('sweep_id')}, this one {prep.sweep_id}); "
-                    "choose another output path or overwrite it"
+                    "choose another output path, or --overwrite (overwrite=True) to replace it"
                 )
             out.unlink()
     if parts_dir.exists():
