@@ -205,6 +205,11 @@ def test_run_every_scenario_table_json_figures_and_the_book(name, journey_dirs):
     assert sorted(p.name for p in json_figures) == sorted(p.name for p in figures)
     assert all(png_size(p) == png_size(table_dir / "forcecontrol-out" / name / p.name) for p in json_figures)
     assert doc["scenario"] == name and doc["all_checks_pass"] is True
+    for case in doc["cases"]:  # every number of a case has its unit in the map (flags and labels aside)
+        values = {**case["settled"], **{f"analysis.{k}": v for k, v in (case["analysis"] or {}).items()}}
+        numbers = [k for k, v in values.items() if isinstance(v, int | float) and not isinstance(v, bool)]
+        flags = {"bounced", "hole_found"}  # yes/no as 1/0: no unit
+        assert not [k for k in numbers if k not in doc["units"] and k.split(".")[-1] not in flags], (name, doc["units"])
     assert all(ch["ok"] for c in doc["cases"] for ch in c["checks"])
     settled, book = rich_tables(table.stdout)[0], rich_tables(table.stdout)[1] if doc["cases"][0]["checks"] else []
     assert [r["case"] for r in settled] == [c["label"] for c in doc["cases"]]

@@ -389,13 +389,15 @@ class ScenarioRun:
         }
 
     def _json_units(self) -> dict[str, Any]:
-        """The ``units`` map of :meth:`to_json`: settled metrics, checked quantities and the final sample's
-        fields (a list, one unit per component, for ``tip_position`` and ``contact_force``)."""
+        """The ``units`` map of :meth:`to_json`: settled metrics, checked quantities, the analysis' quantities
+        (``analysis.NAME``) and the final sample's fields (a list, one unit per component, for ``tip_position``
+        and ``contact_force``)."""
         from ..core.axes import axis_names
         from .units import unit, units_map
 
         names = {"t", "peak_contact_force_norm"}
         names |= {k for c in self.cases for k in c.metrics} | {ch["metric"] for c in self.cases for ch in c.checks}
+        names |= {f"analysis.{k}" for c in self.cases for k in (c.analysis or {})}  # what each case's analysis gives
         out: dict[str, Any] = units_map(names)
         m = max((c.result.m for c in self.cases), default=2)
         pose, _, wrench = axis_names(m)

@@ -38,6 +38,7 @@ _NAMED = {
     "rate": "Hz", "servo_bandwidth": "rad/s", "servo_damping": "-", "delay_cycles": "cycles", "lowpass_cutoff": "Hz",
     "path_curvature_max": "1/m", "estimate_lag": "rad", "normal_force_bound": "N", "curvature_error": "N", "lag_error": "N",
     "hole_distance": "m", "hole_detection_radius": "m", "hole_time": "s", "hole_x": "m", "hole_y": "m", "hole_z": "m",
+    "contact_losses": "count", "bounce_count": "count", "safety_events": "count", "safety_stops": "count",
 }
 _JOINT = re.compile(r"^(q|qd|u|uc)\d+$")
 _JOINT_UNITS = {"q": "rad", "qd": "rad/s", "u": "N m", "uc": "N m"}
