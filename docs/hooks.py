@@ -239,9 +239,10 @@ def _scenario_page(scn, run, figs, anims, elapsed: float) -> str:
         lines += ["", "## Against the book (or the closed form)", "",
                   "| case | quantity | simulated | expected | tolerance | rel. error | |", "|---|---|---|---|---|---|---|"]
         for label, ch in checks:
+            rel = f"{100 * ch['relative_error']:+.3f} %" if ch["expected"] else "—"  # none of a quantity expected to be 0
             lines.append(
                 f"| {_cell(label)} | `{ch['metric']}` | {ch['value']:.6g} | {ch['expected']:.6g} | ±{ch['tolerance']:.3g} "
-                f"| {100 * ch['relative_error']:+.3f} % | {'ok' if ch['ok'] else '**MISSED**'} |"
+                f"| {rel} | {'ok' if ch['ok'] else '**MISSED**'} |"
             )
     source = scenario_source(scn.name).read_text(encoding="utf-8")
     lines += ["", f"Simulated in {elapsed:.1f} s while the site was built.", "",

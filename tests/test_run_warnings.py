@@ -86,3 +86,16 @@ def test_a_force_asked_of_a_tool_that_never_touches_is_said_on_stderr_and_in_jso
         assert f"warning: {case['label']}: the reference asks a contact force" in table.stdout + table.stderr
     near = json.loads(forcecontrol(tmp_path, "run", "example-9.3", "--set", "duration=0.3", "--json", "--force").stdout)
     assert all(w["kind"] != "no-contact" for c in near["cases"] for w in c["warnings"])
+
+
+def test_the_checks_table_gives_no_relative_error_for_a_quantity_expected_to_be_zero():
+    """contact_losses 19 against 0 printed '+1900.000 %' (the JSON's relative_error is then the difference itself):
+    the table shows '—' there, and the percentage elsewhere."""
+    from types import SimpleNamespace
+
+    from forcecontrol.scenarios.summary import checks_table
+
+    checks = [{"metric": "contact_losses", "value": 19, "expected": 0, "tolerance": 0, "relative_error": 19.0, "ok": False},
+              {"metric": "fx", "value": 201.0, "expected": 200.0, "tolerance": 1.0, "relative_error": 0.005, "ok": True}]
+    _, rows = checks_table(SimpleNamespace(cases=[SimpleNamespace(label="a", checks=checks)]))
+    assert [r[5] for r in rows] == ["—", "+0.500 %"]

@@ -59,13 +59,16 @@ def _force_name(f: str) -> str:
 
 def checks_table(run: ScenarioRun) -> tuple[list[str], list[list[str]]]:
     """Columns and rows of the comparison with the book (or the closed form): simulated, expected,
-    tolerance, relative error and ok/MISSED per checked quantity (no rows when nothing is checked)."""
+    tolerance, relative error ("—" when the expected value is 0) and ok/MISSED per checked quantity (no rows
+    when nothing is checked)."""
     cols = ["case", "quantity", "simulated", "expected", "tolerance", "rel. error", ""]
     rows = []
     for c in run.cases:
         for ch in c.checks:
+            # no relative error of a quantity expected to be 0 (its JSON relative_error is then the difference itself)
+            rel = f"{100 * ch['relative_error']:+.3f} %" if ch["expected"] else "—"
             rows.append([c.label, with_unit(ch["metric"]), f"{ch['value']:.6g}", f"{ch['expected']:.6g}",
-                         f"±{ch['tolerance']:.3g}", f"{100 * ch['relative_error']:+.3f} %", "ok" if ch["ok"] else "MISSED"])
+                         f"±{ch['tolerance']:.3g}", rel, "ok" if ch["ok"] else "MISSED"])
     return cols, rows
 
 
