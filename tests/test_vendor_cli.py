@@ -126,3 +126,19 @@ def test_run_of_an_imported_force_controller_settles_at_the_target_force(tmp_pat
     assert fz == pytest.approx(-10.0, rel=0.01)
     meta = run.cases[0].result.metadata["controller"]
     assert meta["config_source"].endswith("fzi_force.yaml") and meta["config_notes"]
+
+
+def test_a_file_given_to_the_wrong_command_says_which_command_reads_it(tmp_path):
+    """import-config of an empty file says it is empty (not 'got NoneType'); of a scenario (.toml) says to run it; run of a
+    controller's YAML points to import-config (it said only 'not valid TOML')."""
+    (tmp_path / "empty.yaml").write_text("", encoding="utf-8")
+    proc = _cli("import-config", "empty.yaml", cwd=tmp_path)
+    assert proc.returncode == 2 and "empty.yaml: the file is empty" in proc.stderr and "NoneType" not in proc.stderr
+    scn = CONFIGS.parent / "example-9.2.toml"
+    proc = _cli("import-config", str(scn))
+    assert proc.returncode == 2 and "a .toml file is a scenario" in proc.stderr
+    assert "forcecontrol run example-9.2.toml" in proc.stderr and "Traceback" not in proc.stderr
+    (tmp_path / "x.yaml").write_text((CONFIGS / "fzi_force.yaml").read_text(encoding="utf-8"), encoding="utf-8")
+    proc = _cli("run", "x.yaml", cwd=tmp_path)
+    assert proc.returncode == 2 and "not valid TOML" in proc.stderr
+    assert "`forcecontrol import-config x.yaml` prints the scenario that runs it" in proc.stderr

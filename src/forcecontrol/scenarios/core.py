@@ -217,7 +217,11 @@ def _read_toml(path: Path, where: str) -> dict[str, Any]:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{where}: not valid TOML: {exc}") from exc
+        hint = ""
+        if Path(where).suffix.lower() in (".yaml", ".yml", ".cfg", ".script", ".urscript"):  # a controller's own file?
+            hint = (f" (a controller's configuration file? `forcecontrol import-config {Path(where).name}` prints the "
+                    "scenario that runs it)")
+        raise ScenarioError(f"{where}: not valid TOML: {exc}{hint}") from exc
     except RecursionError as exc:
         raise ScenarioError(f"{where}: arrays or tables nested too deeply (at most {MAX_NESTING} levels)") from exc
     if _depth(data, MAX_NESTING) > MAX_NESTING:

@@ -214,6 +214,11 @@ def read_config(
             text = Path(source).read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise ParameterError(f"{where}: cannot be read as UTF-8 text: {exc}") from exc
+    if not text.strip():
+        raise ParameterError(f"{where}: the file is empty (expected a controller's configuration: YAML, .cfg or URScript)")
+    if Path(where).suffix.lower() == ".toml":  # a scenario, not a controller's own file
+        raise ParameterError(f"{where}: a .toml file is a scenario, not a controller's own configuration (ROS YAML, "
+                             f"dynamic_reconfigure .cfg, URScript): run it with `forcecontrol run {Path(where).name}`")
     if kind == "ur-force-mode" or (kind is None and re.search(r"^\s*force_mode\s*\(", text, re.M)):
         params, notes, spans = read_ur_script(text, where)
         return VendorConfig("ur-force-mode", where, text, None, params, None, notes, "urscript", None, spans)
