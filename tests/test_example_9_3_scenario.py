@@ -86,3 +86,15 @@ def test_analyze_figures_writes_one_figure_per_scheme(tmp_path):
     for name, f in zip(("innerposition", "innervelocity", "parallel"), files):
         assert name in f and (tmp_path / "example-9.3").exists()
         assert Path(f).stat().st_size > 10_000
+    assert "notes" not in json.loads(res.stdout)  # every figure has its linearised overlay
+
+
+def test_analyze_figures_says_which_figure_has_no_linearised_overlay(tmp_path):
+    """Example 9.2's impedance control has no linear force model to overlay: the figure is written and a note (stderr
+    and --json) says it is the simulation only (the help promised the overlay for every controller type)."""
+    res = runner.invoke(app, ["analyze", "example-9.2", "--json", "--figures", "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert len(doc["files"]) == 1 and Path(doc["files"][0]).stat().st_size > 10_000
+    assert doc["notes"] == ["figure of ImpedanceController: simulated only, no linearised overlay (the linear model covers "
+                            "the direct force schemes on an elastic environment with a set point)"]

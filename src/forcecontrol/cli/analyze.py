@@ -25,7 +25,8 @@ def analyze_command(
     json_out: JsonOut = False,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected analysis value is missed")] = False,
     figures: Annotated[
-        bool, typer.Option(help="also simulate and write one figure per controller type with the linearised model")
+        bool, typer.Option(help="also simulate and write one figure per controller type, with the linearised model's "
+                                "force where it applies (the direct force schemes; a note says where it does not)")
     ] = False,
     out: Annotated[Path, typer.Option(help="folder for the figures")] = Path("forcecontrol-out"),
     verify: Annotated[
@@ -36,7 +37,8 @@ def analyze_command(
     """Analyse a scenario without simulating: poles, ω_n, ζ, equilibria, sampled stability limit.
 
     With ``--figures`` the scenario is also simulated and one figure per controller type is
-    written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid.
+    written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid for the
+    direct force schemes (a note names each figure drawn without it).
     """
     from ..errors import ForceControlError
     from .safe import escape
@@ -59,8 +61,10 @@ def analyze_command(
             compile_notice()
 
             folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
+            figure_notes: list[str] = []
             with busy(f"simulating {scn.name} for its figures", quiet=json_out):
-                report["files"] = [str(p) for p in plot_scheme_figures(scn, folder)]
+                report["files"] = [str(p) for p in plot_scheme_figures(scn, folder, notes=figure_notes)]
+            set_notes = [*set_notes, *figure_notes]
     except ForceControlError as exc:
         _fail(exc)
     for text in set_notes:

@@ -256,6 +256,7 @@ def _linear_overlay(parts: dict[str, Any], t: Any) -> tuple[int, Any] | None:
 
 def plot_scheme_figures(
     source: str | Path | dict[str, Any] | Scenario, folder: str | Path, *, engine: str = "auto",
+    notes: list[str] | None = None,
 ) -> list[Path]:
     """Simulate a scenario and write one figure per controller type (like Figs. 9.9–9.11).
 
@@ -267,6 +268,9 @@ def plot_scheme_figures(
         source: a built-in scenario name, a TOML path or a scenario dict.
         folder: where the PNG files go (created).
         engine: simulator engine.
+        notes: when given, a line is appended for each figure drawn without the linearised overlay
+            (the linear model is that of the direct force schemes on an elastic environment, set point
+            reference), saying why.
 
     Returns:
         The written files, one per controller type, in order of first appearance.
@@ -298,6 +302,9 @@ def plot_scheme_figures(
                 sig = "f" + "xyz"[axis]
                 if sig in SIGNAL_LABELS and sig in signals:
                     overlays.setdefault(sig, []).append((r.t, f, f"linearised, {run.cases[i].label}"))
+        if notes is not None and not overlays:
+            notes.append(f"figure of {kind}: simulated only, no linearised overlay (the linear model covers the direct "
+                         "force schemes on an elastic environment with a set point)")
         title = _BOOK_FIGURES.get(kind, kind)
         stem = safe_name("".join(ch if ch.isalnum() else "-" for ch in f"{scn.name}-{kind}").strip("-").lower())
         path = plot_results(
