@@ -160,6 +160,12 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
                                            "kinematics_alpha", "gain", "gain_scaling", "damping") if hasattr(ctl, k)}
     loop = vendor_loop(kind, params, _servo_of(robot), direction)
     out: dict[str, Any] = {"vendor_loop": loop_summary(kind, loop), **loop_quantities(loop, k_e)}
+    payload = getattr(getattr(robot, "torque_robot", robot), "payload", None)
+    if payload is not None:  # what this verdict does not cover (said next to it, on the table and in --json)
+        out["vendor_loop_note"] = (
+            f"the verdict leaves out the {payload.mass:g} kg payload after the sensor: its inertial wrench, fed back "
+            "through the sensor, can make the loop oscillate in free space (FZI #177; analysis.vendor_fzi."
+            "fdcc_error_scale_limit bounds one axis of it): check with `forcecontrol run`")
     ref = parts["reference"].at(float(parts["duration"]))
     env = parts["environment"]
     point = np.asarray(getattr(env, "point", getattr(env, "rest_position", np.zeros(3))), dtype=float)[:3]
