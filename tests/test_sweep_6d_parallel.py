@@ -131,6 +131,29 @@ def test_a_killed_worker_then_a_resumed_run_gives_the_same_table(reference, spy,
     pd.testing.assert_frame_equal(res.table, reference, check_exact=True)
 
 
+def test_a_pool_found_broken_when_submitting_loses_that_block_only_and_it_is_submitted_again(reference, spy, monkeypatch,
+                                                                                             tmp_path):
+    """A worker that dies between two submissions breaks the pool before the next submit, which then raises
+    BrokenProcessPool itself (the race that ended a CI run with that exception): the block is lost with the pool like a
+    running one, a SweepWarning says so, it is submitted again on new workers, and the table is the one-thread table."""
+    from concurrent.futures.process import BrokenProcessPool, ProcessPoolExecutor
+
+    calls = []
+
+    class BreaksOnThirdSubmit(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            calls.append(1)
+            if len(calls) == 3:
+                raise BrokenProcessPool("a child process terminated abruptly (simulated)")
+            return super().submit(fn, *args, **kwargs)
+
+    monkeypatch.setattr(procs, "ProcessPoolExecutor", BreaksOnThirdSubmit)
+    with pytest.warns(SweepWarning, match="a worker process died; the blocks of cases .* are submitted again"):
+        res = run_sweep(_prep(), tmp_path / "b.parquet", workers=2, block_size=1, processes=True)
+    assert len(calls) > 6 and res.ran == 6
+    pd.testing.assert_frame_equal(res.table, reference, check_exact=True)
+
+
 @pytest.mark.parametrize(("bad", "what"), [
     ("reference", r"failed inside the simulator \(worker process\) with AttributeError"),  # a foreign error: named, a defect
     ("q0", r""),  # the library's own error (wrong q0 length): its message, with the case

@@ -282,7 +282,13 @@ def _one_pool(queue: list[list[Any]], n: int, ctx: Any, band: tuple[Any, ...],
         while (queue or pending) and not lost:
             while queue and len(pending) < 2 * n:
                 b = queue.pop(0)
-                pending[pool.submit(work, dumps(b), *band)] = b
+                try:
+                    pending[pool.submit(work, dumps(b), *band)] = b
+                except BrokenProcessPool:  # a worker died since the last wait: this block is lost with the pool
+                    lost.append(b)
+                    break
+            if lost:
+                break
             finished, _ = wait(list(pending), return_when=FIRST_COMPLETED)
             for f in finished:
                 b = pending.pop(f)
