@@ -98,3 +98,13 @@ def test_analyze_figures_says_which_figure_has_no_linearised_overlay(tmp_path):
     assert len(doc["files"]) == 1 and Path(doc["files"][0]).stat().st_size > 10_000
     assert doc["notes"] == ["figure of ImpedanceController: simulated only, no linearised overlay (the linear model covers "
                             "the direct force schemes on an elastic environment with a set point)"]
+
+
+def test_analyze_notes_are_one_line_each_on_a_pipe(tmp_path):
+    """`analyze example-9.2 --figures` as a subprocess (stderr a pipe): its note is one 'note: ' line, not wrapped at 80
+    columns (a reader of the log or a grep finds it whole)."""
+    from journeys_helpers import forcecontrol
+
+    proc = forcecontrol(tmp_path, "analyze", "example-9.2", "--figures")
+    lines = [ln for ln in proc.stderr.splitlines() if "linearised" in ln or "set point" in ln]
+    assert len(lines) == 1 and lines[0].startswith("note: figure of ImpedanceController") and lines[0].endswith("set point)")

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice, err_console, print_json
+from .app import JsonOut, _fail, compile_notice, print_json, say_note
 from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 
@@ -41,7 +41,6 @@ def analyze_command(
     direct force schemes (a note names each figure drawn without it).
     """
     from ..errors import ForceControlError
-    from .safe import escape
 
     try:
         from ..scenarios import load_scenario
@@ -68,11 +67,11 @@ def analyze_command(
     except ForceControlError as exc:
         _fail(exc)
     for text in set_notes:
-        err_console.print(f"[yellow]note:[/] {escape(text)}", highlight=False)
+        say_note(text)  # one line each, however long (a pipe or a file has no width to wrap at)
     if set_notes:
         report["notes"] = set_notes
     for line in skip_notes(report):  # what was not analysed or verified, on stderr whatever the output
-        err_console.print(f"[yellow]note:[/] {escape(line)}", highlight=False)
+        say_note(line)
     if json_out:
         print_json(report)
     else:
