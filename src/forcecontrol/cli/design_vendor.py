@@ -92,7 +92,7 @@ def _tune(kind: str, params: dict[str, Any], servo: tuple[float, float, float, i
 def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, *, rate: float | None, servo_bandwidth: float,
                   servo_damping: float, delay: int | None, gain_margin: float, solver: str | None, out: Path | None,
                   force: bool, json_out: bool) -> None:
-    """The ``design`` command for a vendor scheme (see the module)."""
+    """The ``design`` command for a vendor scheme (see the module); the range k_min, k_max is checked by the command."""
     from ..errors import ForceControlError, OutputError, ParameterError
     from ..realarm.conventions.configs import read_config
     from ..scenarios.parts_vendor_analysis import loop_limit, loop_quantities, loop_summary, vendor_loop
@@ -104,8 +104,6 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
         if config is None:
             raise ParameterError(f"the {scheme} scheme tunes a file: give --config FILE (the controller's own YAML, .cfg or "
                                  "UR script)")
-        if not (0 < k_min <= k_max) or not math.isfinite(k_max):
-            raise ParameterError(f"--k-min and --k-max must satisfy 0 < k_min <= k_max < inf; got {k_min:g}, {k_max:g}")
         cfg = read_config(config, None if scheme.startswith("fzi") else scheme)
         if cfg.kind != scheme:
             raise ParameterError(f"--config {config}: is a {cfg.kind} configuration; the scheme is {scheme!r}")
