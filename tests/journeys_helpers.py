@@ -9,30 +9,25 @@ from __future__ import annotations
 import os
 import re
 import shlex
-import shutil
 import struct
 import subprocess
-import sys
 from pathlib import Path
+
+import cli_server
+from cli_server import executable
+
+__all__ = ["TIMEOUT", "PNG_MAGIC", "executable", "forcecontrol", "shell", "assert_no_traceback", "png_size",
+           "assert_figure", "rich_tables", "number", "fenced_commands"]
 
 #: a cold Numba cache compiles for a few seconds per law; a loaded 2-core machine stretches that.
 TIMEOUT = 900.0
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-def executable() -> str:
-    """The ``forcecontrol`` console script: on PATH, else beside the running interpreter."""
-    found = shutil.which("forcecontrol") or shutil.which("forcecontrol", path=str(Path(sys.executable).parent))
-    assert found, "the forcecontrol console script is neither on PATH nor beside the interpreter (pip install -e .)"
-    return found
-
-
 def forcecontrol(cwd: Path, *args: str | Path, ok: bool = True, timeout: float = TIMEOUT) -> subprocess.CompletedProcess:
-    """Run ``forcecontrol ARGS`` in ``cwd``; with ``ok``: exit 0 and no traceback on stderr (else the output in the failure)."""
-    cmd = [executable(), *map(str, args)]
-    env = dict(os.environ)
-    env.setdefault("PYTHONUTF8", "1")
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env, encoding="utf-8")
+    """Run ``forcecontrol ARGS`` in ``cwd`` (its own process, forked from this worker's command server:
+    tests/cli_server.py); with ``ok``: exit 0 and no traceback on stderr (else the output in the failure)."""
+    proc = cli_server.run([str(a) for a in args], cwd=cwd, timeout=timeout)
     if ok:
         shown = "forcecontrol " + " ".join(shlex.quote(str(a)) for a in args)
         assert proc.returncode == 0, f"{shown} (in {cwd}) exited {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-5000:]}"

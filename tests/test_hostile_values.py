@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 
 import pytest
 import tomllib
 
+import cli_server
 import forcecontrol as fc
 from forcecontrol.errors import ForceControlError, ParameterError, ScenarioError
 from forcecontrol.scenarios import load_scenario, scenario_source
@@ -140,8 +140,7 @@ def test_empty_table_in_a_case_names_the_case_and_key(tmp_path):
 
 def _cli(*args: str, cwd) -> subprocess.CompletedProcess:
     env = {**os.environ, "NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR", str(cwd / "numba"))}
-    return subprocess.run([sys.executable, "-m", "forcecontrol", *args], capture_output=True, text=True,
-                          timeout=TIMEOUT, cwd=cwd, env=env)
+    return cli_server.run(list(args), cwd=cwd, env=env, module=True, timeout=TIMEOUT)
 
 
 @pytest.mark.parametrize("edit, parts", [

@@ -12,10 +12,10 @@ import math
 import os
 import re
 import subprocess
-import sys
 
 import pytest
 
+import cli_server
 from forcecontrol.scenarios import list_scenarios
 
 SCENARIOS = sorted(list_scenarios())
@@ -23,8 +23,7 @@ SCENARIOS = sorted(list_scenarios())
 
 def _analyze(*args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONIOENCODING": "utf-8", "COLUMNS": "200"}
-    return subprocess.run([sys.executable, "-m", "forcecontrol", "analyze", *args], capture_output=True, text=True,
-                          encoding="utf-8", env=env, timeout=600)
+    return cli_server.run(["analyze", *args], env=env, module=True, timeout=600)
 
 
 def _ok(proc: subprocess.CompletedProcess[str]) -> None:

@@ -14,6 +14,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+import cli_server
+
 FORCECONTROL = str(Path(sys.executable).with_name("forcecontrol"))
 
 
@@ -24,7 +26,7 @@ def folder(tmp_path_factory) -> Path:
 
 
 def _cli(folder: Path, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
-    r = subprocess.run([FORCECONTROL, *args], cwd=folder, capture_output=True, text=True, timeout=timeout)
+    r = cli_server.run(list(args), cwd=folder, timeout=timeout)
     assert r.returncode == 0, f"forcecontrol {' '.join(args)}: exit {r.returncode}\n{r.stderr[-3000:]}"
     assert "Traceback" not in r.stderr and "Traceback" not in r.stdout, r.stderr[-3000:]
     return r

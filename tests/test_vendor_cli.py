@@ -5,11 +5,12 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 from importlib import resources
 from pathlib import Path
 
 import pytest
+
+import cli_server
 
 pytest.importorskip("ruamel.yaml")
 pytest.importorskip("pinocchio")
@@ -19,8 +20,7 @@ CONFIGS = Path(str(resources.files("forcecontrol.scenarios"))) / "configs"
 
 def _cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONIOENCODING": "utf-8", "COLUMNS": "200"}
-    return subprocess.run([sys.executable, "-m", "forcecontrol", *args], capture_output=True, text=True, encoding="utf-8",
-                          env=env, timeout=900, cwd=cwd)
+    return cli_server.run(list(args), cwd=cwd, env=env, module=True, timeout=900)
 
 
 def test_import_config_prints_a_scenario_that_loads_and_says_its_notes(tmp_path):
