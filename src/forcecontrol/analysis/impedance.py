@@ -21,7 +21,7 @@ from ..core.validate import as_gain_matrix, as_matrix, as_vector, nonnegative_sc
 from ..errors import DimensionError, ParameterError
 
 __all__ = ["AxisDynamics", "impedance_axis", "ImpedanceModes", "impedance_modes", "impedance_response",
-           "held_input_response", "contact_plant"]
+           "held_input_response", "held_input_matrices", "contact_plant", "HeldLoop", "impedance_loop"]
 
 
 @dataclass(frozen=True)
@@ -188,8 +188,8 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
     With ``sample_time`` and ``mobility`` (the arm's ``M = J B⁻¹ Jᵀ`` at the start, (m, m)): the
     loop as a controller runs it, sampled. The law (9.31) reads x_k, ẋ_k and h_k at t_k = k Ts,
     and the torque is held until t_{k+1} while the environment pushes with h(t), so between
-    samples ``ẍ = a_k + M (h_k − h(t))`` (:func:`held_input_response`). As Ts → 0 this is the
-    continuous model.
+    samples ``ẍ = a_k + M (h_k − h(t))`` (:func:`impedance_loop`, :func:`held_input_response`). As
+    Ts → 0 this is the continuous model.
 
     Returns:
         (x (N, m) [m], h_e = K (x − x_r) + D_e ẋ (N, m) [N]) at ``times`` [s].
@@ -205,11 +205,9 @@ def impedance_response(inertia: Any, damping: Any, stiffness: Any, environment_s
         raise ParameterError("sample_time and mobility go together (the sampled loop needs both); "
                              f"got sample_time={sample_time!r} and mobility {'None' if mobility is None else 'given'}")
     if sample_time is not None:
-        Mob = as_matrix("mobility", mobility, (m, m))
-        A, B = contact_plant(Mob, K, De)
-        F = np.hstack([-Minv @ KP + (Mob - Minv) @ K, -Minv @ D + (Mob - Minv) @ De])
-        z = held_input_response(A, B, F, Minv @ (KP @ x_d + K @ x_r), sample_time, np.concatenate([x0, np.zeros(m)]),
-                                times)
+        loop = impedance_loop(M, D, KP, K, as_matrix("mobility", mobility, (m, m)), environment_damping=De)
+        z = held_input_response(loop.A, loop.B, loop.F, loop.input(x_d, x_r), sample_time,
+                                np.concatenate([x0, np.zeros(m)]), times)
         x = z[:, :m]
         return x, (x - x_r) @ K.T + z[:, m:] @ De.T
     x_e = np.linalg.solve(KP + K, KP @ x_d + K @ x_r)
@@ -257,8 +255,6 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
     Returns:
         z at ``times``, (N, n).
     """
-    from scipy.linalg import expm  # type: ignore[import-untyped]
-
     A, B, F = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (A, B, F))
     g = np.atleast_1d(np.asarray(g, dtype=np.float64))
     Ts = positive_scalar("sample_time", sample_time, "s")
@@ -279,8 +275,7 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
             )
 
     def hold(tau: float) -> tuple[np.ndarray, np.ndarray]:
-        E = expm(np.block([[A, B], [np.zeros((p, n)), np.zeros((p, p))]]) * tau)
-        return E[:n, :n], E[:n, n:]
+        return _hold(A, B, tau)
 
     Phi, Gam = hold(Ts)
     k_of = np.floor(t / Ts + 1e-9).astype(np.int64)
@@ -300,3 +295,118 @@ def held_input_response(A: Any, B: Any, F: Any, g: Any, sample_time: float, star
             P, G = hold(tau)
             out[i] = P @ z + G @ (F @ z + H @ s + g)
     return out
+
+
+def _hold(A: np.ndarray, B: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(Φ(τ), Γ(τ))`` from ``expm([A B; 0 0] τ)`` (A (n, n), B (n, p) already float arrays)."""
+    from scipy.linalg import expm  # type: ignore[import-untyped]
+
+    n, p = B.shape
+    E = expm(np.block([[A, B], [np.zeros((p, n)), np.zeros((p, p))]]) * tau)
+    return E[:n, :n], E[:n, n:]
+
+
+def held_input_matrices(A: Any, B: Any, sample_time: float) -> tuple[np.ndarray, np.ndarray]:
+    """The zero-order hold of ``ż = A z + B v`` over one sample: ``z_{k+1} = Φ z_k + Γ v_k``.
+
+    ``[Φ Γ; 0 I] = expm([A B; 0 0] Ts)`` (``scipy.linalg.expm``), the map :func:`held_input_response`
+    steps with.
+
+    Args:
+        A: (n, n); B: (n, p); sample_time: Ts > 0 [s].
+
+    Returns:
+        (Φ (n, n), Γ (n, p)).
+    """
+    A, B = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (A, B))
+    Ts = positive_scalar("sample_time", sample_time, "s")
+    if A.shape != (A.shape[0], A.shape[0]) or B.shape[0] != A.shape[0]:
+        raise DimensionError(f"A must be square (n, n) and B (n, p); got shapes {A.shape} and {B.shape}")
+    return _hold(A, B, Ts)
+
+
+@dataclass(frozen=True)
+class HeldLoop:
+    """A control law held over each sample on the arm in contact with a linear environment.
+
+    Between two samples the plant is ``ż = A z + B v`` (:func:`contact_plant`, state ``z = [x; ẋ]``,
+    (2m,)); the controller reads z_k at ``t_k = k Ts`` and holds ``v_k = F z_k + G_d x_d + G_r x_r``
+    until ``t_{k+1}`` (zero-order hold, as the simulator runs it). Discretised exactly, the closed
+    loop is ``z_{k+1} = (Φ + Γ F) z_k + Γ g`` (:func:`held_input_matrices`); as Ts → 0 it tends to the
+    continuous loop ``ż = (A + B F) z + B g``.
+
+    Attributes:
+        A: (2m, 2m); B: (2m, m); F: (m, 2m); desired_gain: G_d (m, m); rest_gain: G_r (m, m).
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    F: np.ndarray
+    desired_gain: np.ndarray
+    rest_gain: np.ndarray
+
+    @property
+    def m(self) -> int:
+        """The task dimension m (the state has 2m entries)."""
+        return int(self.B.shape[1])
+
+    def input(self, desired: Any, rest: Any) -> np.ndarray:
+        """The constant part of the held input, ``g = G_d x_d + G_r x_r`` (m,)."""
+        return self.desired_gain @ as_vector("desired", desired, self.m) + self.rest_gain @ as_vector("rest", rest, self.m)
+
+    def continuous(self) -> np.ndarray:
+        """``A + B F``: the loop's state matrix as Ts → 0 (2m, 2m) [1/s, 1/s²]."""
+        return self.A + self.B @ self.F
+
+    def closed(self, sample_time: float) -> np.ndarray:
+        """``Φ + Γ F``: the sampled closed loop's state matrix over one sample Ts [s] (2m, 2m)."""
+        Phi, Gam = held_input_matrices(self.A, self.B, sample_time)
+        return Phi + Gam @ self.F
+
+    def spectral_radius(self, sample_time: float) -> float:
+        """The largest |eigenvalue| of :meth:`closed` (< 1: the sampled loop is stable)."""
+        return float(np.max(np.abs(np.linalg.eigvals(self.closed(sample_time)))))
+
+
+def impedance_loop(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, mobility: Any, *,
+                   environment_damping: Any = None, force_measurement: bool = True) -> HeldLoop:
+    """Impedance control (9.30)–(9.31), or (9.28) without force measurement, held over each sample on
+    ``h_e = K (x − x_r) + D_e ẋ``.
+
+    The inner loop (9.30) makes ``ẍ = a_k`` at the sample, where it cancels the measured h_k with
+    ``Jᵀ h_k`` (9.30); while the torque is held the environment pushes with h(t), which acts on the
+    arm's mobility ``M = J B⁻¹ Jᵀ``: ``ẍ = a_k + M (h_k − h(t))``. Without force measurement (9.28)
+    nothing is cancelled: ``ẍ = a_k − M h(t)``. With ``a_k = M_d⁻¹ (K_P (x_d − x_k) − K_D ẋ_k [− h_k])``
+    ((9.31) corrected, constant x_d) and the plant ``ẍ = v − M (K x + D_e ẋ)`` (:func:`contact_plant`):
+
+    * (9.31): ``F = [−M_d⁻¹ K_P + (M − M_d⁻¹) K,  −M_d⁻¹ K_D + (M − M_d⁻¹) D_e]``,
+      ``G_d = M_d⁻¹ K_P``, ``G_r = M_d⁻¹ K``; the continuous limit is the impedance (9.32);
+    * (9.28): ``F = [−M_d⁻¹ K_P, −M_d⁻¹ K_D]``, ``G_d = M_d⁻¹ K_P``, ``G_r = M K``; the continuous
+      limit is (9.29), coupled through ``B_A⁻¹ = M`` (taken at one pose).
+
+    Args:
+        inertia, damping, stiffness: M_d [kg], K_D [N s/m], K_P [N/m], symmetric (m, m) (scalar or
+            (m,) allowed).
+        environment_stiffness: K, symmetric positive semi-definite (m, m) [N/m] (base frame).
+        mobility: ``M = J B⁻¹ Jᵀ`` at the pose considered, (m, m) [1/kg].
+        environment_damping: D_e (m, m) [N s/m] (default 0).
+        force_measurement: (9.30)–(9.31) (True) or (9.28) (False).
+    """
+    Mob = np.atleast_2d(np.asarray(mobility, dtype=np.float64))
+    m = Mob.shape[0]
+    Mob = as_matrix("mobility", Mob, (m, m))
+    M = as_gain_matrix("inertia", inertia, m)
+    D = as_gain_matrix("damping", damping, m, definite=False)
+    KP = as_gain_matrix("stiffness", stiffness, m)
+    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
+    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
+        "environment_damping", environment_damping, m, definite=False)
+    Minv = np.linalg.inv(M)
+    A, B = contact_plant(Mob, K, De)
+    if force_measurement:
+        F = np.hstack([-Minv @ KP + (Mob - Minv) @ K, -Minv @ D + (Mob - Minv) @ De])
+        rest_gain = Minv @ K
+    else:
+        F = np.hstack([-Minv @ KP, -Minv @ D])
+        rest_gain = Mob @ K
+    return HeldLoop(A, B, F, Minv @ KP, rest_gain)
