@@ -18,6 +18,7 @@ _LAZY = {
     "ComplianceEquilibrium": ".compliance",
     "compliance_equilibrium": ".compliance",
     "joint_space_compliance": ".compliance",
+    "compliance_loop": ".compliance",
     "ForceGains": ".force_design",
     "ForceLoopAxis": ".force",
     "design_force_gains": ".force_design",
@@ -31,23 +32,32 @@ _LAZY = {
     "impedance_response": ".impedance",
     "held_input_response": ".impedance",
     "contact_plant": ".impedance",
+    "held_input_matrices": ".impedance",
+    "HeldLoop": ".impedance",
+    "impedance_loop": ".impedance",
+    "axis_spectral_radii": ".sampled_contact",
+    "stiffness_limit": ".sampled_contact",
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .compliance import ComplianceEquilibrium, compliance_equilibrium, joint_space_compliance
+    from .compliance import ComplianceEquilibrium, compliance_equilibrium, compliance_loop, joint_space_compliance
     from .design import DESIGN_SCHEMES, LoopModel, loop_model
     from .force import ForceLoopAxis
     from .force_design import ForceGains, design_force_gains, force_loop_axes, operational_mass, sampled_stability_limit
     from .gain_design import GainDesign, design_gains
     from .impedance import (
         AxisDynamics,
+        HeldLoop,
         ImpedanceModes,
         contact_plant,
+        held_input_matrices,
         held_input_response,
         impedance_axis,
+        impedance_loop,
         impedance_modes,
         impedance_response,
     )
+    from .sampled_contact import axis_spectral_radii, stiffness_limit
 
 
 def __getattr__(name: str) -> Any:
@@ -67,6 +77,7 @@ __all__ = [
     "ComplianceEquilibrium",
     "compliance_equilibrium",
     "joint_space_compliance",
+    "compliance_loop",
     "AxisDynamics",
     "impedance_axis",
     "ImpedanceModes",
@@ -74,6 +85,11 @@ __all__ = [
     "impedance_response",
     "held_input_response",
     "contact_plant",
+    "held_input_matrices",
+    "HeldLoop",
+    "impedance_loop",
+    "axis_spectral_radii",
+    "stiffness_limit",
     "ForceLoopAxis",
     "ForceGains",
     "force_loop_axes",

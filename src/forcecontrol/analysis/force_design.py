@@ -93,7 +93,7 @@ def sampled_stability_limit(
     The boundary is the smallest k at which the largest pole modulus ρ(k) of the sampled loop
     (:meth:`ForceLoopAxis.sampled`) reaches 1: k is doubled from ``low`` until ρ >= 1, and the
     crossing inside the last doubling is found with Brent's method (``scipy.optimize.brentq``) on
-    ``ρ − 1`` in ln k.
+    ``ρ − 1`` in ln k (:func:`~forcecontrol.analysis.sampled_contact.first_crossing`).
 
     With ``arm_inertia`` m_x the contact is an undamped oscillator of θ = Ts √(k / m_x) radians per
     sample. At θ = π (the contact's frequency at the Nyquist frequency) ρ = 1, and just below it
@@ -114,7 +114,7 @@ def sampled_stability_limit(
     Raises:
         ParameterError: the loop is already unstable at ``low``.
     """
-    from scipy.optimize import brentq
+    from .sampled_contact import first_crossing
 
     low = positive_scalar("low", low)
     high = positive_scalar("high", high)
@@ -133,12 +133,9 @@ def sampled_stability_limit(
     nyquist = mx is not None and 2.0 * math.log(math.pi * (1.0 - 1e-7) / Ts) + math.log(mx) < top
     if nyquist:  # θ = π (1 − 1e-7): inside the window below the Nyquist point (see above)
         top = 2.0 * math.log(math.pi * (1.0 - 1e-7) / Ts) + math.log(mx)
-    while a < top:
-        b = min(a + math.log(2.0), top)
-        if margin(b) >= 0.0:
-            root = brentq(margin, a, b, xtol=tol, rtol=4.0 * np.finfo(float).eps)
-            return math.exp(root - tol if margin(root) >= 0.0 else root)
-        a = b
+    u = first_crossing(margin, a, top, tol)
+    if u is not None:
+        return math.exp(u)
     return math.exp(top) if nyquist else math.inf
 
 
