@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice, print_json, say_note
+from .app import JsonOut, _fail, compile_notice, err_console, print_json, say_note
 from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 
@@ -72,6 +72,8 @@ def analyze_command(
         report["notes"] = set_notes
     for line in skip_notes(report):  # what was not analysed or verified, on stderr whatever the output
         say_note(line)
+    for line in sampled_warnings(report):  # a sampled loop that cannot settle, on stderr whatever the output
+        say_warning(line)
     if json_out:
         print_json(report)
     else:
@@ -94,6 +96,18 @@ def format_value(v: Any) -> str:
     return str(v)
 
 
+def say_warning(text: str) -> None:
+    """Print ``warning: ...`` on stderr, one line however long (as :func:`say_note`)."""
+    from .safe import escape
+
+    err_console.print(f"[yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def sampled_warnings(report: dict[str, Any]) -> list[str]:
+    """The text of each case's ``sampled-unstable`` warning (a sampled loop with a spectral radius >= 1)."""
+    return [w["text"] for case in report["cases"] for w in case.get("warnings", []) if w.get("kind") == "sampled-unstable"]
+
+
 def skip_notes(report: dict[str, Any]) -> list[str]:
     """One line per case for each thing not analysed or not verified, with the reason (as the JSON has it)."""
     out = []
@@ -102,6 +116,8 @@ def skip_notes(report: dict[str, Any]) -> list[str]:
         ver = case.get("verification")
         if case.get("analysis_skipped"):
             out.append(f"{label}: {case['analysis_skipped']}" + ("" if ver is None else " (so nothing is verified)"))
+        if case.get("sampled_loop_skipped"):
+            out.append(f"{label}: {case['sampled_loop_skipped']}")
         for c in case["checks"]:
             if c.get("reason"):
                 out.append(f"{label}: expected '{c['metric']}' not checked: {c['reason']}")
@@ -131,13 +147,16 @@ def _print_tables(report: dict[str, Any]) -> None:
         console.print(f"set: {escape(key)} = {escape(json.dumps(value))}", highlight=False)
     for case in report["cases"]:
         expected = {c["metric"].split(".", 1)[1]: c for c in case["checks"]}
-        t = Table(title=escape(f"{case['label']} ({case['controller']})"), title_justify="left")
+        unstable = [w for w in case.get("warnings", []) if w.get("kind") == "sampled-unstable"]
+        not_reached = {k for w in unstable for k in w.get("quantities", [])}  # marked † in the table
+        title = f"{case['label']} ({case['controller']})" + (" — sampled loop UNSTABLE" if unstable else "")
+        t = Table(title=escape(title), title_justify="left")
         for col in ("quantity", "predicted", "expected", "tolerance", ""):
             t.add_column(col, justify="left" if col == "quantity" else "right")
         for k in list(case["analysis"]) + [k for k in expected if k not in case["analysis"]]:
             c = expected.get(k)
             t.add_row(
-                escape(with_unit(k)), format_value(case["analysis"].get(k)),
+                escape(with_unit(k)) + (" †" if k in not_reached else ""), format_value(case["analysis"].get(k)),
                 "" if c is None else format_value(c["expected"]),
                 "" if c is None or c["tolerance"] is None else f"±{c['tolerance']:.3g}",
                 "" if c is None else ("[green]ok[/]" if c["ok"] else "[red]MISSED[/]"),
@@ -145,6 +164,10 @@ def _print_tables(report: dict[str, Any]) -> None:
         if not case["analysis"]:
             t.add_row(escape(f"(no analysis: {case.get('analysis_skipped') or 'none applies to this case'})"), "", "", "", "")
         console.print(t)
+        for w in unstable:
+            console.print(f"[red]sampled loop unstable along {escape(', '.join(w['axes']))}:[/] spectral radius "
+                          f"{format_value(max(w['spectral_radius'], w.get('end_spectral_radius') or 0.0))} >= 1; "
+                          "† marks the continuous model's values, which it does not reach", highlight=False)
         ver = case.get("verification")
         if ver is not None:
             _print_verification(console, ver)

@@ -2,9 +2,10 @@
 
 For each case the scenario's parts are built (robot, environment, controller, reference) and
 every analysis registered with :func:`forcecontrol.scenarios.register_analysis` that applies is
-evaluated: equilibria (9.22)–(9.23), impedance ω_n and ζ (Example 9.2), and for the direct force
-control schemes poles, zero, ω_n, ζ, the equilibrium (9.44)/(9.49) and the sampled-data
-stability limit. Expected ``analysis.*`` values of the scenario are checked against them.
+evaluated: equilibria (9.22)–(9.23), impedance ω_n and ζ (Example 9.2), the sampled loop's
+spectral radius and stability limit of impedance (9.28), (9.30)–(9.31) and compliance (8.110) on a
+linear environment, and for the direct force control schemes poles, zero, ω_n, ζ, the equilibrium
+(9.44)/(9.49) and the sampled-data stability limit. Expected ``analysis.*`` values of the scenario are checked against them.
 This is what ``forcecontrol analyze NAME|FILE [--json]`` prints.
 """
 
@@ -158,12 +159,17 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
         (:func:`forcecontrol.scenarios.units.unit`); ``analysis`` maps names (``pole_re_x``,
         ``stability_limit_x`` [N/m], ``omega_n_x`` [rad/s], ...) to numbers, with None for an
         infinite or undefined value; ``checks`` compares the scenario's ``analysis.*`` expected
-        values (the other expected values need a simulation: ``forcecontrol run``).
+        values (the other expected values need a simulation: ``forcecontrol run``). A case's
+        ``warnings`` has a ``sampled-unstable`` entry for each group of axes whose sampled loop has
+        a spectral radius >= 1 (:func:`~.parts_sampled.sampled_loop_warnings`: its continuous ω_n, ζ
+        and steady values are not reached), and ``sampled_loop_skipped`` says why a case whose
+        analysis gives a loop's ω_n and ζ has no sampled verdict.
 
     Raises:
         ScenarioError: the scenario cannot be loaded or built.
     """
     from .core import Scenario, build_case, case_analysis, check_expected, load_scenario
+    from .parts_sampled import sampled_loop_skip_reason, sampled_loop_warnings
     from .summary import config_warnings
 
     scn = source if isinstance(source, Scenario) else load_scenario(source)
@@ -192,8 +198,13 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
             "checks": [{k: _plain(v) if k not in ("metric", "ok", "reason") else v for k, v in c.items()} for c in checks],
         }
         entry["warnings"] = config_warnings(getattr(parts["controller"], "config_notes", None))  # as run --json
+        # a sampled loop with a spectral radius >= 1 does not settle: said next to its continuous numbers
+        entry["warnings"] += sampled_loop_warnings(parts, analysis, case.label)
         if not analysis:
             entry["analysis_skipped"] = no_analysis_reason(parts)
+        sampled_skipped = sampled_loop_skip_reason(parts, analysis)
+        if sampled_skipped:
+            entry["sampled_loop_skipped"] = sampled_skipped
         if verify:
             entry["verification"] = verify_case(parts, analysis)
         cases.append(entry)

@@ -47,7 +47,8 @@ _POSE_TO_FORCE = {"x": "fx", "y": "fy", "z": "fz", "rx": "mx", "ry": "my", "rz":
 #: analysis quantities per axis: prefix -> unit, or None for the unit of the axis itself
 _PER_AXIS: tuple[tuple[str, str | None], ...] = (
     ("pole_re_", "1/s"), ("pole_im_", "rad/s"), ("real_pole_", "1/s"), ("zero_", "1/s"), ("omega_n_", "rad/s"),
-    ("zeta_", "-"), ("spectral_radius_", "-"), ("steady_", None), ("pose_error_", None), ("settled_", None),
+    ("zeta_", "-"), ("spectral_radius_", "-"), ("end_spectral_radius_", "-"), ("steady_", None), ("pose_error_", None),
+    ("settled_", None),
 )
 _MODAL = re.compile(r"^(motion|velocity|force|normal)_(omega_n|zeta)(_\d+)?$")
 SWEEP_METRIC_UNITS = {"settling_time": "s", "overshoot": "%", "steady_state_force_error": "N", "peak_force": "N",
