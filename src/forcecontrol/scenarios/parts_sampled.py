@@ -98,10 +98,15 @@ def _pose(robot: Any, q0: np.ndarray, x: np.ndarray, m: int) -> np.ndarray | Non
     q = q0.copy()
     for _ in range(50):
         e = x - np.asarray(robot.forward_kinematics(q), dtype=float)[:m]
+        if not np.all(np.isfinite(e)):
+            return None
         if float(np.max(np.abs(e))) < 1e-9:
             return q
         J = np.asarray(robot.jacobian(q), dtype=float)[:m]
-        q = q + np.linalg.lstsq(J, e, rcond=None)[0]
+        try:
+            q = q + np.linalg.lstsq(J, e, rcond=None)[0]
+        except np.linalg.LinAlgError:  # pragma: no cover - an SVD that does not converge
+            return None
     return None
 
 
@@ -125,6 +130,22 @@ def _end_position(loop: Any, x_d: np.ndarray, rest: np.ndarray) -> np.ndarray:
     return np.linalg.solve(-loop.continuous()[m:, :m], loop.input(x_d, rest))
 
 
+def _end_rest(ctl: Any, robot: Any, q0: np.ndarray, start: Any, K: np.ndarray, De: np.ndarray, rest: np.ndarray,
+              normal: np.ndarray | None, x_d: np.ndarray, mob0: np.ndarray) -> np.ndarray:
+    """Where the case is predicted to end: the rest of its held loop for the final x_d; the free rest when that would
+    not press on a one-sided plane; for (9.29), whose rest depends on the mobility there, three fixed-point steps."""
+    m = start.m
+    x_end = _end_position(start, x_d, rest)
+    if normal is not None and float((x_end - rest) @ normal) > 0.0:  # no penetration: the plane is left
+        return _end_position(_loop(ctl, np.zeros((m, m)), np.zeros((m, m)), mob0), x_d, rest)
+    for _ in range(3):  # (9.28) rests where the mobility of its own pose says (the others do not depend on it)
+        q = _pose(robot, q0, x_end, m)
+        if q is None:
+            break
+        x_end = _end_position(_loop(ctl, K, De, _mobility(robot, q)), x_d, rest)
+    return x_end
+
+
 def _model(parts: dict[str, Any]) -> _Model:
     """The held loops of a case the verdict applies to. Raises ``numpy.linalg.LinAlgError`` when the arm's
     inertia is singular at q0."""
@@ -139,19 +160,16 @@ def _model(parts: dict[str, Any]) -> _Model:
         return _Model(start, None, "the case has no duration (no final reference)", contact, K, De, mob0, None)
     x_d = np.asarray(parts["reference"].at(float(parts["duration"])).position, dtype=float)[:m]
     end, skipped, mob = None, None, None
-    x_end = _end_position(start, x_d, rest)
-    if normal is not None and float((x_end - rest) @ normal) > 0.0:  # no penetration: the plane is left
-        x_end = _end_position(_loop(ctl, np.zeros((m, m)), np.zeros((m, m)), mob0), x_d, rest)
-    else:
-        for _ in range(3):  # (9.29) rests where the mobility of its own pose says (the others do not depend on it)
-            q = _pose(robot, q0, x_end, m)
-            if q is None:
-                break
-            x_end = _end_position(_loop(ctl, K, De, _mobility(robot, q)), x_d, rest)
-    q_end = _pose(robot, q0, x_end, m)
-    if q_end is None:
+    try:
+        x_end = _end_rest(ctl, robot, q0, start, K, De, rest, normal, x_d, mob0)
+    except np.linalg.LinAlgError:
+        x_end = None
+        skipped = ("the held loop has no single rest position for the final reference (its stiffness through the "
+                   "arm's mobility is singular)")
+    q_end = None if x_end is None else _pose(robot, q0, x_end, m)
+    if x_end is not None and q_end is None:
         skipped = f"the predicted end position {np.round(x_end, 6).tolist()} m is not reached from q0 by the arm's kinematics"
-    else:
+    elif q_end is not None:
         try:
             mob = _mobility(robot, q_end)
             end = _loop(ctl, K, De, mob)
