@@ -40,13 +40,6 @@ RUNTIME_VARIABLES = frozenset({"COLUMNS", "LINES", "NO_COLOR", "FORCE_COLOR", "T
                                "FORCECONTROL_SWEEP_KERNEL", "PWD", "OLDPWD",
                                "FORCECONTROL_TEST_NEW_PROCESSES"})
 
-#: what a library run in this worker by an earlier test writes into its environment, which a user's shell does not
-#: have: Dask's LocalCluster (distributed's pre-spawn environment, set in the process that starts the cluster) sets
-#: ``__DASK_PARENT_PID``, ``MALLOC_TRIM_THRESHOLD_``, ``OMP_NUM_THREADS=1`` and a ``PYTHONHASHSEED``. A request may
-#: differ from the server in these; the forked command runs with the server's start (a user's) and the request's value
-#: in ``os.environ``
-LEAKED_VARIABLES = frozenset({"__DASK_PARENT_PID", "MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS", "PYTHONHASHSEED"})
-
 #: values of these that change nothing when Python already runs in UTF-8 mode (the server is started with PYTHONUTF8=1)
 UTF8_VARIABLES = {"PYTHONIOENCODING": {"utf-8", "utf8", "UTF-8", "UTF8"}, "PYTHONUTF8": {"1"}}
 
@@ -252,7 +245,7 @@ def differences(env: dict[str, str], server_env: dict[str, str]) -> list[str]:
     out = []
     for k in sorted(set(env) | set(server_env)):
         a, b = env.get(k), server_env.get(k)
-        if a == b or k in RUNTIME_VARIABLES or k in LEAKED_VARIABLES:
+        if a == b or k in RUNTIME_VARIABLES:
             continue
         if k in UTF8_VARIABLES and (a is None or a in UTF8_VARIABLES[k]) and (b is None or b in UTF8_VARIABLES[k]):
             continue

@@ -27,7 +27,7 @@ ONE_WORKER = {
     "test_surface_following_6d.py", "test_rigid.py", "test_monitor.py", "test_problem_9_10.py", "test_journeys.py",
     "test_cli_replay.py", "test_journeys_files.py", "test_python_parity.py", "test_render_process.py",
     "test_ergonomics.py", "test_plotting.py", "test_animation.py", "test_vendor_data.py", "test_replay_frames.py",
-    "test_view3d.py", "test_view3d_browser.py", "test_sweep_6d_parallel.py",
+    "test_view3d.py", "test_view3d_browser.py", "test_sweep_6d_parallel.py", "test_cli_server.py",
 }
 
 #: tests that share a module fixture (or its compiled kernels) and stay together on one worker, the module's
@@ -55,6 +55,23 @@ def pytest_configure(config: pytest.Config) -> None:
     """
     if os.environ.get("PYTEST_XDIST_WORKER") is None:
         one_blas_thread_for_new_processes()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
+    """Each test leaves this process's environment as it found it, whatever a library it ran wrote there.
+
+    Dask's LocalCluster writes distributed's pre-spawn environment into the process that starts it (``PYTHONHASHSEED``,
+    ``OMP_NUM_THREADS=1``, ``MALLOC_TRIM_THRESHOLD_``, ``__DASK_PARENT_PID``), pyviz_comms ``_PYVIZ_COMMS_INSTALLED``:
+    every later subprocess of the worker inherited them (one hash seed for all), and no later command could be forked
+    from the worker's command server (tests/cli_server.py), whose environment they no longer matched. Restored after
+    the test's setup, call and teardown, so that a module fixture's writes go too.
+    """
+    before = dict(os.environ)
+    yield
+    if dict(os.environ) != before:
+        os.environ.clear()
+        os.environ.update(before)
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -72,9 +72,6 @@ def test_an_environment_the_imports_read_runs_a_new_process(tmp_path):
     forked command: that command runs in a new process."""
     base = cli_server.base_environment()
     assert cli_server.servable({**base, "COLUMNS": "99", "PYTHONIOENCODING": "utf-8"}, base)
-    # what an in-process Dask LocalCluster of an earlier test leaves in this worker's environment
-    assert cli_server.servable({**base, "__DASK_PARENT_PID": "1", "MALLOC_TRIM_THRESHOLD_": "65536",
-                                "OMP_NUM_THREADS": "1", "PYTHONHASHSEED": "6640"}, base)
     for k, v in (("NUMBA_CACHE_DIR", str(tmp_path)), ("OPENBLAS_NUM_THREADS", "7"), ("PYTHONWARNINGS", "error"),
                  ("MPLBACKEND", "pdf")):
         assert not cli_server.servable({**base, k: v}, base), k
@@ -98,3 +95,17 @@ def test_what_one_command_changes_in_its_process_is_gone_for_the_next(tmp_path):
     assert first.forked and second.forked, cli_server.refused()
     assert first.returncode == second.returncode == 2
     assert first.stderr == second.stderr
+
+
+def test_what_a_library_writes_in_the_environment_is_gone_after_the_test():
+    """tests/conftest.py restores the environment after each test: first, a library writes a variable (here, as Dask's
+    LocalCluster and pyviz_comms do, by hand)."""
+    os.environ["_FORCECONTROL_TEST_LEAK"] = "1"
+
+
+def test_what_a_library_wrote_in_the_environment_before_is_gone():
+    """... and the next test (on the same worker: this module is one of conftest's ONE_WORKER) no longer sees it, and
+    its commands are forked from the server again."""
+    assert "_FORCECONTROL_TEST_LEAK" not in os.environ
+    proc = cli_server.run(["--version"])
+    assert proc.forked, cli_server.refused()
