@@ -228,3 +228,26 @@ def test_the_command_warns_on_stderr_and_in_json(tmp_path):
     assert case["analysis"]["spectral_radius_x"] >= 1.0
     assert [w["kind"] for w in case["warnings"]] == ["sampled-unstable"]
     assert json.loads(js.stdout)["units"]["end_spectral_radius_x"] == "-"
+
+
+def test_a_servo_or_vendor_loop_beyond_its_limit_is_a_sampled_unstable_warning_too():
+    """The position-interface servo loop and the vendor controllers' loops have one spectral radius for the whole loop:
+    >= 1 is the same warning, without axes. servo-admittance's second case is its 'beyond the limit: bounces' (its
+    file expects servo_loop_stable = 0), FZI issue #21's 'reported' case shakes as reported upstream; the stable
+    cases of both say nothing."""
+    from importlib import resources
+
+    servo = analyze_scenario("servo-admittance")["cases"]
+    fzi = analyze_scenario(str(resources.files("forcecontrol.scenarios") / "configs" / "fzi_issue_21.toml"))["cases"]
+    for case, unstable in ((servo[0], False), (servo[1], True), (fzi[0], True), (fzi[1], False)):
+        warn = [w for w in case["warnings"] if w["kind"] == "sampled-unstable"]
+        key = next(k for k in case["analysis"] if k.endswith("loop_spectral_radius"))
+        assert (case["analysis"][key] >= 1.0) is unstable
+        assert bool(warn) is unstable, case["label"]
+        if unstable:
+            w = warn[0]
+            assert w["axes"] == [] and w["spectral_radius"] == case["analysis"][key]
+            assert "is unstable" in w["text"] and case["label"] in w["text"]
+            limit = case["analysis"][key.replace("spectral_radius", "stability_limit")]
+            assert f"{limit:.6g}" in w["text"]
+            assert {k for k in case["analysis"] if k.startswith("steady_")} <= set(w["quantities"])

@@ -165,7 +165,8 @@ def _print_tables(report: dict[str, Any]) -> None:
             t.add_row(escape(f"(no analysis: {case.get('analysis_skipped') or 'none applies to this case'})"), "", "", "", "")
         console.print(t)
         for w in unstable:
-            console.print(f"[red]sampled loop unstable along {escape(', '.join(w['axes']))}:[/] spectral radius "
+            along = f" along {', '.join(w['axes'])}" if w["axes"] else ""
+            console.print(f"[red]sampled loop unstable{escape(along)}:[/] spectral radius "
                           f"{format_value(max(w['spectral_radius'], w.get('end_spectral_radius') or 0.0))} >= 1; "
                           "† marks the continuous model's values, which it does not reach", highlight=False)
         ver = case.get("verification")

@@ -251,6 +251,7 @@ def sampled_loop_warnings(parts: dict[str, Any], analysis: dict[str, Any], label
         analysis' keys of a settled loop that the case does not reach (:func:`_settled_quantities`).
     """
     Ts = float(parts["controller"].sample_time)
+    out: list[dict[str, Any]] = _whole_loop_warnings(analysis, label)
     rho: dict[str, dict[str, float]] = {"start": {}, "end": {}}
     for key, v in analysis.items():
         mt = _RADIUS.match(key)
@@ -258,7 +259,7 @@ def sampled_loop_warnings(parts: dict[str, Any], analysis: dict[str, Any], label
             rho["end" if mt.group(1) else "start"][mt.group(2)] = float(v)
     bad = sorted({a for pose in rho.values() for a, v in pose.items() if v >= 1.0}, key=_AXES.index)
     if not bad:
-        return []
+        return out
     model = _groups_and_speed(parts)
     if model is not None:
         groups = [[_AXES[i] for i in g] for g in model[0]]
@@ -266,7 +267,6 @@ def sampled_loop_warnings(parts: dict[str, Any], analysis: dict[str, Any], label
     else:  # the direct force schemes: one loop per axis
         groups = [[a] for a in bad]
         wn = {a: float(analysis[f"omega_n_{a}"]) for a in bad if isinstance(analysis.get(f"omega_n_{a}"), (int, float))}
-    out: list[dict[str, Any]] = []
     for group in groups:
         hit = [a for a in group if a in bad]
         if not hit:
@@ -282,6 +282,30 @@ def sampled_loop_warnings(parts: dict[str, Any], analysis: dict[str, Any], label
         out.append({"kind": SAMPLED_UNSTABLE, "t": None, "text": text, "axes": hit, "spectral_radius": r0,
                     "end_spectral_radius": r1, "omega_n_T": None if w is None else w * Ts,
                     "quantities": _settled_quantities(analysis, hit)})
+    return out
+
+
+#: the loops whose analysis is one spectral radius for the whole loop (not per axis): the name in the key, and the text
+_WHOLE_LOOPS = {"servo_loop": "the loop through the position servo", "vendor_loop": "the vendor controller's contact loop"}
+
+
+def _whole_loop_warnings(analysis: dict[str, Any], label: str) -> list[dict[str, Any]]:
+    """A ``sampled-unstable`` warning for a ``servo_loop_spectral_radius`` or ``vendor_loop_spectral_radius`` >= 1
+    (the position-interface servo loop, the vendor controllers' loops): as the per-axis one, without axes; the
+    quantities not reached are every steady value and the loop's own damping and frequency."""
+    out = []
+    for name, what in _WHOLE_LOOPS.items():
+        v = analysis.get(f"{name}_spectral_radius")
+        if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 1.0:
+            continue
+        limit = analysis.get(f"{name}_stability_limit")
+        beyond = (f", the environment's stiffness beyond its stability limit {limit:.6g} N/m"
+                  if isinstance(limit, (int, float)) and math.isfinite(limit) else "")
+        text = (f"{label}: {what} is unstable (ρ = {v:.6g}{beyond}): it does not settle (expect bouncing or "
+                "divergence); its steady values are not reached")
+        quantities = [k for k in analysis if _STEADY.match(k) or (k.startswith(name) and _DYNAMICS.search(k))]
+        out.append({"kind": SAMPLED_UNSTABLE, "t": None, "text": text, "axes": [], "spectral_radius": float(v),
+                    "end_spectral_radius": None, "omega_n_T": None, "quantities": quantities})
     return out
 
 
