@@ -118,13 +118,19 @@ def _model_inputs(inertia: Any, damping: Any, stiffness: Any, environment_stiffn
     x_d = as_vector("desired", desired)
     m = x_d.shape[0]
     x_r = as_vector("rest", rest, m)
+    return (x_d, x_r, *_gains(inertia, damping, stiffness, environment_stiffness, environment_damping, m))
+
+
+def _gains(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, environment_damping: Any,
+           m: int) -> tuple[np.ndarray, ...]:
+    """The checked (M_d, K_D, K_P, K, D_e) of an m-axis impedance model (D_e = 0 when None)."""
     M = as_gain_matrix("inertia", inertia, m)
     D = as_gain_matrix("damping", damping, m, definite=False)
     KP = as_gain_matrix("stiffness", stiffness, m)
     K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
     De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
         "environment_damping", environment_damping, m, definite=False)
-    return x_d, x_r, M, D, KP, K, De
+    return M, D, KP, K, De
 
 
 def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
@@ -395,12 +401,7 @@ def impedance_loop(inertia: Any, damping: Any, stiffness: Any, environment_stiff
     Mob = np.atleast_2d(np.asarray(mobility, dtype=np.float64))
     m = Mob.shape[0]
     Mob = as_matrix("mobility", Mob, (m, m))
-    M = as_gain_matrix("inertia", inertia, m)
-    D = as_gain_matrix("damping", damping, m, definite=False)
-    KP = as_gain_matrix("stiffness", stiffness, m)
-    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
-    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
-        "environment_damping", environment_damping, m, definite=False)
+    M, D, KP, K, De = _gains(inertia, damping, stiffness, environment_stiffness, environment_damping, m)
     Minv = np.linalg.inv(M)
     A, B = contact_plant(Mob, K, De)
     if force_measurement:
