@@ -108,3 +108,26 @@ def test_analyze_notes_are_one_line_each_on_a_pipe(tmp_path):
     proc = forcecontrol(tmp_path, "analyze", "example-9.2", "--figures")
     lines = [ln for ln in proc.stderr.splitlines() if "linearised" in ln or "set point" in ln]
     assert len(lines) == 1 and lines[0].startswith("note: figure of ImpedanceController") and lines[0].endswith("set point)")
+
+
+def test_analyze_figures_never_overwrite_earlier_files_unless_forced(tmp_path):
+    """`analyze --figures` writes as `run` does: a second run in the same folder writes in NAME-2 and says so (stderr and
+    --json notes); an --out folder that holds files is refused naming --force, which overwrites; --out or --force
+    without --figures writes nothing and says so."""
+    from journeys_helpers import forcecontrol
+
+    first = forcecontrol(tmp_path, "analyze", "example-9.2", "--figures", "--json")
+    second = forcecontrol(tmp_path, "analyze", "example-9.2", "--figures", "--json")
+    one, two = json.loads(first.stdout)["files"], json.loads(second.stdout)["files"]
+    assert [Path(p).parent.name for p in one] == ["example-9.2"] and [Path(p).parent.name for p in two] == ["example-9.2-2"]
+    assert "writes in 'forcecontrol-out/example-9.2-2'" in second.stderr
+    assert any("example-9.2-2" in n for n in json.loads(second.stdout)["notes"])
+    png = tmp_path / one[0]
+    before = png.stat().st_mtime_ns
+    refused = forcecontrol(tmp_path, "analyze", "example-9.2", "--figures", "--out", "forcecontrol-out", ok=False)
+    assert refused.returncode == 2 and "--force" in refused.stderr and "Traceback" not in refused.stderr
+    assert png.stat().st_mtime_ns == before
+    forcecontrol(tmp_path, "analyze", "example-9.2", "--figures", "--out", "forcecontrol-out", "--force")
+    assert png.stat().st_mtime_ns != before
+    quiet = forcecontrol(tmp_path, "analyze", "example-9.2", "--out", "elsewhere")
+    assert "nothing is written without --figures" in quiet.stderr and not (tmp_path / "elsewhere").exists()

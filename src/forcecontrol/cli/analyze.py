@@ -8,12 +8,22 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from .app import JsonOut, _fail, compile_notice, err_console, print_json, say_note
+from .app import (
+    ForceOverwrite,
+    JsonOut,
+    OutFolder,
+    _fail,
+    _slug,
+    compile_notice,
+    err_console,
+    prepare_output,
+    print_json,
+    say_note,
+)
 from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 
@@ -21,6 +31,7 @@ __all__ = ["analyze_command"]
 
 
 def analyze_command(
+    ctx: typer.Context,
     scenario: Annotated[str, typer.Argument(help="built-in name (see 'forcecontrol list') or a .toml file")],
     json_out: JsonOut = False,
     check: Annotated[bool, typer.Option(help="exit with code 1 if an expected analysis value is missed")] = False,
@@ -28,7 +39,8 @@ def analyze_command(
         bool, typer.Option(help="also simulate and write one figure per controller type, with the linearised model's "
                                 "force where it applies (the direct force schemes; a note says where it does not)")
     ] = False,
-    out: Annotated[Path, typer.Option(help="folder for the figures")] = Path("forcecontrol-out"),
+    out: OutFolder = None,
+    force: ForceOverwrite = False,
     verify: Annotated[
         bool, typer.Option(help="also simulate each case and report how well the predicted equilibrium agrees")
     ] = False,
@@ -38,7 +50,9 @@ def analyze_command(
 
     With ``--figures`` the scenario is also simulated and one figure per controller type is
     written (like the chapter's Figs. 9.9–9.11), the linearised contact force overlaid for the
-    direct force schemes (a note names each figure drawn without it).
+    direct force schemes (a note names each figure drawn without it), in ``--out``/NAME as ``run``
+    writes its files: never over earlier files (the next NAME-2, ... by default, said in a note;
+    ``--force`` overwrites).
     """
     from ..errors import ForceControlError
 
@@ -59,11 +73,14 @@ def analyze_command(
 
             compile_notice()
 
-            folder = out / "".join(ch if ch.isalnum() or ch == "." else "-" for ch in report["scenario"]).lower()
-            figure_notes: list[str] = []
+            folder, folder_note = prepare_output(out, _slug(report["scenario"]), force, ctx)
+            figure_notes: list[str] = [folder_note] if folder_note else []
             with busy(f"simulating {scn.name} for its figures", quiet=json_out):
                 report["files"] = [str(p) for p in plot_scheme_figures(scn, folder, notes=figure_notes)]
             set_notes = [*set_notes, *figure_notes]
+        elif out is not None or force:
+            set_notes = [*set_notes, f"{'--out' if out is not None else '--force'} is for the figures' files: "
+                                     "nothing is written without --figures"]
     except ForceControlError as exc:
         _fail(exc)
     for text in set_notes:
