@@ -94,7 +94,7 @@ for line in req:
         try:
             req.close(); rep.close(); os.close(err_fd)
             os.chdir(r["cwd"])
-            for fd, path, flags in ((0, r["stdin"], os.O_RDONLY), (1, r["stdout"], os.O_WRONLY | os.O_TRUNC),
+            for fd, path, flags in ((0, os.devnull, os.O_RDONLY), (1, r["stdout"], os.O_WRONLY | os.O_TRUNC),
                                     (2, r["stderr"], os.O_WRONLY | os.O_TRUNC)):
                 f = os.open(path, flags)
                 os.dup2(f, fd)
@@ -184,12 +184,12 @@ class _Server:
         line, self._buf = self._buf.split(b"\n", 1)
         return json.loads(line)
 
-    def call(self, args: list[str], cwd: str, env: dict[str, str], stdin: str | None, module: bool,
+    def call(self, args: list[str], cwd: str, env: dict[str, str], module: bool,
              timeout: float) -> subprocess.CompletedProcess:
         out, err = os.path.join(self.folder, "stdout"), os.path.join(self.folder, "stderr")
         for path in (out, err):
             Path(path).write_bytes(b"")
-        request = {"args": args, "cwd": cwd, "env": env, "stdin": stdin or os.devnull, "stdout": out, "stderr": err,
+        request = {"args": args, "cwd": cwd, "env": env, "stdout": out, "stderr": err,
                    "module": module}
         os.write(self._req, (json.dumps(request) + "\n").encode())
         started = self._read(timeout=60.0)
@@ -259,7 +259,7 @@ def servable(env: dict[str, str], server_env: dict[str, str]) -> bool:
 
 
 def run(args: list[str], *, cwd: str | Path | None = None, env: dict[str, str] | None = None,
-        timeout: float = 900.0, module: bool = False, input_path: str | Path | None = None
+        timeout: float = 900.0, module: bool = False
         ) -> subprocess.CompletedProcess:
     """``forcecontrol ARGS`` (``module``: ``python -m forcecontrol ARGS``), its output captured as text (UTF-8), as
     ``subprocess.run(..., capture_output=True, text=True, encoding="utf-8")`` gives it: forked from this worker's
@@ -268,8 +268,8 @@ def run(args: list[str], *, cwd: str | Path | None = None, env: dict[str, str] |
     Args:
         args: the command's arguments (after ``forcecontrol``).
         cwd: the working folder (default: the current one); env: its environment (default: this process's, UTF-8);
-        timeout: seconds before the command is killed and :class:`subprocess.TimeoutExpired` raised;
-        input_path: a file given as its stdin (default: empty).
+        timeout: seconds before the command is killed and :class:`subprocess.TimeoutExpired` raised. Its stdin is
+            empty.
     """
     args = [str(a) for a in args]
     cwd = str(Path.cwd() if cwd is None else cwd)
@@ -278,11 +278,10 @@ def run(args: list[str], *, cwd: str | Path | None = None, env: dict[str, str] |
     with _lock:
         server = None if new_process else _get_server()
         if server is not None and servable(env, server.env):
-            return server.call(args, cwd, env, None if input_path is None else str(input_path), module, timeout)
+            return server.call(args, cwd, env, module, timeout)
     cmd = [sys.executable, "-m", "forcecontrol", *args] if module else [executable(), *args]
-    with open(os.devnull if input_path is None else input_path, "rb") as f:
-        proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, encoding="utf-8",
-                              timeout=timeout, stdin=f)
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, encoding="utf-8", timeout=timeout,
+                          stdin=subprocess.DEVNULL)
     proc.forked = False  # type: ignore[attr-defined]
     return proc
 

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..core.validate import as_gain_matrix, as_matrix, as_vector
-from .impedance import HeldLoop, contact_plant
+from .impedance import HeldLoop, contact_plant, environment_matrices
 
 __all__ = ["ComplianceEquilibrium", "compliance_equilibrium", "joint_space_compliance", "compliance_loop"]
 
@@ -90,8 +90,6 @@ def compliance_loop(stiffness: Any, damping: Any, environment_stiffness: Any, mo
     Mob = as_matrix("mobility", Mob, (m, m))
     KP = as_gain_matrix("stiffness", stiffness, m)
     KD = as_gain_matrix("damping", damping, m, definite=False)
-    K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
-    De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
-        "environment_damping", environment_damping, m, definite=False)
+    K, De = environment_matrices(environment_stiffness, environment_damping, m)
     A, B = contact_plant(Mob, K, De)
     return HeldLoop(A, B, np.hstack([-Mob @ KP, -Mob @ KD]), Mob @ KP, Mob @ K)

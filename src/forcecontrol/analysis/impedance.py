@@ -127,10 +127,15 @@ def _gains(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: An
     M = as_gain_matrix("inertia", inertia, m)
     D = as_gain_matrix("damping", damping, m, definite=False)
     KP = as_gain_matrix("stiffness", stiffness, m)
+    return (M, D, KP, *environment_matrices(environment_stiffness, environment_damping, m))
+
+
+def environment_matrices(environment_stiffness: Any, environment_damping: Any, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """The checked (K, D_e) of a linear environment of m axes, symmetric positive semi-definite (D_e = 0 when None)."""
     K = as_gain_matrix("environment_stiffness", environment_stiffness, m, definite=False)
     De = np.zeros((m, m)) if environment_damping is None else as_gain_matrix(
         "environment_damping", environment_damping, m, definite=False)
-    return M, D, KP, K, De
+    return K, De
 
 
 def impedance_modes(inertia: Any, damping: Any, stiffness: Any, environment_stiffness: Any, desired: Any, rest: Any,
