@@ -99,3 +99,24 @@ def test_the_checks_table_gives_no_relative_error_for_a_quantity_expected_to_be_
               {"metric": "fx", "value": 201.0, "expected": 200.0, "tolerance": 1.0, "relative_error": 0.005, "ok": True}]
     _, rows = checks_table(SimpleNamespace(cases=[SimpleNamespace(label="a", checks=checks)]))
     assert [r[5] for r in rows] == ["—", "+0.500 %"]
+
+
+def test_a_sampled_loop_that_cannot_settle_is_said_by_run_as_by_analyze(tmp_path):
+    """Example 9.2 on a plane of 2.4e6 N/m, past its sampled stability limit (2.23e6 N/m at T = 1 ms; the simulation
+    bounces there, tests/test_sampled_contact.py): `run`, with its table and with --json, says so on stderr and as a
+    'sampled-unstable' warning of each case, the very warning `analyze --json` gives; the book's planes get none.
+    Before, only `analyze` said it: the run printed its continuous-model numbers without a word."""
+    args = ("example-9.2", "--set", "duration=0.3", "--set", "environment.stiffness=2.4e6")
+    table = forcecontrol(tmp_path, "run", *args)
+    run = forcecontrol(tmp_path, "run", *args, "--json")
+    analyzed = json.loads(forcecontrol(tmp_path, "analyze", *args, "--json").stdout)
+    doc = json.loads(run.stdout)
+    for case, predicted in zip(doc["cases"], analyzed["cases"], strict=True):
+        said = [w for w in case["warnings"] if w["kind"] == "sampled-unstable"]
+        want = [w for w in predicted["warnings"] if w["kind"] == "sampled-unstable"]
+        assert len(said) == 1 and said == want, (said, want)
+        assert said[0]["axes"] == ["x"] and said[0]["end_spectral_radius"] >= 1.0
+        for proc in (table, run):
+            assert f"warning: {said[0]['text']}" in proc.stderr, proc.stderr
+    book = json.loads(forcecontrol(tmp_path, "run", "example-9.2", "--set", "duration=0.3", "--json").stdout)
+    assert all(w["kind"] != "sampled-unstable" for c in book["cases"] for w in c["warnings"])

@@ -21,6 +21,7 @@ __all__ = [
     "RealtimeError",
     "DriftWarning",
     "BandwidthWarning",
+    "SampledLoopWarning",
     "ContactModelWarning",
 ]
 
@@ -102,6 +103,14 @@ class BandwidthWarning(UserWarning):
 
     Stability of the scheme of Fig. 9.5 needs the motion loop's bandwidth to exceed the
     impedance loop's; the message gives both.
+    """
+
+
+class SampledLoopWarning(UserWarning):
+    """A case whose sampled closed loop cannot settle: its analysis gives a spectral radius >= 1 at the
+    controller's sample time (the held loop of the chapter's law on the plant and the environment, or a
+    servo or vendor loop). The continuous model's ω_n, ζ and steady values are then not reached; the run
+    bounces or diverges (:func:`forcecontrol.scenarios.parts_sampled.sampled_loop_warnings`).
     """
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from importlib import resources
@@ -12,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ForceControlError, ParameterError, ScenarioError
+from ..errors import ForceControlError, ParameterError, SampledLoopWarning, ScenarioError
 from ..sim.simulation import simulate
 from .build import _actuator, _allow_contact_loss, _part, build_case  # noqa: F401
 from .checks import (  # noqa: F401
@@ -45,6 +46,7 @@ from .model import (  # noqa: F401
     check_mathtext,
     note_settle_window,
 )
+from .parts_sampled import sampled_loop_warnings
 from .schema import check_table
 
 if sys.version_info >= (3, 11):
@@ -441,6 +443,10 @@ def run_scenario(
         for name in ("x", "y", "fx", "fy"):
             metrics[name] = METRICS[name](res, parts, window)
         analysis = case_analysis(parts)
+        # a sampled loop that cannot settle is said here too, not only by 'analyze': on stderr and in run --json
+        unstable = sampled_loop_warnings(parts, analysis, case.label)
+        for w in unstable:
+            warnings.warn(w["text"], SampledLoopWarning, stacklevel=2)
         checks = []
         lost = contact_losses(res.wrench)
         metrics["contact_losses"] = lost
@@ -461,7 +467,7 @@ def run_scenario(
                 value = METRICS[key](res, parts, window)
                 metrics[key] = value
             checks.append(_check(key, value, spec, parts["tolerance"]))
-        out.append(CaseResult(case.label, res, metrics, analysis, checks))
+        out.append(CaseResult(case.label, res, metrics, analysis, checks, unstable))
         if progress is not None:
             progress(i + 1, len(scn.cases), case.label)
     return ScenarioRun(scn, out)

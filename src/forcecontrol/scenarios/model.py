@@ -230,6 +230,8 @@ class CaseResult:
     metrics: dict[str, float]
     analysis: dict[str, Any]
     checks: list[dict[str, Any]]
+    #: what the analysis warns of the case (``sampled-unstable``: :func:`.parts_sampled.sampled_loop_warnings`)
+    analysis_warnings: list[dict[str, Any]] = field(default_factory=list)
 
     def __repr__(self) -> str:
         ok = sum(bool(c["ok"]) for c in self.checks)

@@ -125,9 +125,11 @@ def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
     ``safety``, ``stability``, ``contact lost``, ``hole not found``, ``contact-projection``: a curved surface
     penetrated beyond its radius of curvature), a force asked of a tool that never touched (``no-contact``) and
-    contact lost after touching (``contact-lost``, with its count): the ``warnings`` list of a case in
-    ``run --json``."""
+    contact lost after touching (``contact-lost``, with its count), and a sampled loop that cannot settle
+    (``sampled-unstable``, as ``analyze --json`` gives it: :func:`.parts_sampled.sampled_loop_warnings`): the
+    ``warnings`` list of a case in ``run --json``."""
     out = config_warnings((case.result.metadata.get("controller") or {}).get("config_notes") or ())
+    out += [dict(w) for w in getattr(case, "analysis_warnings", None) or ()]
     for e in case_events(case):
         kind = str(e.get("event", ""))
         if kind in WARNING_EVENTS:
@@ -154,12 +156,13 @@ def _html_table(title: str, cols: list[str], rows: list[list[str]]) -> str:
 
 def html_summary(run: ScenarioRun) -> str:
     """The summary ``forcecontrol run`` prints, as HTML (every text escaped): title, settled values,
-    contact warnings, the comparison with the book's values and the files written."""
+    contact warnings, a sampled loop that cannot settle, the comparison with the book's values and the files written."""
     e = html.escape
     scn = run.scenario
     parts = [f"<div class='forcecontrol-run'><strong>{e(scn.title or scn.name)}</strong>",
              _html_table("Settled values (mean of the last samples) and peak contact force", *settled_table(run))]
     parts += [f"<p>warning: {e(w)}</p>" for w in contact_warnings(run)]
+    parts += [f"<p>warning: {e(w['text'])}</p>" for c in run.cases for w in getattr(c, "analysis_warnings", None) or ()]
     cols, rows = checks_table(run)
     if rows:
         parts.append(_html_table("Against the book (or the closed form)", cols, rows))
