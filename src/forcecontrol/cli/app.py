@@ -6,9 +6,12 @@ The other commands live in one module each in this package and register on :data
 
 from __future__ import annotations
 
+import contextvars
+import functools
 import json
 import re
 import sys
+from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
@@ -212,16 +215,46 @@ def say_note(note: str | None) -> None:
         err_console.print(f"[bold]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
 
 
+#: the running command's ``--json`` and whether it printed its object yet (:func:`json_aware`, :func:`_fail`)
+_JSON_STATE: contextvars.ContextVar[dict[str, bool] | None] = contextvars.ContextVar("forcecontrol_json", default=None)
+
+
+def json_aware(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """The command ``fn`` (its signature kept for typer), recording its ``--json`` (``json_out``) while it runs, for
+    :func:`_fail`; ``forcecontrol.cli`` wraps every command so."""
+
+    @functools.wraps(fn)
+    def command(*args: Any, **kwargs: Any) -> Any:
+        token = _JSON_STATE.set({"json": bool(kwargs.get("json_out")), "printed": False})
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            _JSON_STATE.reset(token)
+
+    return command
+
+
 def print_json(obj: Any) -> None:
     """Print one JSON object (NaN and infinity as null, NumPy values as numbers) for ``--json``."""
     from ..core.jsonsafe import json_safe
 
     sys.stdout.write(json.dumps(json_safe(obj), indent=2, allow_nan=False) + "\n")
+    state = _JSON_STATE.get()
+    if state is not None:
+        state["printed"] = True
 
 
 def _fail(exc: Exception) -> NoReturn:
-    """Print ``error: <message>`` on stderr (the message verbatim: ``[controller]`` is text, not markup); exit 2."""
+    """Print ``error: <message>`` on stderr (the message verbatim: ``[controller]`` is text, not markup); exit 2.
+
+    A command given ``--json`` that has not printed its object yet prints one on stdout too,
+    ``{"error": {"type": <the exception's class>, "message": <the message>}, "exit_code": 2}``: a script
+    that reads the object finds why there is no result instead of an empty stdout.
+    """
     err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
+    state = _JSON_STATE.get()
+    if state is not None and state["json"] and not state["printed"]:
+        print_json({"error": {"type": type(exc).__name__, "message": str(exc)}, "exit_code": 2})
     raise typer.Exit(code=2)
 
 
