@@ -66,6 +66,19 @@ def test_two_parameter_sweep_writes_its_table_and_map(folder, sweep_92):
     assert (df["status"] == "ok").all() and df["stable"].all()
 
 
+def test_a_sweep_whose_cases_ask_no_force_says_what_its_force_error_column_holds(folder, sweep_92):
+    """Example 9.2 (impedance, f_d = 0): the 'ss error' column is y_final − d·f_d = the settled force, which a reader
+    takes for an error: said in a note on stderr; Example 9.3 (f_d = 10 N) gets no such note and a small error."""
+    assert "no case asks a contact force (f_d = 0 at the end of the run)" in " ".join(sweep_92.stderr.split())
+    df = pd.read_parquet(folder / "d" / "t.parquet")
+    assert (df["steady_state_force_error"] == df["settled_force"]).all() and (df["settled_force"] > 50).all()
+    doc = json.loads(_cli(folder, "sweep", "example-9.3", "--case", "1", "-p", "environment.stiffness=1000,2000",
+                          "--no-figure", "--json", "--out", "d/f.parquet").stdout)
+    assert not [n for n in doc["notes"] if "contact force" in n], doc["notes"]
+    forced = pd.read_parquet(folder / "d" / "f.parquet")
+    assert (forced["steady_state_force_error"].abs() < 0.5).all(), forced["steady_state_force_error"].tolist()
+
+
 def test_the_sweep_row_of_the_scenarios_own_values_equals_forcecontrol_run(folder, sweep_92, run_92):
     """The row k = 1e3 N/m, damping 500 (the scenario's own case 2) has the settled force and peak of
     `forcecontrol run` of that case, and the book's f_x = 71.4 N (Example 9.2)."""

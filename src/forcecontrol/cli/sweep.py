@@ -133,6 +133,11 @@ def sweep_command(
     except ForceControlError as exc:
         _fail(exc)
         return
+    unforced = sum(1 for j in prep.jobs if j.f_ref == 0.0)
+    if unforced:  # y_final − d·f_d with f_d = 0: the column holds the settled force, which a reader takes for an error
+        which = "no case asks a" if unforced == len(prep.jobs) else f"{unforced} of {len(prep.jobs)} cases ask no"
+        note(f"{which} contact force (f_d = 0 at the end of the run): their steady_state_force_error is y_final − d·f_d "
+             "with f_d = 0, the settled force itself (as settled_force), not a distance from a force asked")
     path = out or Path("forcecontrol-out") / f"{_slug(scn.name)}-sweep.parquet"
     bar = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
