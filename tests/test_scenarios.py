@@ -101,3 +101,24 @@ def test_built_ins_include_examples_9_1_and_9_2():
 def test_every_built_in_scenario_validates(name):
     """Every shipped scenario passes its own schema (all cases built before running)."""
     assert load_scenario(name).cases
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("duration", "-1.0", "key 'duration' must be a positive number [s]; got -1.0"),
+    ("sample_time", "0.0", "key 'sample_time' must be a positive number [s]; got 0.0"),
+    ("substeps", "0", "key 'substeps' must be a positive integer; got 0"),
+    ("tolerance", "-0.1", "key 'tolerance' must be a non-negative number; got -0.1"),
+])
+def test_a_bad_top_level_setting_is_named_where_it_is_written(tmp_path, key, value, message):
+    """A top-level setting no [[case]] sets is refused as the file's top level ('SCN: top level: key ...'), not as
+    '[[case]] #1', a table that does not hold it; the same value in the second [[case]] is refused as that case."""
+    cases = '\n[[case]]\nlabel = "a"\n[[case]]\nlabel = "b"\n'
+    top = GOOD.replace("duration = 0.2\n", "duration = 0.2\n" if key == "duration" else f"duration = 0.2\n{key} = {value}\n")
+    if key == "duration":
+        top = top.replace("duration = 0.2", "duration = -1.0")
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(_write(tmp_path, top + cases))
+    assert str(exc.value).endswith(f"scn.toml: top level: {message}"), str(exc.value)
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(_write(tmp_path, GOOD + cases + f"{key} = {value}\n"))
+    assert str(exc.value).endswith(f"scn.toml: [[case]] #2: {message}"), str(exc.value)

@@ -168,9 +168,10 @@ def _check_top(where: str, case: CaseSpec) -> None:
     for key, low, what in (("substeps", 1, "a positive integer"), ("settle_window", 0.0, "a positive time [s]"),
                            ("tolerance", 0.0, "a non-negative number")):
         if cfg.get(key) is not None:
-            v = check_value(where, key, TOP_FIELDS[key], cfg[key])
+            at = _key_where(where, case, key)
+            v = check_value(at, key, TOP_FIELDS[key], cfg[key])
             if v < low or (key == "settle_window" and v == 0.0):
-                raise ScenarioError(f"{where}: key '{key}' must be {what}; got {v!r}")
+                raise ScenarioError(f"{at}: key '{key}' must be {what}; got {v!r}")
     _check_expected_specs(where, case.expected)
 
 
@@ -180,7 +181,7 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     cfg = case.config
     times = None if share is None else share._store.get(("times", share.keys["top"]))
     if times is None:
-        times = _times(where, cfg)
+        times = _times(where, case)
         if share is not None:
             share._store[("times", share.keys["top"])] = times
     Ts, duration = times
@@ -220,15 +221,26 @@ def _build_rest(case: CaseSpec, where: str, memo: dict[Any, Any] | None, rt: dic
     }
 
 
-def _times(where: str, cfg: dict[str, Any]) -> tuple[Any, Any]:
+def _times(where: str, case: CaseSpec) -> tuple[Any, Any]:
     """The case's sample time and duration, checked positive."""
-    Ts = check_value(where, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
+    cfg = case.config
+    at = _key_where(where, case, "sample_time")
+    Ts = check_value(at, "sample_time", TOP_FIELDS["sample_time"], cfg.get("sample_time", 1e-3))
     if Ts <= 0:
-        raise ScenarioError(f"{where}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
-    duration = check_value(where, "duration", TOP_FIELDS["duration"], cfg["duration"])
+        raise ScenarioError(f"{at}: key 'sample_time' must be a positive number [s]; got {Ts!r}")
+    at = _key_where(where, case, "duration")
+    duration = check_value(at, "duration", TOP_FIELDS["duration"], cfg["duration"])
     if duration <= 0:
-        raise ScenarioError(f"{where}: key 'duration' must be a positive number [s]; got {duration!r}")
+        raise ScenarioError(f"{at}: key 'duration' must be a positive number [s]; got {duration!r}")
     return Ts, duration
+
+
+def _key_where(where: str, case: CaseSpec, key: str) -> str:
+    """Where a top-level setting's value was written: the case's ``[[case]]`` table when it sets ``key`` (``where``
+    as given), else the file's top level, whose value every case that does not set it takes (an error there named
+    ``[[case]] #1``, a table that does not hold the key)."""
+    head, sep, _ = where.rpartition(": [[case]] #")
+    return where if not sep or key in case.overrides else f"{head}: top level"
 
 
 def _check_joint_limits(where: str, robot: Any, q0: np.ndarray) -> None:
