@@ -11,6 +11,7 @@ from ..errors import ScenarioError
 from ..sim.simulation import SimulationResult
 
 __all__ = ["METRICS", "register_metric", "register_analysis", "register_once", "case_analysis", "register_response",
+           "register_analysis_warnings", "case_analysis_warnings",
            "case_response", "check_expected", "check_no_empty_tables"]
 
 
@@ -20,6 +21,22 @@ METRICS: dict[str, Callable[[SimulationResult, dict[str, Any], float], float]] =
 
 #: list of (predicate(parts), fn(parts) -> dict) giving analytic predictions for a case.
 _ANALYSES: list[tuple[Callable[[dict[str, Any]], bool], Callable[[dict[str, Any]], dict[str, Any]]]] = []
+
+
+#: fn(parts, analysis, label) -> warnings: what a case's analysis warns of (a sampled loop that cannot settle, ...)
+_ANALYSIS_WARNINGS: list[Callable[[dict[str, Any], dict[str, Any], str], list[dict[str, Any]]]] = []
+
+
+def register_analysis_warnings(fn: Callable[[dict[str, Any], dict[str, Any], str], list[dict[str, Any]]]) -> None:
+    """Add a source of a case's analysis warnings (``{"kind", "t", "text", ...}``), said by ``run`` and ``analyze``
+    alike; once per function."""
+    if not any(known is fn for known in _ANALYSIS_WARNINGS):
+        _ANALYSIS_WARNINGS.append(fn)
+
+
+def case_analysis_warnings(parts: dict[str, Any], analysis: dict[str, Any], label: str) -> list[dict[str, Any]]:
+    """Every registered source's warnings for a built case and its :func:`case_analysis` (``label``: the case's)."""
+    return [w for fn in _ANALYSIS_WARNINGS for w in fn(parts, analysis, label)]
 
 
 def register_metric(name: str, fn: Callable[[SimulationResult, dict[str, Any], float], float]) -> None:

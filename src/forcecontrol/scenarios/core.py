@@ -25,6 +25,7 @@ from .checks import (  # noqa: F401
     _column_metric,
     _penetration,
     case_analysis,
+    case_analysis_warnings,
     case_response,
     check_expected,
     check_no_empty_tables,
@@ -46,7 +47,6 @@ from .model import (  # noqa: F401
     check_mathtext,
     note_settle_window,
 )
-from .parts_sampled import sampled_loop_warnings
 from .schema import check_table
 
 if sys.version_info >= (3, 11):
@@ -444,7 +444,7 @@ def run_scenario(
             metrics[name] = METRICS[name](res, parts, window)
         analysis = case_analysis(parts)
         # a sampled loop that cannot settle is said here too, not only by 'analyze': on stderr and in run --json
-        unstable = sampled_loop_warnings(parts, analysis, case.label)
+        unstable = case_analysis_warnings(parts, analysis, case.label)
         for w in unstable:
             warnings.warn(w["text"], SampledLoopWarning, stacklevel=2)
         checks = []

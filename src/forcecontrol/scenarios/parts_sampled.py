@@ -344,6 +344,7 @@ def sampled_loop_skip_reason(parts: dict[str, Any], analysis: dict[str, Any]) ->
 
 
 def _register_analyses() -> None:
-    from .checks import register_once
+    from .checks import register_analysis_warnings, register_once
 
     register_once(_applies, _sampled_analysis)
+    register_analysis_warnings(sampled_loop_warnings)

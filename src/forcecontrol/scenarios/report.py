@@ -168,8 +168,9 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
     Raises:
         ScenarioError: the scenario cannot be loaded or built.
     """
+    from .checks import case_analysis_warnings
     from .core import Scenario, build_case, case_analysis, check_expected, load_scenario
-    from .parts_sampled import sampled_loop_skip_reason, sampled_loop_warnings
+    from .parts_sampled import sampled_loop_skip_reason
     from .summary import config_warnings
 
     scn = source if isinstance(source, Scenario) else load_scenario(source)
@@ -199,7 +200,7 @@ def analyze_scenario(source: str | Path | dict[str, Any] | Scenario, *, verify: 
         }
         entry["warnings"] = config_warnings(getattr(parts["controller"], "config_notes", None))  # as run --json
         # a sampled loop with a spectral radius >= 1 does not settle: said next to its continuous numbers
-        entry["warnings"] += sampled_loop_warnings(parts, analysis, case.label)
+        entry["warnings"] += case_analysis_warnings(parts, analysis, case.label)
         if not analysis:
             entry["analysis_skipped"] = no_analysis_reason(parts)
         sampled_skipped = sampled_loop_skip_reason(parts, analysis)
