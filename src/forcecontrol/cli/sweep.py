@@ -142,7 +142,7 @@ def sweep_command(
     bar = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
         Rate(), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,
-        disable=json_out,
+        disable=json_out or not err_console.is_terminal,  # on a file or pipe: its last frame, wrapped at 80 columns
     )
     task = bar.add_task(f"sweep {scn.name}", total=prep.n_cases)
     try:
