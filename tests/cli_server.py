@@ -46,7 +46,7 @@ UTF8_VARIABLES = {"PYTHONIOENCODING": {"utf-8", "utf8", "UTF-8", "UTF8"}, "PYTHO
 #: what the server imports before it serves, besides :mod:`forcecontrol.cli` (whose commands import what they use when
 #: they run): what the commands of the suite import, so that a forked command imports almost nothing
 PRELOAD = ("forcecontrol.scenarios", "forcecontrol.cli.claim", "forcecontrol.analysis.force", "forcecontrol.sim",
-           "typer._adapters", "rich.console", "control", "pinocchio", "forcecontrol.robots.pinocchio")
+           "typer._adapters", "rich.console", "control", "pinocchio", "forcecontrol.robots.pinocchio", "matplotlib.pyplot")
 
 #: the server: started as the console script (its folder first on sys.path, no current folder), imports the command
 #: line, reports whether it can fork safely, then serves one request at a time on the file descriptors it is given

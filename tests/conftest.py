@@ -45,7 +45,8 @@ ONE_WORKER_TESTS = {
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """The workers run BLAS on one thread, as the command line does (:mod:`forcecontrol.core.threads`).
+    """The workers run BLAS on one thread, as the command line does (:mod:`forcecontrol.core.threads`); matplotlib's
+    font cache exists before any worker starts.
 
     Set here, in the process that starts pytest-xdist's workers, before they load NumPy: with OpenBLAS's
     default (a thread per core, spinning after each call) two workers on two cores took each other's cores;
@@ -55,6 +56,10 @@ def pytest_configure(config: pytest.Config) -> None:
     """
     if os.environ.get("PYTEST_XDIST_WORKER") is None:
         one_blas_thread_for_new_processes()
+        # matplotlib's font cache, built here once if this machine has none (a fresh CI machine): building it starts a
+        # timer thread, and a command server (tests/cli_server.py) whose imports (pyplot among them) leave a thread
+        # refuses to serve, so that every command of its worker would start a new interpreter
+        import matplotlib.font_manager  # noqa: F401
 
 
 @pytest.hookimpl(hookwrapper=True)

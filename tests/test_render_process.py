@@ -22,6 +22,13 @@ def run():
     return run_scenario(load_scenario("example-9.2"))
 
 
+@pytest.fixture(autouse=True)
+def _pyplot_not_loaded(monkeypatch):
+    """This worker has loaded pyplot (other tests drew): the tests of the second process pretend it has not, as in a
+    new `forcecontrol run` (test_no_process_once_pyplot_is_loaded_here checks the rule in a new interpreter)."""
+    monkeypatch.setattr(render_process, "drawing_loaded", lambda: False)
+
+
 def _no_local_drawing(monkeypatch):
     """Drawing in this process fails the test: the figures must come from the second process."""
     def refuse(*args, **kwargs):
@@ -137,6 +144,24 @@ def test_no_process_when_it_could_not_draw_as_the_caller_would(why, monkeypatch)
     else:
         monkeypatch.setattr(render_process, "usable_cores", lambda: 1)
     assert not render_process.start().started
+
+
+def test_no_process_once_pyplot_is_loaded_here():
+    """A new interpreter starts the figure process; once it has loaded pyplot itself (a notebook that drew), it draws
+    here: the second process would only load matplotlib again. Checked in a new interpreter, without any patch."""
+    code = (
+        "from forcecontrol.viz import render_process\n"
+        "first = render_process.start(min_cores=1)\n"
+        "print(first.started)\n"
+        "first.close()\n"
+        "import matplotlib\n"
+        "matplotlib.use('Agg')\n"
+        "import matplotlib.pyplot\n"
+        "print(render_process.drawing_loaded(), render_process.start(min_cores=1).started)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "True", "False"]
 
 
 def test_usable_cores_is_a_positive_count_within_the_affinity():

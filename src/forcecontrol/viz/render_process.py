@@ -10,6 +10,9 @@ byte for byte, as those drawn in the calling process.
 Whenever the second process cannot help, or could draw otherwise than the caller would, the
 figures are drawn in the calling process:
 
+* matplotlib's pyplot is loaded here already (a notebook, a program that drew before, a test
+  runner): there is no import left to overlap with the simulation, and the second process would
+  only load it once more (about 0.5 s of CPU) to draw what this process draws at the same cost;
 * fewer than two usable cores (affinity and the cgroup's CPU quota);
 * no interpreter to start (``sys.executable`` empty, or a frozen application);
 * warnings set to raise in the caller (they must raise here, as before);
@@ -42,7 +45,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FigureProcess", "start", "usable_cores", "command", "CHILD_CODE", "ANSWER_MARK"]
+__all__ = ["FigureProcess", "start", "usable_cores", "drawing_loaded", "command", "CHILD_CODE", "ANSWER_MARK"]
 
 #: what the second process runs (``python -c``): the current folder is dropped from its path, so
 #: that it imports what the caller imports (a console script has no current folder on its path).
@@ -187,12 +190,17 @@ def _reap(proc: subprocess.Popen[bytes], timeout: float) -> None:
         proc.wait()
 
 
+def drawing_loaded() -> bool:
+    """Whether this process has loaded matplotlib's pyplot already (then the figures are drawn here)."""
+    return "matplotlib.pyplot" in sys.modules
+
+
 def start(min_cores: int = 2) -> FigureProcess:
-    """Launch the figure process when it can run beside this one (at least ``min_cores`` usable
-    cores) and draw as this process would; else, or if it cannot be launched, a
-    :class:`FigureProcess` that draws in this process."""
+    """Launch the figure process when it can help (matplotlib not loaded here yet), can run beside
+    this one (at least ``min_cores`` usable cores) and draws as this process would; else, or if it
+    cannot be launched, a :class:`FigureProcess` that draws in this process."""
     cmd = command()
-    if cmd is None or usable_cores() < min_cores or _warnings_raise():
+    if cmd is None or drawing_loaded() or usable_cores() < min_cores or _warnings_raise():
         return FigureProcess(None)
     env = {**os.environ, "PYTHONIOENCODING": "utf-8"}  # stderr passed on as UTF-8 (Windows' code pages)
     try:
