@@ -147,21 +147,27 @@ def test_no_process_when_it_could_not_draw_as_the_caller_would(why, monkeypatch)
 
 
 def test_no_process_once_pyplot_is_loaded_here():
-    """A new interpreter starts the figure process; once it has loaded pyplot itself (a notebook that drew), it draws
-    here: the second process would only load matplotlib again. Checked in a new interpreter, without any patch."""
+    """A new interpreter starts the figure process; once it has loaded pyplot itself, with no backend chosen yet or on
+    Agg, it draws here (the second process would only load matplotlib again); on a backend of its own (a notebook's)
+    the second process draws, so that the program's backend is not switched. In a new interpreter, without any patch."""
     code = (
         "from forcecontrol.viz import render_process\n"
         "first = render_process.start(min_cores=1)\n"
         "print(first.started)\n"
         "first.close()\n"
         "import matplotlib\n"
-        "matplotlib.use('Agg')\n"
         "import matplotlib.pyplot\n"
+        "print(render_process.drawing_loaded(), render_process.start(min_cores=1).started)\n"
+        "matplotlib.use('svg')\n"  # a backend of the program's own (a notebook's): left alone, drawn elsewhere
+        "other = render_process.start(min_cores=1)\n"
+        "print(render_process.drawing_loaded(), other.started)\n"
+        "other.close()\n"
+        "matplotlib.use('Agg')\n"
         "print(render_process.drawing_loaded(), render_process.start(min_cores=1).started)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["True", "True", "False"]
+    assert done.stdout.split() == ["True", "True", "False", "False", "True", "True", "False"]
 
 
 def test_usable_cores_is_a_positive_count_within_the_affinity():

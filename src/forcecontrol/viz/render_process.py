@@ -10,9 +10,11 @@ byte for byte, as those drawn in the calling process.
 Whenever the second process cannot help, or could draw otherwise than the caller would, the
 figures are drawn in the calling process:
 
-* matplotlib's pyplot is loaded here already (a notebook, a program that drew before, a test
-  runner): there is no import left to overlap with the simulation, and the second process would
-  only load it once more (about 0.5 s of CPU) to draw what this process draws at the same cost;
+* matplotlib's pyplot is loaded here already, on the Agg backend or before any backend was
+  chosen (a program that drew to files, a test runner): there is no import left to overlap with
+  the simulation, and the second process would only load it once more (about 0.5 s of CPU) to draw
+  what this process draws at the same cost (a notebook's backend is left alone: drawing here would
+  switch it to Agg, so its figures are drawn by the second process);
 * fewer than two usable cores (affinity and the cgroup's CPU quota);
 * no interpreter to start (``sys.executable`` empty, or a frozen application);
 * warnings set to raise in the caller (they must raise here, as before);
@@ -191,8 +193,17 @@ def _reap(proc: subprocess.Popen[bytes], timeout: float) -> None:
 
 
 def drawing_loaded() -> bool:
-    """Whether this process has loaded matplotlib's pyplot already (then the figures are drawn here)."""
-    return "matplotlib.pyplot" in sys.modules
+    """Whether this process has loaded matplotlib's pyplot already, on Agg or with no backend chosen yet (then the
+    figures are drawn here, where drawing selects Agg)."""
+    if "matplotlib.pyplot" not in sys.modules:
+        return False
+    rc = sys.modules["matplotlib"].rcParams
+    try:
+        backend = rc._get_backend_or_none()  # None until pyplot resolves one (matplotlib >= 3.7)
+    except AttributeError:  # pragma: no cover - older matplotlib: the raw value, a sentinel until resolved
+        backend = dict.__getitem__(rc, "backend")
+        backend = backend if isinstance(backend, str) else None
+    return backend is None or backend.lower() == "agg"
 
 
 def start(min_cores: int = 2) -> FigureProcess:
