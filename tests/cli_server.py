@@ -44,7 +44,9 @@ RUNTIME_VARIABLES = frozenset({"COLUMNS", "LINES", "NO_COLOR", "FORCE_COLOR", "T
 UTF8_VARIABLES = {"PYTHONIOENCODING": {"utf-8", "utf8", "UTF-8", "UTF8"}, "PYTHONUTF8": {"1"}}
 
 #: what the server imports before it serves, besides :mod:`forcecontrol.cli` (whose commands import what they use when
-#: they run): what the commands of the suite import, so that a forked command imports almost nothing
+#: they run): what the commands of the suite import, so that a forked command imports almost nothing; with pyplot loaded
+#: (no backend chosen), a forked `run` draws its figures itself instead of starting a figure process that would load
+#: matplotlib again (forcecontrol.viz.render_process.drawing_loaded; test_cli_server compares the PNGs with a new process's)
 PRELOAD = ("forcecontrol.scenarios", "forcecontrol.cli.claim", "forcecontrol.analysis.force", "forcecontrol.sim",
            "typer._adapters", "rich.console", "control", "pinocchio", "forcecontrol.robots.pinocchio", "matplotlib.pyplot")
 

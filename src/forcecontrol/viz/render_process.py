@@ -207,7 +207,7 @@ def drawing_loaded() -> bool:
 
 
 def start(min_cores: int = 2) -> FigureProcess:
-    """Launch the figure process when it can help (matplotlib not loaded here yet), can run beside
+    """Launch the figure process when it can help (not :func:`drawing_loaded`), can run beside
     this one (at least ``min_cores`` usable cores) and draws as this process would; else, or if it
     cannot be launched, a :class:`FigureProcess` that draws in this process."""
     cmd = command()
