@@ -14,10 +14,12 @@ The hooks import the package from ``src/`` next to this folder when it is not in
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import io
 import os
 import re
+import shutil
 import sys
 import tempfile
 import textwrap
@@ -47,8 +49,12 @@ EXEC_PAGES = re.compile(r"^(chapter/|guides/|getting-started\.md$|conventions\.m
 
 def _outdir() -> Path:
     d = os.environ.get("FORCECONTROL_DOCS_CACHE")
-    path = Path(d) if d else Path(tempfile.mkdtemp(prefix="forcecontrol-docs-"))
-    path.mkdir(parents=True, exist_ok=True)
+    if d:
+        path = Path(d)
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    path = Path(tempfile.mkdtemp(prefix="forcecontrol-docs-"))
+    atexit.register(shutil.rmtree, path, ignore_errors=True)  # kept while `mkdocs serve` rebuilds, gone after
     return path
 
 
@@ -130,7 +136,7 @@ def on_page_markdown(markdown, page, config, files):
     namespace: dict[str, object] = {"__name__": "__docs__"}
     t0 = time.perf_counter()
     cwd = os.getcwd()
-    work = Path(tempfile.mkdtemp(prefix="forcecontrol-example-"))
+    work = Path(tempfile.mkdtemp(prefix="forcecontrol-example-"))  # removed once the page's blocks have run
 
     def run(match: re.Match) -> str:
         code = match.group(1)
@@ -156,7 +162,10 @@ def on_page_markdown(markdown, page, config, files):
             )
         return block
 
-    markdown = _BLOCK.sub(run, markdown)
+    try:
+        markdown = _BLOCK.sub(run, markdown)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
     _TIMES["examples"] = _TIMES.get("examples", 0.0) + time.perf_counter() - t0
     return markdown
 

@@ -107,6 +107,23 @@ def test_example_output_is_shown():
     assert hooks.on_page_markdown("```python\n1 / 0\n```\n", other, {}, None).startswith("```python")
 
 
+
+def test_examples_leave_no_folder_behind(tmp_path, monkeypatch):
+    """The folder an example page writes into is removed after the page, also when an example fails (every build
+    used to leave one empty folder per page in the system's temporary folder)."""
+    import tempfile
+
+    from mkdocs.exceptions import PluginError
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    hooks = _hooks()
+    page = types.SimpleNamespace(file=types.SimpleNamespace(src_uri="chapter/writes.md"))
+    out = hooks.on_page_markdown("```python\nopen('x.txt', 'w').write('x')\nprint('written')\n```\n", page, {}, None)
+    assert "    written" in out
+    with pytest.raises(PluginError):
+        hooks.on_page_markdown("```python\nopen('y.txt', 'w').write('y')\n1 / 0\n```\n", page, {}, None)
+    assert list(tmp_path.iterdir()) == [], "the examples' working folders were left behind"
+
 # ---------------------------------------------------------------------------------------------- issue 32, item 5
 SITE_URL = "https://forcecontrol.github.io/forcecontrol/"
 ROLE_TEXT = re.compile(r":(?:py:)?(?:class|func|meth|attr|mod|data|exc|obj|const):(?:<code>|`)")
