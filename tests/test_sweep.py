@@ -154,6 +154,44 @@ def test_growing_oscillation_is_unstable_and_diverged_case_has_no_metrics():
     assert out[3] == 0.0 and all(math.isnan(v) for v in (out[0], out[1], out[2]))
 
 
+def test_a_signal_that_ends_where_it_began_is_stable_only_if_it_stopped_moving():
+    """No step (y_final = y_0, e.g. a tool that ends in free air as it began): settling time and overshoot NaN; a
+    force that never rose, or rose once and stayed released, is stable; contact pulses to the very end (a bouncing
+    limit cycle, whose last window happens to fall between two pulses) are not (they used to count as stable)."""
+    Ts = 1e-3
+    t = np.arange(4001) * Ts
+    quiet = np.zeros_like(t)
+    once = np.where((t > 0.1) & (t < 0.3), 50.0 * np.sin(np.pi * (t - 0.1) / 0.2), 0.0)
+    bouncing = np.where(np.sin(2 * np.pi * 7.0 * t) > 0.5, 200.0 * (np.sin(2 * np.pi * 7.0 * t) - 0.5), 0.0)
+    bouncing[-100:] = 0.0  # the last window (100 samples) between two pulses: y_final = 0 = y_0
+    for y, stable in ((quiet, 1.0), (once, 1.0), (bouncing, 0.0)):
+        st, ov, err, got, yf = case_metrics(y, len(y) - 1, 0, Ts, 100, 10.0, 0.02, 0.05)
+        assert yf == 0.0 and err == -10.0 and math.isnan(st) and math.isnan(ov)
+        assert got == stable
+
+
+def test_sweep_calls_a_bouncing_case_unstable_as_run_does(tmp_path):
+    """example-9.3's inner velocity loop far past its stability limit (k = 1e6 N/m, k_F = 0.005): the tool bounces to
+    the end and `run` says the sampled loop is unstable; the sweep row said stable when its last window fell in free
+    air (the user's report)."""
+    from forcecontrol.scenarios import CaseSpec, build_case
+    from forcecontrol.sweep.run import run_block
+
+    d = SweepDefinition.from_options({"environment.stiffness": [1e6], "controller.force_gain[0]": [0.005]}, cases=["3"])
+    prep = prepare_sweep("example-9.3", d)
+    (job,) = prep.jobs
+    row = run_block(prep.jobs, d.settle_band, d.stable_band)[0]
+    assert row["status"] == "ok" and row["contact_lost"] and row["peak_force"] > 100.0
+    assert row["settled_force"] == 0.0  # the last window in free air, as at t = 0: no step
+    cfg = json.loads(json.dumps([c for c in prep.scenario.cases if c.label == job.label][0].config))
+    cfg["controller"]["force_gain"][0] = 0.005
+    p = build_case(CaseSpec(job.label, cfg, {}))
+    axis = force_loop_axes(p["controller"], p["environment"].stiffness_matrix())[0]
+    limit = sampled_stability_limit(axis, 1e-3, arm_inertia=operational_mass(ARM, p["q0"], [1.0, 0.0]), low=1e3,
+                                    high=1e8, rtol=1e-3)
+    assert limit < 1e6 / 1.25  # the analysis: far past the limit
+    assert not row["stable"]
+
 def test_sweep_table_matches_per_case_python_simulations():
     """Each row's metrics equal those computed by hand from simulate(engine='python') of the same case."""
     d = SweepDefinition.from_options({"environment.stiffness": [3e3, 3e4]})

@@ -11,7 +11,9 @@ so that a "settling time" means the same thing everywhere:
 * overshoot: ``100 · max(0, max_k sign(s) (y_k − y_final)) / |s|`` [%];
 * steady-state error: ``y_final − reference``;
 * stable: no divergence, and the largest ``|y − y_final|`` over the last quarter of the record is
-  within ``stable_band · |s|`` or below 0.9 times that over the quarter before (still decaying).
+  within ``stable_band · |s|`` or below 0.9 times that over the quarter before (still decaying);
+  without a step (``s = 0``), the same test relative to the largest excursion ``max |y − y_final|``
+  (a signal that never moved is stable).
 """
 
 from __future__ import annotations
@@ -28,6 +30,17 @@ from ..core.numba_cache import kernel_array
 __all__ = ["case_metrics", "step_metrics", "StepMetrics"]
 
 
+@njit(cache=True, inline="always")
+def _largest_residual(y, yf, start, stop):  # pragma: no cover - compiled
+    """max |y_k − y_final| over k in [start, stop) (0 for an empty range)."""
+    r = 0.0
+    for k in range(start, stop):
+        v = abs(y[k] - yf)
+        if v > r:
+            r = v
+    return r
+
+
 @njit(cache=True)
 def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band):  # pragma: no cover
     """Step-response metrics of the contact force y[0..last] (one case).
@@ -37,7 +50,10 @@ def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band): 
     stays in the band); overshoot = ``100 max(0, max_k sign(s) (y_k − y_final)) / |s|`` [%];
     steady-state force error = ``y_final − f_ref``. Stable: no divergence, and the largest
     ``|y − y_final|`` over the last quarter of the run is within ``stable_band |s|`` or below
-    0.9 times that over the quarter before (still decaying). Diverged cases get NaN metrics.
+    0.9 times that over the quarter before (still decaying). Without a step (``s = 0``: y ends where
+    it began) settling time and overshoot are NaN, and stable means y never moved or its late
+    residual is within ``stable_band`` of its largest excursion (or still decaying): a tool that
+    bounces to the end is not stable. Diverged cases get NaN metrics.
 
     Returns:
         (settling time [s], overshoot [%], steady-state error [N], stable (0/1), y_final [N]).
@@ -54,8 +70,23 @@ def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band): 
     s = yf - y[0]
     mag = abs(s)
     err = yf - f_ref
-    if mag == 0.0 or not math.isfinite(mag):
-        return nan, nan, err, 1.0 if mag == 0.0 else 0.0, yf
+    if not math.isfinite(mag):
+        return nan, nan, err, 0.0, yf
+    qn = max(n // 4, 1)
+    if mag == 0.0:
+        # no step (y ends where it began, e.g. a tool that bounced and ends in free air as it started): no settling
+        # time or overshoot; stable when y never moved, or when its late residual is within stable_band of its largest
+        # excursion or still decaying (a bouncing limit cycle is not; it used to count as stable here)
+        peak = 0.0
+        for k in range(n):
+            v = abs(y[k] - yf)
+            if v > peak:
+                peak = v
+        if peak == 0.0:
+            return nan, nan, err, 1.0, yf
+        late = _largest_residual(y, yf, n - qn, n)
+        early = _largest_residual(y, yf, max(n - 2 * qn, 0), n - qn)
+        return nan, nan, err, 1.0 if (late <= stable_band * peak or late < 0.9 * early) else 0.0, yf
     band = settle_band * mag
     k_out = -1
     for k in range(n - 1, -1, -1):
@@ -70,17 +101,8 @@ def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band): 
         if v > over:
             over = v
     over = 100.0 * over / mag
-    qn = max(n // 4, 1)
-    late = 0.0
-    for k in range(n - qn, n):
-        v = abs(y[k] - yf)
-        if v > late:
-            late = v
-    early = 0.0
-    for k in range(max(n - 2 * qn, 0), n - qn):
-        v = abs(y[k] - yf)
-        if v > early:
-            early = v
+    late = _largest_residual(y, yf, n - qn, n)
+    early = _largest_residual(y, yf, max(n - 2 * qn, 0), n - qn)
     stable = 1.0 if (late <= stable_band * mag or late < 0.9 * early) else 0.0
     return settling, over, err, stable, yf
 

@@ -327,7 +327,8 @@ def prepare_sweep(
             "steady_state_force_error": "[N] y_final − d · f_d",
             "peak_force": "[N] max ||h_e|| (6-D: max ||f_e||, the force part of the wrench)",
             "settled_force": "[N] y_final, mean of y over the scenario's settle_window",
-            "stable": "no divergence, and the late residual |y − y_final| is within stable_band |s| or still decaying",
+            "stable": "no divergence, and the late residual |y − y_final| is within stable_band |s| (with no step, of "
+                      "the largest excursion) or still decaying",
             "contact_lost": "h_e = 0 at a sample after contact was made",
         },
         "forcecontrol": __version__,
