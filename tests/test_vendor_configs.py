@@ -206,3 +206,137 @@ def test_writing_a_parameter_the_file_cannot_hold_is_refused():
     """write() names the parameter and the writable ones for a name that is not in the format."""
     with pytest.raises(ParameterError, match="cannot write 'stiffness' to a fzi-force file; writable: p, d, error_scale"):
         read_config(CONFIGS / "fzi_force.yaml").write(stiffness=[1.0] * 6)
+
+
+# ---------------------------------------------------------------------------------------------- outside review, session 33
+# Inputs written here after the upstream layouts (ros2_controllers, FZI cartesian_controllers ros1/ros2, franka_ros):
+# the values are made up; the structure (where the type is declared, nested or dotted keys) is what the ROS tools read.
+
+FRANKA_EXAMPLES = """\
+cartesian_pose_example_controller:
+    type: franka_example_controllers/CartesianPoseExampleController
+    arm_id: panda
+cartesian_impedance_example_controller:
+    type: franka_example_controllers/CartesianImpedanceExampleController
+    arm_id: panda
+    joint_names: [panda_joint1, panda_joint2]
+dual_arm_cartesian_impedance_example_controller:
+    type: franka_example_controllers/DualArmCartesianImpedanceExampleController
+    right:
+        arm_id: panda_1
+"""
+
+FZI_ROS2_MOTION_FIRST = """\
+controller_manager:
+  ros__parameters:
+    update_rate: 500
+    cartesian_motion_controller:
+      type: cartesian_motion_controller/CartesianMotionController
+    cartesian_force_controller:
+      type: cartesian_force_controller/CartesianForceController
+cartesian_motion_controller:
+  ros__parameters:
+    end_effector_link: "tool0"
+    robot_base_link: "base_link"
+    solver:
+      error_scale: 1.0
+      iterations: 10
+    pd_gains:
+      trans_x: {p: 1.0}
+cartesian_force_controller:
+  ros__parameters:
+    end_effector_link: "tool0"
+    robot_base_link: "base_link"
+    ft_sensor_ref_link: "tool0"
+    solver:
+      error_scale: 0.5
+    pd_gains:
+      trans_x: {p: 0.05}
+"""
+
+
+def test_the_controller_is_found_by_its_plugin_class_not_by_a_word_in_its_type():
+    """franka_ros's example file: its first section (a CartesianPose controller) used to be read as an FZI force
+    controller with every gain 0 (exit 0); the impedance example is read and the others are named as not read."""
+    c = read_config("franka_example_controllers.yaml", text=FRANKA_EXAMPLES)
+    assert c.kind == "franka-cartesian-impedance" and c.section == "cartesian_impedance_example_controller"
+    skipped = [n for n in c.notes if "is not a controller this reads" in n]
+    assert any("cartesian_pose_example_controller" in n for n in skipped)
+    assert any("dual_arm_cartesian_impedance_example_controller" in n for n in skipped)
+
+
+def test_a_ros2_type_declared_in_the_controller_manager_decides_the_kind():
+    """FZI's ROS 2 files declare each type under controller_manager: the motion controller (no type in its section,
+    gains that look like a force controller's) is passed over, named in the notes, and refused when asked for."""
+    c = read_config("fzi.yaml", text=FZI_ROS2_MOTION_FIRST)
+    assert (c.kind, c.section, c.rate) == ("fzi-force", "cartesian_force_controller", 500.0)
+    assert c.parameters["error_scale"] == 0.5 and c.parameters["p"][0] == 0.05
+    assert any("cartesian_motion_controller" in n and "not a controller this reads" in n for n in c.notes)
+    with pytest.raises(ParameterError, match="cartesian_motion_controller.*tracks a target pose"):
+        read_config("fzi.yaml", "fzi-force", "cartesian_motion_controller", text=FZI_ROS2_MOTION_FIRST)
+    untyped = FZI_ROS2_MOTION_FIRST.split("cartesian_motion_controller:\n  ros__parameters:", 1)[1].split(
+        "cartesian_force_controller:\n  ros__parameters", 1)[0]
+    with pytest.raises(ParameterError, match="cartesian_motion_controller"):  # no type at all: no ft_sensor_ref_link
+        read_config("motion.yaml", text="cartesian_motion_controller:\n  ros__parameters:" + untyped)
+
+
+def test_dotted_ros2_keys_are_the_nested_parameters():
+    """ROS 2 reads ``solver.error_scale: 0.2`` as ``solver: {error_scale: 0.2}``: read (not the default with a note
+    saying it was not set), written back in place, and refused when given both ways."""
+    nested = read_config("n.yaml", text=FZI_ROS2_MOTION_FIRST, section="cartesian_force_controller")
+    flat_text = FZI_ROS2_MOTION_FIRST.replace("    solver:\n      error_scale: 0.5\n    pd_gains:\n      trans_x: {p: 0.05}\n",
+                                              "    solver.error_scale: 0.5\n    pd_gains.trans_x.p: 0.05\n")
+    assert flat_text != FZI_ROS2_MOTION_FIRST
+    flat = read_config("f.yaml", text=flat_text, section="cartesian_force_controller")
+    assert flat.parameters == nested.parameters
+    assert not any(n.startswith(("solver.error_scale", "pd_gains.trans_x.p")) for n in flat.notes)
+    out = flat.write(error_scale=0.25)
+    again = read_config("f.yaml", text=out, section="cartesian_force_controller")
+    assert "    solver.error_scale: 0.25\n" in out and again.parameters["error_scale"] == 0.25
+    adm = (resources.files("forcecontrol.scenarios") / "configs" / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    ref = read_config("a.yaml", text=adm)
+    assert "filter_coefficient:" in adm
+    both = adm.replace("    ft_sensor:\n", "    ft_sensor.filter_coefficient: 0.5\n    ft_sensor:\n", 1)
+    assert both != adm
+    with pytest.raises(ParameterError, match="ft_sensor.filter_coefficient.*more than once"):
+        read_config("a.yaml", text=both)
+    assert ref.parameters["filter_coefficient"] != 0.5
+
+
+def test_ros1_fzi_values_are_clamped_to_the_dynamic_reconfigure_ranges():
+    """FZI's ROS 1 controllers read their gains through dynamic_reconfigure servers, which clamp them to the .cfg
+    ranges (ComplianceController.cfg stiffness [100, 5000] N/m and [5, 200] N m/rad; PDGains.cfg p, d [0, 10];
+    CartesianController.cfg error_scale [0, 10]): a zero stiffness is 100 N/m on the robot."""
+    text = """\
+my_cartesian_compliance_controller:
+  type: "position_controllers/CartesianComplianceController"
+  end_effector_link: "tool0"
+  robot_base_link: "base_link"
+  ft_sensor_ref_link: "tool0"
+  compliance_ref_link: "tool0"
+  stiffness: {trans_x: 500, trans_y: 500, trans_z: 0, rot_x: 20, rot_y: 1, rot_z: 20}
+  solver: {error_scale: 20}
+  pd_gains:
+    trans_x: {p: 0.05}
+    trans_y: {p: 0.05}
+    trans_z: {p: 15}
+"""
+    c = read_config("ros1.yaml", text=text)
+    assert c.layout == "ros1" and c.parameters["stiffness"] == [500.0, 500.0, 100.0, 20.0, 5.0, 20.0]
+    assert c.parameters["error_scale"] == 10.0 and c.parameters["p"][:3] == [0.05, 0.05, 10.0]
+    assert c.parameters["iterations"] == 10
+    assert sum("dynamic_reconfigure range" in n for n in c.notes) == 4
+    assert not any("project's default 1 is used" in n for n in c.notes)  # only the ROS 1 default 10 is said
+
+
+def test_the_iteration_count_is_an_integer_when_read_and_when_written():
+    """iterations = 2.5 is refused (it was truncated to 2 while the command said it changed it); 3.0 is 3."""
+    path = resources.files("forcecontrol.scenarios") / "configs" / "fzi_issue_171.yaml"
+    text = path.read_text(encoding="utf-8")
+    c = read_config("fzi_issue_171.yaml", text=text)
+    with pytest.raises(ParameterError, match="iterations must be an integer; got 2.5"):
+        c.write(iterations=2.5)
+    assert read_config("x.yaml", text=c.write(iterations=3.0)).parameters["iterations"] == 3
+    bad = c.write(iterations=3).replace("iterations: 3", "iterations: 2.5")
+    with pytest.raises(ParameterError, match="iterations.*must be an integer; got 2.5"):
+        read_config("x.yaml", text=bad)

@@ -53,6 +53,11 @@ _FRANKA_NODE = "dynamic_reconfigure_compliance_param_node"
 _FRANKA_RANGES = {"translational_stiffness": (0.0, 400.0), "rotational_stiffness": (0.0, 30.0),
                   "nullspace_stiffness": (0.0, 100.0)}
 
+#: FZI's ROS 1 dynamic_reconfigure ranges (cartesian_controllers, branch ros1: ComplianceController.cfg, PDGains.cfg,
+#: CartesianController.cfg), one per value of the slot: the server clamps what the parameter server holds to them
+_FZI_ROS1_RANGES = {"stiffness": [(100.0, 5000.0)] * 3 + [(5.0, 200.0)] * 3, "p": [(0.0, 10.0)] * 6,
+                    "d": [(0.0, 10.0)] * 6, "error_scale": [(0.0, 10.0)], "iterations": [(1, 100)]}
+
 _SLOTS: dict[str, dict[str, list[tuple[tuple[Any, ...], Any]]]] = {
     "ros2-admittance": {
         "mass": [(("admittance", "mass", i), _REQ) for i in range(6)],
@@ -174,21 +179,40 @@ class VendorConfig:
         return list(_SLOTS[self.kind])
 
 
-def detect_kind(params: Any) -> str | None:
-    """The format of one controller's parameter table, from its keys (None: not a controller this reads)."""
+#: the controller classes this reads, by the last part of their plugin name (``<package>/<Class>``; FZI's ROS 1 plugins
+#: are ``position_controllers/`` or ``velocity_controllers/Cartesian*Controller``)
+_CLASSES = {"CartesianComplianceController": "fzi-compliance", "CartesianForceController": "fzi-force",
+            "CartesianMotionController": "fzi-motion", "CartesianImpedanceExampleController": "franka-cartesian-impedance",
+            "AdmittanceController": "ros2-admittance"}
+
+
+def detect_kind(params: Any, type_name: str | None = None) -> str | None:
+    """The format of one controller's parameter table (None: not a controller this reads).
+
+    From its plugin type when there is one (the section's ``type``, or ``type_name``: a ROS 2 file gives it in the
+    ``controller_manager`` block), by the class name alone: a type naming any other controller (franka_ros's
+    ``CartesianPoseExampleController``, ``DualArmCartesianImpedanceExampleController``, FZI's
+    ``MotionControlHandle``) is not read. Without a type, from the keys: ``admittance`` and ``kinematics`` (ros2
+    admittance), ``translational_stiffness`` or the dynamic_reconfigure node (Franka), ``pd_gains``/``solver`` (FZI:
+    compliance with ``stiffness`` or ``compliance_ref_link``, force with ``ft_sensor_ref_link``, else FZI's motion
+    controller, which has neither).
+    """
     if not isinstance(params, dict):
         return None
-    typ = str(params.get("type", ""))
-    if "admittance" in params and "kinematics" in params:
+    typ = str(params.get("type") or type_name or "").strip()
+    if typ:
+        return _CLASSES.get(typ.rsplit("/", 1)[-1].strip())
+    keys = {str(k).split(".", 1)[0] for k in params}  # "solver.error_scale: 0.2" is ROS 2's "solver: {error_scale: 0.2}"
+    if "admittance" in keys and "kinematics" in keys:
         return "ros2-admittance"
-    if "CartesianImpedanceExample" in typ or "translational_stiffness" in params or _FRANKA_NODE in params:
+    if "translational_stiffness" in keys or _FRANKA_NODE in keys:
         return "franka-cartesian-impedance"
-    if "pd_gains" in params or "solver" in params or "cartesian_" in typ.lower() or "Cartesian" in typ:
-        if "Motion" in typ:
-            return "fzi-motion"
-        if "stiffness" in params or "compliance_ref_link" in params or "Compliance" in typ:
+    if "pd_gains" in keys or "solver" in keys:
+        if "stiffness" in keys or "compliance_ref_link" in keys:
             return "fzi-compliance"
-        return "fzi-force"
+        if "ft_sensor_ref_link" in params:
+            return "fzi-force"
+        return "fzi-motion"
     return None
 
 
@@ -245,37 +269,65 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         raise ParameterError(f"{where}: expected a YAML mapping of controller sections; got {type(doc).__name__}")
     rate = None
     cm = doc.get("controller_manager")
-    if isinstance(cm, dict) and isinstance(cm.get("ros__parameters"), dict) and "update_rate" in cm["ros__parameters"]:
-        rate = float(cm["ros__parameters"]["update_rate"])
+    cm_params = cm.get("ros__parameters") if isinstance(cm, dict) else None
+    types: dict[str, str] = {}  # ROS 2: each controller's plugin type, declared in the controller_manager block
+    if isinstance(cm_params, dict):
+        if "update_rate" in cm_params:
+            rate = float(cm_params["update_rate"])
+        types = {str(n): str(v["type"]) for n, v in cm_params.items() if isinstance(v, dict) and v.get("type")}
     found: list[tuple[str, str, Any, str]] = []
+    skipped: list[str] = []
     for name, sec in doc.items():
         if name == "controller_manager" or not isinstance(sec, dict):
             continue
         layout = "ros2" if isinstance(sec.get("ros__parameters"), dict) else "ros1"
         params = sec["ros__parameters"] if layout == "ros2" else sec
-        k = detect_kind(params)
+        k = detect_kind(params, types.get(str(name)))
         if k is not None:
             found.append((str(name), k, params, layout))
+        elif params.get("type") or types.get(str(name)):
+            skipped.append(f"{name} ({params.get('type') or types.get(str(name))})")
     if section is not None:
         found = [f for f in found if f[0] == section]
         if not found:
             raise ParameterError(f"{where}: no controller section {section!r}; sections: {', '.join(map(str, doc))}")
     if kind is not None:
         found = [f for f in found if f[1] == kind or (kind.startswith("fzi") and f[1].startswith("fzi"))]
+    if section is None:  # FZI's motion controller beside the one a user tunes: passed over, named in the notes
+        motion = [f for f in found if f[1] == "fzi-motion"]
+        if len(motion) < len(found):
+            found = [f for f in found if f[1] != "fzi-motion"]
+            skipped += [f"{f[0]} (cartesian_motion_controller)" for f in motion]
     if not found:
         raise ParameterError(
             f"{where}: no controller configuration found (expected a section with admittance+kinematics, pd_gains/solver, "
             f"or translational_stiffness{'' if kind is None else ' of kind ' + kind}); top-level keys: {', '.join(map(str, doc))}"
+            + (f"; sections of other controllers: {', '.join(skipped)}" if skipped else "")
         )
     name, k, params, layout = found[0]
+    if k == "fzi-motion":
+        raise ParameterError(f"{where}: section {name!r} is a cartesian_motion_controller: not one of {', '.join(KINDS)}"
+                             " (it tracks a target pose; it has no force or compliance law)")
     k = kind or k
     notes = [f"section {o[0]!r} ({o[1]}) not read (use --section)" for o in found[1:]]
-    if k == "fzi-motion":
-        raise ParameterError(f"{where}: section {name!r} is a cartesian_motion_controller: not one of {', '.join(KINDS)}")
+    notes += [f"section {s_!r} is not a controller this reads: not read" for s_ in skipped]
     values = _read_slots(where, params, _SLOTS[k], notes)
     if k == "fzi-compliance" and layout == "ros1" and _get(params, ("solver", "iterations")) is _MISSING:
         values["iterations"] = 10
+        notes[:] = [n for n in notes if not n.startswith("solver.iterations not set")]  # not the project's default 1
         notes.append("solver.iterations not set: the ROS 1 dynamic_reconfigure default 10 is used")
+    if k.startswith("fzi") and layout == "ros1":  # ROS 1: dynamic_reconfigure servers clamp each value to its .cfg range
+        for gain, ranges in _FZI_ROS1_RANGES.items():
+            if gain not in values:
+                continue
+            vals = values[gain] if isinstance(values[gain], list) else [values[gain]]
+            keys = [".".join(str(x) for x in path) for path, _ in _SLOTS[k][gain]]
+            for i, (v, (lo, hi), key) in enumerate(zip(vals, ranges, keys)):
+                if not lo <= v <= hi:
+                    vals[i] = type(v)(min(hi, max(lo, v)))
+                    notes.append(f"{key} = {v!r} is outside its ROS 1 dynamic_reconfigure range [{lo:g}, {hi:g}]: "
+                                 f"the controller clamps it to {vals[i]:g}")
+            values[gain] = vals if isinstance(values[gain], list) else vals[0]
     if k.startswith("fzi"):
         if str(params.get("ik_solver", "forward_dynamics")) != "forward_dynamics":
             raise ParameterError(f"{where}: ik_solver {params['ik_solver']!r} is not modelled (only forward_dynamics)")
@@ -288,7 +340,7 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         values["payload_frame"] = "base" if _get(params, ("gravity_compensation", "frame", "id")) == base else "tool"
         values["selected_axes"] = [bool(v) for v in values["selected_axes"]]
     if k == "franka-cartesian-impedance":
-        if not isinstance(params.get(_FRANKA_NODE), dict):
+        if not any(str(key).split(".", 1)[0] == _FRANKA_NODE for key in params):
             notes.append(f"no {_FRANKA_NODE} table in the file: the defaults of franka_example_controllers/cfg/"
                          "compliance_param.cfg are used (translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
         for gain, (lo, hi) in _FRANKA_RANGES.items():  # dynamic_reconfigure clamps a parameter to its .cfg range
@@ -319,17 +371,47 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
 _MISSING = object()
 
 
+def _locate(node: Any, path: tuple[Any, ...]) -> list[tuple[Any, Any]]:
+    """Every (mapping or list, key) that holds ``path``'s value. ROS 2 reads a nested map and dotted names as the same
+    parameters (``solver: {error_scale: 0.2}`` is ``solver.error_scale: 0.2``), so each run of names may be one dotted
+    key or several nested ones."""
+    if not path:
+        return []
+    head = path[0]
+    if isinstance(head, int):
+        if not isinstance(node, list) or head >= len(node):
+            return []
+        return [(node, head)] if len(path) == 1 else _locate(node[head], path[1:])
+    if not isinstance(node, dict):
+        return []
+    names = []
+    for x in path:
+        if isinstance(x, int):
+            break
+        names.append(str(x))
+    out: list[tuple[Any, Any]] = []
+    for i in range(1, len(names) + 1):
+        key = ".".join(names[:i])
+        if key in node:
+            out += [(node, key)] if i == len(path) else _locate(node[key], path[i:])
+    return out
+
+
 def _get(node: Any, path: tuple[Any, ...]) -> Any:
-    for key in path:
-        if isinstance(key, int):
-            if not isinstance(node, list) or key >= len(node):
-                return _MISSING
-            node = node[key]
-        else:
-            if not isinstance(node, dict) or key not in node:
-                return _MISSING
-            node = node[key]
-    return node
+    """The value at ``path`` (nested or dotted keys, :func:`_locate`), or ``_MISSING``.
+
+    Raises:
+        ParameterError: the parameter is given twice (nested and dotted): ROS 2 keeps one of them.
+    """
+    found = _locate(node, path)
+    if len(found) > 1:
+        dotted = ".".join(str(x) for x in path if not isinstance(x, int))
+        raise ParameterError(f"key {dotted!r} is given more than once (as nested and as dotted keys): ROS 2 reads them "
+                             "as one parameter; keep one")
+    if not found:
+        return _MISSING
+    parent, key = found[0]
+    return parent[key]
 
 
 def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], notes: list[str]) -> dict[str, Any]:
@@ -348,6 +430,8 @@ def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, 
             elif isinstance(v, bool) != (name == "selected_axes") or not isinstance(v, int | float):
                 what = "true/false" if name == "selected_axes" else "a number"
                 raise ParameterError(f"{where}: key {dotted!r} must be {what}; got {v!r}")
+            elif name == "iterations" and not (isinstance(v, int) or float(v).is_integer()):
+                raise ParameterError(f"{where}: key {dotted!r} must be an integer; got {v!r}")
             vals.append(v if isinstance(v, bool) else (int(v) if name == "iterations" else float(v)))
         if missing:
             keys = ", ".join(m[0] for m in missing)
@@ -384,9 +468,12 @@ def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, .
         for (path, _), v, o in zip(entries, vals, olds):
             if v == o:
                 continue
+            if name == "iterations" and (isinstance(v, bool) or not isinstance(v, int | float) or not float(v).is_integer()):
+                raise ParameterError(f"iterations must be an integer; got {v!r}")
             v = bool(v) if name == "selected_axes" else (int(v) if name == "iterations" else float(v))
             cur = _get(params, path)
-            parent, key = _get(params, path[:-1]), path[-1]
+            held = _locate(params, path)  # where the value is written (a nested or a dotted key)
+            parent, key = (held[0] if held else (_get(params, path[:-1]), path[-1]))
             dotted = ".".join(str(x) for x in path)
             if parent is _MISSING or parent is None:
                 raise ParameterError(f"cannot write {dotted}: its parent key is not in the file; add it by hand")
