@@ -57,6 +57,20 @@ def test_replay_command_table_output_and_missing_topic(tmp_path, logs):
     assert out.exit_code == 2 and "no wrench topic '/wrench'; the file has: /force_torque_sensor_broadcaster/wrench" in out.stderr
 
 
+@pytest.mark.parametrize("command", ["replay", "compare-trace"])
+def test_topics_given_for_a_file_without_topics_are_refused(tmp_path, logs, command):
+    """--joint-topic / --wrench-topic select a bag's or MCAP file's topics: on a CSV log they would be ignored, so they
+    are refused before anything runs (exit 2, naming the options); the defaults given explicitly are accepted."""
+    _, files = logs
+    out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "a"),
+                              "--wrench-topic", "/x", "--joint-topic", "/y"])
+    assert out.exit_code == 2, out.output
+    assert "--joint-topic and --wrench-topic select(s) the topics of a ROS bag or MCAP file" in out.stderr
+    assert not (tmp_path / "a").exists()
+    out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "b"),
+                              "--joint-topic", "/joint_states"])
+    assert out.exit_code == 0, out.output
+
 def test_compare_trace_command_against_a_scenario(tmp_path, logs):
     """`compare-trace example-9.2 RECORDED`: the scenario's own trace matches (zero shift, tiny errors) and a figure is drawn."""
     _, files = logs

@@ -137,6 +137,10 @@ def test_cli_checks_figure_axes_before_running_and_notes_ignored_options(tmp_pat
     assert r.exit_code == 0, r.output
     notes = json.loads(r.stdout)["notes"]
     assert any("--x ignored" in n for n in notes) and any("--seed 3 is ignored" in n for n in notes)
+    r = CliRunner().invoke(app, ["sweep", str(scn), "-p", "environment.stiffness=5000", "--x", "environment.stifness",
+                                 "--no-figure", "--out", str(tmp_path / "t.parquet")])  # a typo is refused, figure or not
+    assert r.exit_code == 2 and "--x 'environment.stifness' is not a swept parameter" in r.stderr
+    assert not (tmp_path / "t.parquet").exists()
 
 
 def _toml(d: dict) -> str:

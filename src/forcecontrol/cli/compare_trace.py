@@ -9,7 +9,18 @@ from typing import Annotated, Any
 import typer
 
 from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
-from .replay import CaseLabel, JointTopic, RecordedLog, RecordFormat, WrenchSense, WrenchTopic, pick_case, read_log
+from .replay import (
+    DEFAULT_JOINT_TOPIC,
+    DEFAULT_WRENCH_TOPIC,
+    CaseLabel,
+    JointTopic,
+    RecordedLog,
+    RecordFormat,
+    WrenchSense,
+    WrenchTopic,
+    pick_case,
+    read_log,
+)
 
 __all__ = ["compare_trace_command"]
 
@@ -54,8 +65,8 @@ def compare_trace_command(
     max_shift: Annotated[float, typer.Option(callback=_max_shift,
                                              help="largest time shift searched to align the traces [s], >= 0")] = 0.1,
     out: OutFolder = None,
-    joint_topic: JointTopic = "/joint_states",
-    wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
+    joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,
+    wrench_topic: WrenchTopic = DEFAULT_WRENCH_TOPIC,
     wrench_sense: WrenchSense = "by-end-effector",
     json_out: JsonOut = False,
     force: ForceOverwrite = False,

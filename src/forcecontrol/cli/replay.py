@@ -58,6 +58,11 @@ def pick_case(scn: Any, label: str | None) -> tuple[Any, dict[str, Any]]:
     return case, build_case(case, where=f"{scn.source}: case {case.label!r}")
 
 
+#: the topics a ROS bag or MCAP file is read from unless --joint-topic / --wrench-topic say otherwise
+DEFAULT_JOINT_TOPIC = "/joint_states"
+DEFAULT_WRENCH_TOPIC = "/force_torque_sensor_broadcaster/wrench"
+
+
 def read_log(
     path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str, sense: str | None = None
 ) -> Any:
@@ -78,8 +83,14 @@ def read_log(
             raise ParameterError("--sense overrides a UR RTDE or libfranka recording's sense; a ROS bag/MCAP wrench's sense is "
                                  "--wrench-sense")
         kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m)
-    elif sense is not None:
-        kwargs["sense"] = sense
+    else:
+        if (joint_topic, wrench_topic) != (DEFAULT_JOINT_TOPIC, DEFAULT_WRENCH_TOPIC):
+            given = [o for o, v, d in (("--joint-topic", joint_topic, DEFAULT_JOINT_TOPIC),
+                                       ("--wrench-topic", wrench_topic, DEFAULT_WRENCH_TOPIC)) if v != d]
+            raise ParameterError(f"{' and '.join(given)} select(s) the topics of a ROS bag or MCAP file; {path.name} is "
+                                 "not one (it would be ignored)")
+        if sense is not None:
+            kwargs["sense"] = sense
     rec = read_recording(path, format_, **kwargs)
     if rec.wrench is not None and rec.m > m and rec.metadata.get("format") in ("ur-rtde", "franka"):
         from dataclasses import replace
@@ -136,8 +147,8 @@ def replay_command(
     format: Annotated[RecordFormat, typer.Option("--format", help="format of DATA (default: from the path)")] = RecordFormat.auto,
     case: CaseLabel = None,
     out: OutFolder = None,
-    joint_topic: JointTopic = "/joint_states",
-    wrench_topic: WrenchTopic = "/force_torque_sensor_broadcaster/wrench",
+    joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,
+    wrench_topic: WrenchTopic = DEFAULT_WRENCH_TOPIC,
     wrench_sense: WrenchSense = "by-end-effector",
     sense: Annotated[
         SenseChoice | None,

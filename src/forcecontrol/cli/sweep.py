@@ -212,18 +212,19 @@ def sweep_command(
 
 
 def _check_figure_axes(definition: Any, figure: bool, x: str | None, y: str | None, note: Any) -> None:
-    """--x/--y name swept parameters (checked before anything runs); with --no-figure they are ignored, said."""
+    """--x/--y name swept parameters (checked before anything runs, also with --no-figure, where they are then
+    ignored, said)."""
     from ..sweep.spec import SweepError
 
     given = [(o, v) for o, v in (("--x", x), ("--y", y)) if v is not None]
+    paths = [p.path for p in definition.parameters]
+    for o, v in given:  # a name that is not swept is a mistake, figure or not
+        if v not in paths:
+            raise SweepError(f"{o} '{v}' is not a swept parameter; expected one of {', '.join(paths)}")
     if not figure:
         if given:
             note(f"{' and '.join(o for o, _ in given)} ignored: --no-figure draws no figure")
         return
-    paths = [p.path for p in definition.parameters]
-    for o, v in given:
-        if v not in paths:
-            raise SweepError(f"{o} '{v}' is not a swept parameter; expected one of {', '.join(paths)}")
     if x is not None and x == y:
         raise SweepError(f"--x and --y must be two different swept parameters; got '{x}' for both")
     if y is not None and len(paths) < 2:
