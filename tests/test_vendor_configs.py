@@ -144,6 +144,14 @@ def test_ur_script_values_rewritten_in_place_and_missing_call_added():
                    "  force_mode(p[0,0,0,0,0,0], [0,0,1,0,0,0], [0,0,-12.5,0,0,0], 2, [0.1,0.1,0.05,0.2,0.2,0.2])\n")
 
 
+def test_ur_script_comment_with_parentheses_and_numbers_is_not_part_of_the_call():
+    """``force_mode(...)  # press down (10 N)``: the comment was pulled into the call (26 numbers, refused); now the
+    call's values are read and a rewrite keeps the comment."""
+    text = "force_mode(p[0,0,0,0,0,0], [0,0,1,0,0,0], [0,0,-10,0,0,0], 2, [0.1,0.1,0.05,0.2,0.2,0.2])  # press (10 N)\n"
+    cfg = read_config("prog.script", text=text)
+    assert cfg.parameters["wrench"] == [0.0, 0.0, -10.0, 0.0, 0.0, 0.0]
+    assert cfg.write(wrench=[0, 0, -12, 0, 0, 0]) == text.replace("-10,", "-12,")
+
 def test_franka_cfg_default_rewritten_and_range_enforced():
     """The .cfg default of translational_stiffness is rewritten in place; a value outside its [0, 400] range is refused."""
     cfg = read_config(CONFIGS / "compliance_param.cfg")
@@ -340,3 +348,24 @@ def test_the_iteration_count_is_an_integer_when_read_and_when_written():
     bad = c.write(iterations=3).replace("iterations: 3", "iterations: 2.5")
     with pytest.raises(ParameterError, match="iterations.*must be an integer; got 2.5"):
         read_config("x.yaml", text=bad)
+
+
+def test_ros2_admittance_frames_are_the_base_the_tip_or_refused():
+    """admittance_rule_impl.hpp makes K, D, M and the selected axes diagonal in control.frame.id at the current joints:
+    kinematics.tip is the tool, kinematics.base and fixed_world_frame.frame.id (said) the base; another name (UR's
+    'base', turned by pi from base_link, or a link of the arm) was read as the tool, whose axes turn with the arm:
+    refused, naming the key and the frames it may name."""
+    text = (resources.files("forcecontrol.scenarios") / "configs" / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    control = "    control:\n      frame:\n        id: tool0"
+    assert control in text and "    fixed_world_frame:   # gravity points along -z here (usually world or base_link)\n" \
+        "      frame:\n        id: base_link" in text
+    assert read_config("a.yaml", text=text).parameters["control_frame"] == "tool"
+    assert read_config("a.yaml", text=text.replace(control, "    control:\n      frame:\n        id: base_link")
+                       ).parameters["control_frame"] == "base"
+    world = text.replace(control, "    control:\n      frame:\n        id: world").replace(
+        "      frame:\n        id: base_link", "      frame:\n        id: world")
+    c = read_config("a.yaml", text=world)
+    assert c.parameters["control_frame"] == "base" and any("assumed to coincide" in n for n in c.notes)
+    with pytest.raises(ParameterError, match=r"control\.frame\.id 'base' is neither kinematics\.base 'base_link', "
+                                             r"kinematics\.tip 'tool0'"):
+        read_config("a.yaml", text=text.replace(control, "    control:\n      frame:\n        id: base"))

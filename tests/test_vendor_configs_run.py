@@ -93,3 +93,26 @@ def test_set_prints_each_config_note_once(tmp_path):
     assert len(notes) == len(set(notes)) and not any("(edited)" in n for n in notes), notes
     doc = json.loads(proc.stdout)
     assert all(any(w["kind"] == "config-note" for w in c["warnings"]) for c in doc["cases"])
+
+
+def test_franka_example_off_its_1_khz_loop_is_said(tmp_path):
+    """franka_ros's example filters its gains and limits its torque rate per cycle of the FCI's 1 kHz loop: a scenario
+    at another sample time says so (a note, on stderr and in the metadata); at 1 ms nothing is said of it."""
+    import warnings
+
+    from forcecontrol.realarm.conventions.configs import read_config
+    from forcecontrol.scenarios import build_case, load_scenario
+    from forcecontrol.scenarios.parts_vendor import ConfigNote, scenario_toml
+
+    config = tmp_path / "franka.yaml"
+    shutil.copy(resources.files("forcecontrol.scenarios") / "configs" / "franka_cartesian_impedance.yaml", config)
+    text = scenario_toml(read_config(config))
+    assert "sample_time = 0.001\n" in text
+    for Ts, said in ((0.0005, True), (0.001, False)):
+        path = tmp_path / f"franka-{Ts}.toml"
+        path.write_text(text.replace("sample_time = 0.001\n", f"sample_time = {Ts}\n"), encoding="utf-8")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ctl = build_case(load_scenario(path).cases[0])["controller"]
+        notes = [str(w.message) for w in caught if issubclass(w.category, ConfigNote) and "FCI's 1 ms" in str(w.message)]
+        assert bool(notes) == said and any("FCI's 1 ms" in n for n in ctl.config_notes) == said

@@ -133,6 +133,12 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
                          "([robot.servo] rate): the controller runs at the servo's rate")
     elif isinstance(robot, PositionInterfaceRobot):
         raise ScenarioError(f"{where}: [controller] type {kind!r} is a torque controller: remove the [robot.servo] table")
+    elif abs(float(ctx["sample_time"]) - 1e-3) > 1e-12:
+        # franka_ros's gain/equilibrium filter (filter_params 0.005) and torque-rate limit (delta_tau_max 1 N m) act per
+        # cycle of libfranka's 1 kHz loop: at another period the soft start and the rate limit are not Franka's
+        notes.append(f"sample_time {float(ctx['sample_time']):g} s is not the FCI's 1 ms: the example's per-cycle filter "
+                     "(0.005) and torque-rate limit (delta_tau_max) act per sample here, so its soft start and rate "
+                     "limit run at another speed than on the robot")
     ctl = cls(robot, sample_time=ctx["sample_time"], **params)
     ctl.config_source = source
     ctl.config_notes = notes

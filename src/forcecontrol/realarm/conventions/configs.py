@@ -102,9 +102,10 @@ _KNOWN: dict[str, dict[str, str]] = {
         "enable_parameter_update_without_reactivation": "parameters are constant during a simulation",
         "kinematics.base": "the robot's base", "kinematics.tip": "the robot's controlled frame",
         "ft_sensor.frame.id": "the robot's controlled frame (the sensor is taken at the tool)",
-        "control.frame.id": "'base' when it names kinematics.base, else the robot's controlled frame",
+        "control.frame.id": "'base' when it names kinematics.base (or fixed_world_frame.frame.id), 'tool' for kinematics.tip",
         "fixed_world_frame.frame.id": "the robot's base (gravity along -z)",
-        "gravity_compensation.frame.id": "'base' when it names kinematics.base, else the robot's controlled frame",
+        "gravity_compensation.frame.id": "'base' when it names kinematics.base (or fixed_world_frame.frame.id), 'tool' "
+                                         "for kinematics.tip",
     },
     "fzi": {
         **{k: _NOT_NEEDED for k in (
@@ -335,9 +336,8 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         if k == "fzi-compliance":
             values["compliance_frame"] = "base" if base is not None and params.get("compliance_ref_link") == base else "tool"
     if k == "ros2-admittance":
-        base = _get(params, ("kinematics", "base"))
-        values["control_frame"] = "base" if _get(params, ("control", "frame", "id")) == base else "tool"
-        values["payload_frame"] = "base" if _get(params, ("gravity_compensation", "frame", "id")) == base else "tool"
+        values["control_frame"] = _admittance_frame(where, params, ("control", "frame", "id"), notes)
+        values["payload_frame"] = _admittance_frame(where, params, ("gravity_compensation", "frame", "id"), notes)
         values["selected_axes"] = [bool(v) for v in values["selected_axes"]]
     if k == "franka-cartesian-impedance":
         if not any(str(key).split(".", 1)[0] == _FRANKA_NODE for key in params):
@@ -369,6 +369,30 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
 
 
 _MISSING = object()
+
+
+def _admittance_frame(where: str, params: Any, path: tuple[str, ...], notes: list[str]) -> str:
+    """The simulated frame ('base' or 'tool') of a ros2 admittance frame id. admittance_rule_impl.hpp rotates K, D, M,
+    the selected axes (control.frame.id) and the CoG (gravity_compensation.frame.id) into that frame at the current
+    joints: kinematics.base is the base, kinematics.tip the tool; fixed_world_frame.frame.id is taken as the base
+    (said); any other name is refused: a fixed frame turned from the base, or a link between base and tip, is not
+    modelled, and reading it as the tool would turn the gains with the arm."""
+    key = ".".join(path)
+    fid = _get(params, path)
+    base, tip = _get(params, ("kinematics", "base")), _get(params, ("kinematics", "tip"))
+    world = _get(params, ("fixed_world_frame", "frame", "id"))
+    if fid is _MISSING or fid == base:
+        return "base" if fid is not _MISSING else "tool"
+    if fid == tip:
+        return "tool"
+    if fid == world:
+        notes.append(f"{key} = {fid!r} is fixed_world_frame.frame.id: taken as the robot's base (kinematics.base "
+                     f"{base!r}), i.e. the two are assumed to coincide")
+        return "base"
+    raise ParameterError(f"{where}: {key} {fid!r} is neither kinematics.base {base!r}, kinematics.tip {tip!r} nor "
+                         f"fixed_world_frame.frame.id {world if world is not _MISSING else None!r}: the simulation does not "
+                         "know where that frame is (a fixed frame turned from the base, or a link of the arm); name one "
+                         "of those frames")
 
 
 def _locate(node: Any, path: tuple[Any, ...]) -> list[tuple[Any, Any]]:

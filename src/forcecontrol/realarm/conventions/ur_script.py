@@ -21,7 +21,7 @@ from .config_text import Edit, apply_edits, format_number
 __all__ = ["read_ur_script", "write_ur_script", "UR_DEFAULTS"]
 
 _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-_CALL = re.compile(r"^(\s*)(force_mode|force_mode_set_damping|force_mode_set_gain_scaling)\s*\((.*)\)\s*(#.*)?$")
+_CALL = re.compile(r"^(\s*)(force_mode|force_mode_set_damping|force_mode_set_gain_scaling)\s*\((.*?)\)\s*(#.*)?$")
 #: URScript's defaults (e-Series Script Directory §14.13–14.14).
 UR_DEFAULTS = {"damping": 0.005, "gain_scaling": 1.0}
 _ARGS = (("task_frame", 6), ("selection_vector", 6), ("wrench", 6), ("frame_type", 1), ("limits", 6))
