@@ -226,3 +226,29 @@ def test_design_command_prints_json_and_writes_a_scenario_with_the_sensor(tmp_pa
     assert again.exit_code == 2 and "exists" in again.output
     bad = CliRunner().invoke(app, ["design", "impedance", "--k-min", "1000", "--k-max", "1e5", "--settling-time", "0.001"])
     assert bad.exit_code == 2 and "cannot be met" in bad.output
+
+
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--arm-inertia", "-5", "--arm-inertia must be a positive number; got -5.0"),
+    ("--sample-time", "nan", "--sample-time must be a positive number; got nan"),
+    ("--delay", "-1", "--delay must be an integer >= 0; got -1"),
+    ("--filter-cutoff", "0", "--filter-cutoff must be a positive number [Hz]; got 0.0"),
+    ("--phase-margin", "200", "--phase-margin must be below 180 deg; got 200.0"),
+])
+def test_design_refuses_a_bad_option_naming_it_as_typed(option, value, message):
+    """`design` names the option the user typed, not the library's parameter; a cutoff of 0 Hz and a phase margin of
+    180 deg or more are refused as values (they used to end in "no gains keep a phase margin ...")."""
+    from typer.testing import CliRunner
+
+    from forcecontrol.cli import app
+
+    r = CliRunner().invoke(app, ["design", "inner-velocity", "--k-min", "1e3", "--k-max", "1e5", option, value])
+    assert r.exit_code == 2 and f"error: {message}" in r.stderr, r.output
+
+
+def test_design_gains_refuses_impossible_requirements():
+    """The library itself: a phase margin of 180 deg or more, a filter cutoff of 0 Hz."""
+    with pytest.raises(ParameterError, match=r"phase_margin must be below 180 deg; got 180"):
+        design_gains("inner-velocity", (1e3, 1e5), 1e-3, phase_margin=180)
+    with pytest.raises(ParameterError, match=r"filter_cutoff must be a positive number \[Hz\]; got 0"):
+        design_gains("inner-velocity", (1e3, 1e5), 1e-3, filter_cutoff=0.0)

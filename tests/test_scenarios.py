@@ -91,6 +91,12 @@ def test_unknown_scenario_name_lists_the_built_ins():
         load_scenario("example-9.99")
 
 
+@pytest.mark.parametrize("name", ["", "  "])
+def test_an_empty_scenario_name_is_said_to_be_empty(name):
+    """`run ""` said '.: cannot be read: it is a folder' (Path("") is the current folder): now the name is empty."""
+    with pytest.raises(ScenarioError, match=r"the scenario name is empty .*expected a built-in name \(.*example-9.2"):
+        load_scenario(name)
+
 def test_built_ins_include_examples_9_1_and_9_2():
     """`forcecontrol list` shows the chapter's Examples 9.1 and 9.2."""
     names = list_scenarios()

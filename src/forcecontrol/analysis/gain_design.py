@@ -157,13 +157,17 @@ def design_gains(
         raise ParameterError(f"scheme must be one of {list(DESIGN_SCHEMES)}; got {scheme!r}")
     k_min, k_max = stiffness_range_arg(stiffness_range)
     Ts = positive_scalar("sample_time", sample_time)
-    pm_req = positive_scalar("phase_margin", phase_margin)
+    pm_req = positive_scalar("phase_margin", phase_margin, "deg")
+    if pm_req >= 180.0:  # a phase margin is at most 180 deg by definition: no gains could meet it
+        raise ParameterError(f"phase_margin must be below 180 deg; got {phase_margin!r}")
     gm_req = nonnegative_scalar("gain_margin", gain_margin)
     zeta = positive_scalar("damping_ratio", damping_ratio)
     inertia = positive_scalar("inertia", inertia)
     stiffness = positive_scalar("stiffness", stiffness)
     if settling_time is not None:
         settling_time = positive_scalar("settling_time", settling_time)
+    if filter_cutoff is not None:  # None: no filter; a cutoff of 0 Hz would pass nothing
+        filter_cutoff = positive_scalar("filter_cutoff", filter_cutoff, "Hz")
     ks = sorted({k_min, math.sqrt(k_min * k_max), k_max})
     opts = {"delay_samples": delay_samples, "filter_cutoff": filter_cutoff, "arm_inertia": arm_inertia}
 

@@ -122,7 +122,7 @@ def design_command(
                 raise OutputError(f"cannot write {str(out)!r}: {exc.strerror or exc}") from exc
             written = str(out)
     except ForceControlError as exc:
-        _fail(exc)
+        _fail(_named_as_typed(exc))
     from ..scenarios.units import design_gain_unit, unit
 
     gain_units = {name: design_gain_unit(scheme, name) for name in d.gains}
@@ -154,3 +154,21 @@ def design_command(
     console.print(c)
     if written:
         console.print(f"scenario: {written}  (run it: forcecontrol run {written})")
+
+
+#: the design functions' parameter names → the options a user typed (an error names what was typed)
+_OPTIONS = {"sample_time": "--sample-time", "delay_samples": "--delay", "delay_cycles": "--delay",
+            "filter_cutoff": "--filter-cutoff", "phase_margin": "--phase-margin", "gain_margin": "--gain-margin",
+            "settling_time": "--settling-time", "damping_ratio": "--damping-ratio", "inertia": "--inertia",
+            "stiffness": "--stiffness", "arm_inertia": "--arm-inertia", "rate": "--rate",
+            "servo_bandwidth": "--servo-bandwidth", "servo_damping": "--servo-damping", "lowpass_cutoff": "--lowpass-cutoff"}
+
+
+def _named_as_typed(exc: Exception) -> Exception:
+    """The library's error with the parameter it names at its start written as the command's option
+    (``arm_inertia must be a positive number`` → ``--arm-inertia must be ...``); other errors unchanged."""
+    text = str(exc)
+    name = text.split(" ", 1)[0]
+    if name in _OPTIONS and text.startswith(f"{name} must"):
+        return type(exc)(_OPTIONS[name] + text[len(name):])
+    return exc

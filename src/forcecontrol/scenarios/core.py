@@ -147,6 +147,9 @@ def list_scenarios() -> dict[str, str]:
 
 def scenario_source(name_or_path: str | Path) -> Path:
     """The TOML file of a built-in scenario name or a path."""
+    if isinstance(name_or_path, str) and not name_or_path.strip():  # Path("") is the current folder
+        raise ScenarioError(f"the scenario name is empty ({name_or_path!r}); expected a built-in name "
+                            f"({', '.join(list_scenarios())}) or a .toml file")
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
         if not p.exists():
