@@ -276,9 +276,9 @@ def test_design_cli_refuses_options_the_scheme_does_not_read():
     from forcecontrol.cli import app
 
     res = CliRunner().invoke(app, ["design", "impedance", "--k-min", "100", "--k-max", "1000", "--robot", "ur5"])
-    assert res.exit_code != 0 and "--robot do(es) not apply to the impedance scheme" in res.output
+    assert res.exit_code != 0 and "--robot does not apply to the impedance scheme" in res.output
     res = CliRunner().invoke(app, ["design", "admittance-position", "--k-min", "100", "--k-max", "1000", "--arm-inertia", "3"])
-    assert res.exit_code != 0 and "--arm-inertia do(es) not apply" in res.output
+    assert res.exit_code != 0 and "--arm-inertia does not apply" in res.output
 
 
 def test_design_cli_zero_delay_is_zero_not_the_default():

@@ -369,3 +369,27 @@ def test_ros2_admittance_frames_are_the_base_the_tip_or_refused():
     with pytest.raises(ParameterError, match=r"control\.frame\.id 'base' is neither kinematics\.base 'base_link', "
                                              r"kinematics\.tip 'tool0'"):
         read_config("a.yaml", text=text.replace(control, "    control:\n      frame:\n        id: base"))
+
+
+def test_a_controllers_own_update_rate_comes_before_the_controller_managers():
+    """ros2_control: ``update_rate`` under the controller's own parameters overrides controller_manager's (it was
+    called an unsupported key); the difference is said."""
+    text = FZI_ROS2_MOTION_FIRST.replace('    ft_sensor_ref_link: "tool0"\n',
+                                         '    ft_sensor_ref_link: "tool0"\n    update_rate: 250\n')
+    c = read_config("fzi.yaml", text=text)
+    assert c.rate == 250.0 and any("update_rate 250 Hz of the controller's own parameters" in n for n in c.notes)
+    assert not any(n.startswith("update_rate: unsupported") for n in c.notes)
+    with pytest.raises(ParameterError, match="update_rate' must be a positive number"):
+        read_config("fzi.yaml", text=text.replace("update_rate: 250", "update_rate: -1"))
+
+
+def test_fzi_hand_frame_default_and_velocity_interface_are_said():
+    """FZI's force controllers take the target wrench in end_effector_link unless hand_frame_control is false: a file
+    without the key says what the simulation does instead; a ROS 1 velocity_controllers type is named."""
+    c = read_config("fzi.yaml", text=FZI_ROS2_MOTION_FIRST)
+    assert any(n.startswith("hand_frame_control not set: upstream's default true") for n in c.notes)
+    ros1 = ("my_force:\n  type: velocity_controllers/CartesianForceController\n  ft_sensor_ref_link: tool0\n"
+            "  hand_frame_control: false\n  solver: {error_scale: 0.5}\n  pd_gains:\n    trans_x: {p: 0.05}\n")
+    c = read_config("ros1.yaml", text=ros1)
+    assert c.kind == "fzi-force" and any("velocity-interface variant" in n for n in c.notes)
+    assert not any(n.startswith("hand_frame_control not set") for n in c.notes)

@@ -90,7 +90,7 @@ def design_command(
         unused = [k for k, v in (other_opts if scheme == "admittance-position" else servo_opts).items() if v]
         if unused:  # an option the scheme does not read is refused, not silently ignored
             raise ParameterError(
-                f"{', '.join(unused)} do(es) not apply to the {scheme} scheme; "
+                f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply to the {scheme} scheme; "
                 + ("--rate, --servo-bandwidth, --servo-damping, --lowpass-cutoff and --robot are for admittance-position"
                    if scheme != "admittance-position" else "admittance-position reads no sensor filter or arm inertia")
             )

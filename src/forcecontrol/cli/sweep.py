@@ -23,7 +23,7 @@ class Design(str, Enum):
 
 
 def sweep_command(
-    scenario: Annotated[str, typer.Argument(help="built-in name or .toml file (may hold a \\[sweep] table)")],
+    scenario: Annotated[str, typer.Argument(help="built-in name or .toml file (may hold a [sweep] table)")],
     param: Annotated[list[str] | None, typer.Option(  # noqa: UP007 - typer needs Optional
         "--param", "-p",
         help="PATH=VALUES, e.g. environment.stiffness=logspace(3,6,40), controller.force_gain[0]=0.001,0.002, "

@@ -352,6 +352,21 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
     known = _KNOWN["fzi" if k.startswith("fzi") else k]
     read = {".".join(str(x) for x in path if not isinstance(x, int)) for slots in _SLOTS[k].values() for path, _ in slots}
     grouped: dict[str, list[str]] = {}
+    own_rate = _get(params, ("update_rate",))
+    if own_rate is not _MISSING:  # ros2_control: a controller's own update_rate comes before the controller manager's
+        if isinstance(own_rate, bool) or not isinstance(own_rate, int | float) or not own_rate > 0:
+            raise ParameterError(f"{where}: key 'update_rate' must be a positive number [Hz]; got {own_rate!r}")
+        if rate is not None and float(own_rate) != rate:
+            notes.append(f"update_rate {float(own_rate):g} Hz of the controller's own parameters is used (the "
+                         f"controller_manager's is {rate:g} Hz)")
+        rate = float(own_rate)
+        read.add("update_rate")
+    if k.startswith("fzi") and str(params.get("type", "")).startswith("velocity_controllers/"):
+        notes.append(f"type {params['type']}: the velocity-interface variant; the arm is simulated through its position "
+                     "interface (the servo model)")
+    if k in ("fzi-force", "fzi-compliance") and _get(params, ("hand_frame_control",)) is _MISSING:
+        notes.append("hand_frame_control not set: upstream's default true takes the target wrench in end_effector_link; "
+                     "the simulation takes the reference force in the base frame")
     for key in _leaves(params):
         if key in read:
             continue
@@ -364,7 +379,8 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
             notes.append(f"{key}: ROS 1 gravity compensation of the force controllers is not modelled (not read)")
     notes += [f"{', '.join(keys)}: {reason}" for reason, keys in grouped.items()]
     if rate is None:
-        notes.append("no controller_manager update_rate in the file: the rate comes from the scenario")
+        notes.append("no update_rate in the file (controller_manager's or the controller's): the rate comes from the "
+                     "scenario")
     return VendorConfig(k, where, text, name, values, rate, notes, layout, params, None)
 
 
