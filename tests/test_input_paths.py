@@ -96,6 +96,12 @@ def test_json_safe_replaces_non_finite_numbers_and_says_where():
     json.dumps(out, allow_nan=False)
 
 
+def test_json_safe_writes_a_negative_zero_as_zero():
+    """-0.0 (a zero force along a negated axis) is written 0.0, as a float; other values keep their sign."""
+    out = json_safe({"f": [-0.0, np.float64(-0.0), -1e-300]})
+    assert json.dumps(out) == '{"f": [0.0, 0.0, -1e-300]}'
+    assert all(isinstance(v, float) for v in out["f"])
+
 def test_run_json_is_standard_json_with_a_nan_metric(tmp_path):
     """An expected value that yields NaN: `run --json` still prints standard JSON (null + a note)."""
     from forcecontrol.scenarios import run_scenario

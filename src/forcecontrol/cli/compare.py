@@ -71,7 +71,9 @@ def _words(console: Any, said: list[tuple[str, str]]) -> None:
 
     grouped: dict[str, list[str]] = {}
     for label, why in said:
-        grouped.setdefault(why, []).append(repr(label))
+        labels = grouped.setdefault(why, [])
+        if repr(label) not in labels:  # a case is named once per reason, not once per signal
+            labels.append(repr(label))
     for why, labels in grouped.items():
         console.print(f"  {escape(', '.join(labels))}: {escape(why)}", highlight=False, soft_wrap=True)
 

@@ -11,14 +11,14 @@ __all__ = ["json_safe"]
 
 
 def json_safe(value: Any, notes: list[str] | None = None, where: str = "") -> Any:
-    """A copy of ``value`` that standard JSON can hold: NaN and ±inf become None (null).
+    """A copy of ``value`` that standard JSON can hold: NaN and ±inf become None (null); -0.0 becomes 0.0.
 
     Each replaced value's location is appended to ``notes`` (e.g. ``cases[0].settled.fx = nan``).
     """
     if isinstance(value, float) or (isinstance(value, np.floating)):
         v = float(value)
         if math.isfinite(v):
-            return v
+            return v + 0.0  # -0.0 (a zero force along a negated axis) is written 0.0
         if notes is not None:
             notes.append(f"{where or '<value>'} = {v}")
         return None
