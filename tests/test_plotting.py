@@ -83,6 +83,20 @@ def test_reference_and_expected_marks(two_runs):
     plt.close("all")
 
 
+def test_no_desired_position_is_drawn_for_a_loop_that_never_reads_it():
+    """Example 9.3's Figs. 9.9 and 9.10 (inner position and velocity loops: x_F replaces x_d) drew the scenario's
+    x_d = 1.015 m as "desired", a position those schemes never track; the parallel scheme (Fig. 9.11) tracks it."""
+    import matplotlib.pyplot as plt
+
+    runs = fc.scenario("example-9.3").with_(duration=0.05).run(engine="python")
+    for case in runs.cases:
+        fig = plot_results([case.result], ["x", "fx"])
+        ax_x, ax_f = [ax for ax in fig.axes if ax.get_xlabel()]
+        drawn = [ln for ln in ax_x.get_lines() if ln.get_label() == "desired (reference)"]
+        assert bool(drawn) == case.label.startswith("parallel"), case.label
+        assert [ln for ln in ax_f.get_lines() if ln.get_label() == "desired (reference)"]  # f_d is drawn for all
+        plt.close("all")
+
 @pytest.mark.parametrize("zoom", ["-0.01", "0.0"])
 def test_scenario_figure_zoom_must_be_positive(tmp_path, zoom):
     """A figure's zoom (inset length) that is not a positive time is refused when the scenario loads."""

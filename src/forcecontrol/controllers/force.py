@@ -280,6 +280,8 @@ class InnerPositionForceController(_DirectForceController):
 
     law = staticmethod(laws.inner_position)
     acceleration = staticmethod(laws.inner_position_acceleration)
+    #: the law never reads ``reference.position`` (x_F replaces x_d): figures draw no "desired" position for it
+    reads_position_reference = False
 
     @runs_law
     def step(self, t: float, measurement: Measurement, reference: Reference) -> np.ndarray:
@@ -306,6 +308,8 @@ class InnerVelocityForceController(_DirectForceController):
     """
 
     law = staticmethod(laws.inner_velocity)
+    #: the law never reads ``reference.position`` (x_F replaces x_d): figures draw no "desired" position for it
+    reads_position_reference = False
     acceleration = staticmethod(laws.inner_velocity_acceleration)
     _has_integral: ClassVar[bool] = False
 

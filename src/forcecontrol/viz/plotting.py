@@ -101,10 +101,21 @@ def _series(result: SimulationResult, signal: str) -> np.ndarray:
     raise KeyError(f"unknown signal {signal!r}; expected one of {', '.join(cols)} (derived metrics are not plotted)")
 
 
+def _reads_position_reference(result: SimulationResult) -> bool:
+    """Whether the run's controller reads ``reference.position`` (its class's ``reads_position_reference``, True
+    unless the class says otherwise)."""
+    from .. import controllers
+
+    name = str((result.metadata.get("controller") or {}).get("type", ""))
+    return bool(getattr(getattr(controllers, name, None), "reads_position_reference", True))
+
+
 def _reference_series(result: SimulationResult, signal: str) -> tuple[np.ndarray, str] | None:
     """The reference logged for a position or force signal (x_d, f_d) with its legend label, if any."""
     cols = result.columns()
     if signal in ("x", "y", "z", "rx", "ry", "rz"):
+        if not _reads_position_reference(result):
+            return None  # a position the controller never tracks (the inner position and velocity loops' x_F)
         key, sym = f"ref_position_{signal}", "desired"
     elif signal in ("fx", "fy", "fz", "mx", "my", "mz"):
         axis = {"f": "", "m": "r"}[signal[0]] + signal[1]
