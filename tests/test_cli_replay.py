@@ -65,7 +65,7 @@ def test_topics_given_for_a_file_without_topics_are_refused(tmp_path, logs, comm
     out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "a"),
                               "--wrench-topic", "/x", "--joint-topic", "/y"])
     assert out.exit_code == 2, out.output
-    assert "--joint-topic and --wrench-topic select(s) the topics of a ROS bag or MCAP file" in out.stderr
+    assert "--joint-topic and --wrench-topic select the topics of a ROS bag or MCAP file" in out.stderr
     assert not (tmp_path / "a").exists()
     out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "b"),
                               "--joint-topic", "/joint_states"])

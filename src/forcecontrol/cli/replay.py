@@ -87,8 +87,8 @@ def read_log(
         if (joint_topic, wrench_topic) != (DEFAULT_JOINT_TOPIC, DEFAULT_WRENCH_TOPIC):
             given = [o for o, v, d in (("--joint-topic", joint_topic, DEFAULT_JOINT_TOPIC),
                                        ("--wrench-topic", wrench_topic, DEFAULT_WRENCH_TOPIC)) if v != d]
-            raise ParameterError(f"{' and '.join(given)} select(s) the topics of a ROS bag or MCAP file; {path.name} is "
-                                 "not one (it would be ignored)")
+            raise ParameterError(f"{' and '.join(given)} {'select' if len(given) > 1 else 'selects'} the topics of a ROS "
+                                 f"bag or MCAP file; {path.name} is not one (it would be ignored)")
         if sense is not None:
             kwargs["sense"] = sense
     rec = read_recording(path, format_, **kwargs)

@@ -72,21 +72,16 @@ def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band): 
     err = yf - f_ref
     if not math.isfinite(mag):
         return nan, nan, err, 0.0, yf
+    # the late residual against the step, or without a step (y ends where it began, e.g. a tool that bounced and ends
+    # in free air as it started) against the largest excursion: a bouncing limit cycle is not stable, a y that never
+    # moved is
+    scale = mag if mag > 0.0 else _largest_residual(y, yf, 0, n)
     qn = max(n // 4, 1)
-    if mag == 0.0:
-        # no step (y ends where it began, e.g. a tool that bounced and ends in free air as it started): no settling
-        # time or overshoot; stable when y never moved, or when its late residual is within stable_band of its largest
-        # excursion or still decaying (a bouncing limit cycle is not; it used to count as stable here)
-        peak = 0.0
-        for k in range(n):
-            v = abs(y[k] - yf)
-            if v > peak:
-                peak = v
-        if peak == 0.0:
-            return nan, nan, err, 1.0, yf
-        late = _largest_residual(y, yf, n - qn, n)
-        early = _largest_residual(y, yf, max(n - 2 * qn, 0), n - qn)
-        return nan, nan, err, 1.0 if (late <= stable_band * peak or late < 0.9 * early) else 0.0, yf
+    late = _largest_residual(y, yf, n - qn, n)
+    early = _largest_residual(y, yf, max(n - 2 * qn, 0), n - qn)
+    stable = 1.0 if (scale == 0.0 or late <= stable_band * scale or late < 0.9 * early) else 0.0
+    if mag == 0.0:  # no step: no settling time or overshoot
+        return nan, nan, err, stable, yf
     band = settle_band * mag
     k_out = -1
     for k in range(n - 1, -1, -1):
@@ -101,9 +96,6 @@ def case_metrics(y, last, status, Ts, window, f_ref, settle_band, stable_band): 
         if v > over:
             over = v
     over = 100.0 * over / mag
-    late = _largest_residual(y, yf, n - qn, n)
-    early = _largest_residual(y, yf, max(n - 2 * qn, 0), n - qn)
-    stable = 1.0 if (late <= stable_band * mag or late < 0.9 * early) else 0.0
     return settling, over, err, stable, yf
 
 

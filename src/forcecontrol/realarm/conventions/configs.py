@@ -211,7 +211,7 @@ def detect_kind(params: Any, type_name: str | None = None) -> str | None:
     if "pd_gains" in keys or "solver" in keys:
         if "stiffness" in keys or "compliance_ref_link" in keys:
             return "fzi-compliance"
-        if "ft_sensor_ref_link" in params:
+        if "ft_sensor_ref_link" in keys:
             return "fzi-force"
         return "fzi-motion"
     return None
@@ -318,17 +318,7 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         notes[:] = [n for n in notes if not n.startswith("solver.iterations not set")]  # not the project's default 1
         notes.append("solver.iterations not set: the ROS 1 dynamic_reconfigure default 10 is used")
     if k.startswith("fzi") and layout == "ros1":  # ROS 1: dynamic_reconfigure servers clamp each value to its .cfg range
-        for gain, ranges in _FZI_ROS1_RANGES.items():
-            if gain not in values:
-                continue
-            vals = values[gain] if isinstance(values[gain], list) else [values[gain]]
-            keys = [".".join(str(x) for x in path) for path, _ in _SLOTS[k][gain]]
-            for i, (v, (lo, hi), key) in enumerate(zip(vals, ranges, keys)):
-                if not lo <= v <= hi:
-                    vals[i] = type(v)(min(hi, max(lo, v)))
-                    notes.append(f"{key} = {v!r} is outside its ROS 1 dynamic_reconfigure range [{lo:g}, {hi:g}]: "
-                                 f"the controller clamps it to {vals[i]:g}")
-            values[gain] = vals if isinstance(values[gain], list) else vals[0]
+        _clamp_to_ranges(values, _SLOTS[k], _FZI_ROS1_RANGES, "ROS 1 dynamic_reconfigure range", notes)
     if k.startswith("fzi"):
         if str(params.get("ik_solver", "forward_dynamics")) != "forward_dynamics":
             raise ParameterError(f"{where}: ik_solver {params['ik_solver']!r} is not modelled (only forward_dynamics)")
@@ -343,12 +333,8 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
         if not any(str(key).split(".", 1)[0] == _FRANKA_NODE for key in params):
             notes.append(f"no {_FRANKA_NODE} table in the file: the defaults of franka_example_controllers/cfg/"
                          "compliance_param.cfg are used (translational 200 N/m, rotational 10 N m/rad, nullspace 0.5)")
-        for gain, (lo, hi) in _FRANKA_RANGES.items():  # dynamic_reconfigure clamps a parameter to its .cfg range
-            v = values[gain]
-            if not lo <= v <= hi:
-                values[gain] = min(hi, max(lo, v))
-                notes.append(f"{_FRANKA_NODE}.{gain} = {v!r} is outside its .cfg range [{lo:g}, {hi:g}]: "
-                             f"dynamic_reconfigure clamps it to {values[gain]:g}")
+        # dynamic_reconfigure clamps a parameter to its .cfg range
+        _clamp_to_ranges(values, _SLOTS[k], {g: [r] for g, r in _FRANKA_RANGES.items()}, ".cfg range", notes)
     known = _KNOWN["fzi" if k.startswith("fzi") else k]
     read = {".".join(str(x) for x in path if not isinstance(x, int)) for slots in _SLOTS[k].values() for path, _ in slots}
     grouped: dict[str, list[str]] = {}
@@ -385,6 +371,23 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
 
 
 _MISSING = object()
+
+
+def _clamp_to_ranges(values: dict[str, Any], slots: dict[str, list[tuple[tuple[Any, ...], Any]]],
+                     ranges: dict[str, list[tuple[float, float]]], what: str, notes: list[str]) -> None:
+    """Clamp each value read to its range (one per value of the slot), as a dynamic_reconfigure server does with what
+    the parameter server holds; each clamped value said in ``notes`` with its key."""
+    for gain, bounds in ranges.items():
+        if gain not in values:
+            continue
+        vals = values[gain] if isinstance(values[gain], list) else [values[gain]]
+        keys = [".".join(str(x) for x in path) for path, _ in slots[gain]]
+        for i, (v, (lo, hi), key) in enumerate(zip(vals, bounds, keys)):
+            if not lo <= v <= hi:
+                vals[i] = type(v)(min(hi, max(lo, v)))
+                notes.append(f"{key} = {v!r} is outside its {what} [{lo:g}, {hi:g}]: dynamic_reconfigure clamps it "
+                             f"to {vals[i]:g}")
+        values[gain] = vals if isinstance(values[gain], list) else vals[0]
 
 
 def _admittance_frame(where: str, params: Any, path: tuple[str, ...], notes: list[str]) -> str:
