@@ -122,3 +122,108 @@ def test_friction_on_a_table_under_a_pose_task():
     env.start(Tip(), x, np.zeros(6), 2)
     e = np.array([1e-5, 0, 0, 0, 0, 0])
     np.testing.assert_allclose(env.wrench(x + e, np.zeros(6)), [1.0, 0, -10.0, 0, 0, 0], rtol=1e-9)
+
+
+# -- a pressed block (a 1 kg point pushed along a plane), the stand-in of the review's closed forms: Coulomb says a load
+# below μ_s W never moves it, above it slides at (F − μ_k W)/m, and a block that friction stops stays where it stopped
+
+class _Point:  # a stand-in robot whose pose and twist are the state itself
+    def pose_twist(self, q, qd):
+        return q, qd
+
+
+def _block(env, load, duration, *, v0=0.0, m=1.0, w=10.0, dt=1e-4):
+    """RK4 of m ẍ = (load(t), −w) − h_e on the plane y = 0 (k = 1e4), the stick/slip state advanced after every
+    step as the simulator does; rows (t, x, ẋ, h_t, mode)."""
+    x, v = np.array([0.0, -w / 1e4]), np.array([v0, 0.0])  # resting on the spring under w
+    env.start(_Point(), x, v, 1)
+    out = []
+
+    def f(t, x, v):
+        return v, (np.array([load(t), -w]) - env.wrench(x, v)) / m
+
+    for i in range(int(round(duration / dt))):
+        t = i * dt
+        k1 = f(t, x, v)
+        k2 = f(t + dt / 2, x + dt / 2 * k1[0], v + dt / 2 * k1[1])
+        k3 = f(t + dt / 2, x + dt / 2 * k2[0], v + dt / 2 * k2[1])
+        k4 = f(t + dt, x + dt * k3[0], v + dt * k3[1])
+        x = x + dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        v = v + dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        env.advance(_Point(), x, v)
+        out.append((t + dt, x[0], v[0], env.wrench(x, v)[0], env.mode))
+    return np.array(out)
+
+
+def _pressed(mu_s, mu_k, **kw):
+    kw.setdefault("stick_damping", 200.0)  # critical for the 1 kg block on σ₀ = 1e4: 2 √(σ₀ m)
+    return FrictionalContact(fc.ElasticPlane([0.0, 0.0], [0.0, 1.0], 1e4), mu_s, mu_k, **kw)
+
+
+@pytest.mark.parametrize("fraction", [0.5, 0.9, 0.99])
+def test_a_step_load_below_the_static_limit_never_breaks_away(fraction):
+    """A step F = fraction · μ_s W on a block at rest: it sticks for good, moving by the bristle's deflection F/σ₀ only
+    (an undamped bristle swung to 2F and broke away from μ_s W/2 on)."""
+    r = _block(_pressed(0.6, 0.4), lambda t: fraction * 6.0, 0.5)
+    assert np.all(r[:, 4] == 1)
+    assert np.max(r[:, 1]) <= fraction * 6.0 / 1e4 * (1 + 1e-9)
+    np.testing.assert_allclose(r[-1, 1], fraction * 6.0 / 1e4, rtol=1e-6)
+    assert abs(r[-1, 2]) < 1e-9
+
+
+def test_a_step_load_above_the_static_limit_slides_at_the_kinetic_acceleration():
+    """F = 1.1 μ_s W: it breaks away within the bristle's rise and then accelerates at (F − μ_k W)/m."""
+    r = _block(_pressed(0.6, 0.4), lambda t: 6.6, 0.5)
+    slip = np.flatnonzero(r[:, 4] == 2)
+    assert slip.size and r[slip[0], 0] < 0.05
+    late = slip[slip > slip[0] + 1000]
+    accel = np.diff(r[late, 2]) / np.diff(r[late, 0])
+    np.testing.assert_allclose(accel, 6.6 - 4.0, rtol=1e-6)
+
+
+def test_a_block_that_friction_stops_stays_stopped_and_friction_did_all_the_work():
+    """Launched at v₀ with no load: it stops at v₀²/(2 μ_k W/m) and stays there with h_t = 0; friction dissipated
+    ½ m v₀² exactly (the bristle preloaded with μ_k W pushed it back and forth for ever, giving back (μ_k W)²/(2σ₀))."""
+    r = _block(_pressed(0.5, 0.5), lambda t: 0.0, 1.0, v0=0.2)
+    stop = 0.2**2 / (2 * 0.5 * 10.0)
+    stuck = r[:, 0] > 0.2
+    np.testing.assert_allclose(r[stuck, 1], stop, rtol=1e-3)
+    assert np.ptp(r[stuck, 1]) < 1e-9 and np.max(np.abs(r[stuck, 3])) < 1e-9
+    work = np.sum(0.5 * (r[1:, 3] + r[:-1, 3]) * np.diff(r[:, 1]))
+    first = 0.5 * (r[0, 3] + 0.5 * 10.0) * r[0, 1]  # the first step, from x = 0 under μ_k W
+    np.testing.assert_allclose(work + first, 0.5 * 0.2**2, rtol=1e-3)
+
+
+@pytest.mark.parametrize("load", [1e-3, 0.05, 1.0])
+def test_zero_friction_is_the_frictionless_plane(load):
+    """μ_s = μ_k = 0 never sticks: a small push from rest follows F t²/2m as on the plane without friction (the
+    stick/slip toggling below stick_speed held it back by 0.8 % at 1 mN)."""
+    r = _block(_pressed(0.0, 0.0), lambda t: load, 0.2)
+    assert np.all(r[:, 4] == 2) and np.all(r[:, 3] == 0.0)
+    np.testing.assert_allclose(r[-1, 1], load * 0.2**2 / 2, rtol=1e-9)
+
+
+def test_an_undamped_bristle_that_breaks_away_under_a_step_below_the_limit_says_so():
+    """σ₁ = 0: a load stepped to 0.7 μ_s W swings the spring to 1.4 μ_s W and breaks away (an elastic contact without
+    damping does); the contact says so once, then forgets; a damped bristle under the same load neither slips nor
+    says anything."""
+    undamped = _pressed(0.6, 0.4, stick_damping=0.0)
+    r = _block(undamped, lambda t: 0.7 * 6.0, 0.1)
+    assert np.any(r[:, 4] == 2)
+    note = undamped.take_projection_note()
+    assert note is not None and "undamped bristle" in note and "stick_damping" in note
+    assert undamped.take_projection_note() is None
+    damped = _pressed(0.6, 0.4)
+    assert np.all(_block(damped, lambda t: 0.7 * 6.0, 0.1)[:, 4] == 1)
+    assert damped.take_projection_note() is None
+
+
+def test_simulate_warns_when_the_tool_broke_away_from_an_undamped_bristle():
+    """Through simulate on the chapter's arm (stick_damping 0, a quick pull): a ContactModelWarning names the cause."""
+    from forcecontrol.errors import ContactModelWarning
+
+    env = FrictionalContact(fc.ElasticPlane([0.0, 0.6], [0.0, 1.0], K_ENV), 0.5, 0.3, stick_stiffness=1e5,
+                            stick_damping=0.0)
+    with pytest.warns(ContactModelWarning, match="undamped bristle"):
+        r = _run(env, _pull(0.55 * F_N), 2.0)
+    assert np.any(r.signals["stick"][r.t > 0.8] == 0.0)

@@ -146,20 +146,21 @@ class _NumpyFriction:
             return
         vt = v - float(nu @ v) * nu
         speed = float(np.linalg.norm(vt))
-        if self.mode == 0:
+        if e.mu_s == 0.0:  # never stuck
+            self.mode = 2
+            self.direction = vt / speed if speed > 1e-12 else self.direction
+        elif self.mode == 0:
             if speed > e.stick_speed:
                 self.mode, self.direction = 2, vt / speed
             else:
                 self.mode, self.anchor = 1, p.copy()
         elif self.mode == 1:
             a = p - self.anchor
-            f = e.sigma0 * (a - float(nu @ a) * nu) + e.sigma1 * vt
+            f = e.sigma0 * (a - float(nu @ a) * nu)  # the spring's load (breakaway ignores the damper's transient)
             if np.linalg.norm(f) > e.mu_s * fn:
                 self.mode, self.direction = 2, vt / speed if speed > 1e-12 else f / np.linalg.norm(f)
         elif speed <= e.stick_speed or float(vt @ self.direction) <= 0.0:
-            d = self.direction - float(nu @ self.direction) * nu
-            d = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-12 else np.zeros(self.space)
-            self.mode, self.anchor = 1, p - (e.mu_k * fn / e.sigma0) * d
+            self.mode, self.anchor = 1, p.copy()  # stopped: the bristle starts unloaded at the tool
         else:
             self.direction = vt / speed
 

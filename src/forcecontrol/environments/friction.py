@@ -8,16 +8,27 @@ the tangential part of h_e (the force the tool exerts on the surface, along the 
 * **slip**: ``h_t = μ_k f_n s + b v_t``, s the unit sliding direction (``v_t/|v_t|``): kinetic
   Coulomb plus viscous friction, exact, not smoothed;
 * **stick**: the tool is held by a stiff tangential spring to an anchor point a (a bristle):
-  ``h_t = σ₀ e_t + σ₁ v_t`` with e_t the tangential part of ``x − a``; the tool cannot creep:
-  its tangential speed decays with the bristle's damped mode to zero.
+  ``h_t = σ₀ e_t + σ₁ v_t`` with e_t the tangential part of ``x − a``; the tool cannot creep: it moves by the
+  bristle's deflection (the load over σ₀) only.
 
 The mode is a state, updated after every integrator step (:meth:`FrictionalContact.advance`,
 called by the simulator's Python loop; within a step the state is held, so the force is smooth for
-RK4): stick turns to slip when the bristle force exceeds the static limit, ``|σ₀ e_t + σ₁ v_t| > μ_s f_n``
-(breakaway); slip turns to stick when the tangential velocity reverses or drops below
-``stick_speed``, with the anchor placed so that the bristle carries the kinetic force at once
-(no jump of the friction force). Losing contact clears the state; touching starts in stick when
-``|v_t| <= stick_speed``, else in slip.
+RK4): stick turns to slip when the bristle's spring carries more than the static limit, ``|σ₀ e_t| > μ_s f_n``
+(breakaway; the damper's part ``σ₁ v_t`` is the bristle's transient, not the load it holds); slip turns to stick
+when the tangential velocity reverses or drops below ``stick_speed``, with the anchor at the tool (the bristle
+unloaded: a tool that stops carries only the load it then feels, at most μ_s f_n, never the kinetic force it
+had while sliding, which would push it back). Losing contact clears the state; touching starts in stick when
+``|v_t| <= stick_speed``, else in slip. With μ_s = 0 the tool never sticks (the surface is exactly frictionless
+but for the viscous b).
+
+The bristle is a spring on the tool's mass m (the arm's, or the apparent mass its controller gives it): a load
+stepped onto a stuck tool swings the spring past the load by ``exp(−πζ/√(1−ζ²))`` of it, ζ = σ₁/(2√(σ₀ m)), and
+the breakaway test sees that swing (as a real elastic contact would): undamped (σ₁ = 0, the default on a surface
+without damping), a load stepped above μ_s f_n/2 breaks away, and a stuck tool oscillates on the bristle for ever.
+Give ``stick_damping`` near ``2 √(σ₀ m)`` (critical) for loads that change quickly; a run whose tool broke away from
+an undamped bristle says so (:meth:`FrictionalContact.take_projection_note`, a ContactModelWarning). Breakaway
+tests the spring's part only, as the LuGre model bounds its bristle's deflection by the static force (Canudas de
+Wit et al., 1995); the damper's part is the transient on top.
 
 The run's log gets the signals ``friction`` (the tangential part of h_e, (N+1, m) [N]),
 ``normal_force`` (f_n >= 0 [N]), ``friction_force`` (|h_t| [N]), ``tangential_speed`` (|v_t| [m/s],
@@ -61,7 +72,8 @@ class FrictionalContact(Environment):
         kinetic: μ_k in [0, 10].
         viscous: b [N s/m] >= 0, the tangential viscous friction.
         stick_stiffness: σ₀ [N/m] > 0 of the sticking bristle (default: the surface's normal stiffness).
-        stick_damping: σ₁ [N s/m] >= 0 of the bristle (default: the surface's normal damping).
+        stick_damping: σ₁ [N s/m] >= 0 of the bristle (default: the surface's normal damping); see the module's
+            docstring for the damping a stuck tool needs.
         stick_speed: below this tangential speed [m/s] a sliding tool sticks (default 1e-4).
     """
 
@@ -93,6 +105,7 @@ class FrictionalContact(Environment):
         #: the damping that sets the integration step (the fastest of the normal, bristle and viscous ones).
         self.damping = max(c, self.sigma1 + self.viscous)
         self._clear()
+        self._undamped_breakaways = 0
         self._log: dict[str, np.ndarray] = {}
 
     def _clear(self) -> None:
@@ -170,9 +183,20 @@ class FrictionalContact(Environment):
         return max(float(self.surface.stiffness), self.sigma0)
 
     def take_projection_note(self) -> str | None:
-        """The surface's (:meth:`~forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`), or None."""
+        """What the contact model did that a run should say, then forgotten: the surface's
+        (:meth:`~forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`) and breakaways from an
+        undamped bristle (which a load above μ_s f_n/2 stepped onto a stuck tool reaches); None when neither."""
         take = getattr(self.surface, "take_projection_note", None)
-        return take() if take is not None else None
+        notes = [take() if take is not None else None]
+        if self._undamped_breakaways:
+            notes.append(
+                f"the tool broke away {self._undamped_breakaways} time(s) from an undamped bristle (stick_damping = 0, "
+                f"stick_stiffness = {self.sigma0:g} N/m): a stuck tool swings on it, to twice a load stepped onto it, "
+                "so a load between μ_s f_n/2 and μ_s f_n may have broken away; give stick_damping near 2 √(σ₀ m) "
+                "(critical for the tool's apparent mass m) for loads that change quickly")
+            self._undamped_breakaways = 0
+        said = [n for n in notes if n]
+        return "; ".join(said) if said else None
 
     # -- the stick/slip state (the simulator calls start, advance, log_sample, signals)
     def _update(self, x: np.ndarray, xd: np.ndarray) -> None:
@@ -187,6 +211,11 @@ class FrictionalContact(Environment):
         t1 = v1 - vn * n1
         t2 = v2 - vn * n2
         speed = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if self.mu_s == 0.0:  # frictionless but for the viscous part: never stuck
+            self.mode = SLIP
+            if speed > 1e-12:
+                self.direction = self._vector(t0 / speed, t1 / speed, t2 / speed)
+            return
         if self.mode == FREE:
             if speed > self.stick_speed:
                 self.mode, self.direction = SLIP, self._vector(t0 / speed, t1 / speed, t2 / speed)
@@ -194,25 +223,20 @@ class FrictionalContact(Environment):
                 self.mode, self.anchor = STICK, self._vector(p0, p1, p2)
             return
         if self.mode == STICK:
-            f0, f1, f2 = self._stick_force(p0, p1, p2, n0, n1, n2, t0, t1, t2)
+            f0, f1, f2 = self._stick_force(p0, p1, p2, n0, n1, n2, 0.0, 0.0, 0.0)  # the spring's load, not its damper
             fmag = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
             if fmag > self.mu_s * fn:  # breakaway
                 self.mode = SLIP
+                self._undamped_breakaways += self.sigma1 == 0.0
                 if speed > 1e-12:
                     self.direction = self._vector(t0 / speed, t1 / speed, t2 / speed)
                 else:
                     self.direction = self._vector(f0 / fmag, f1 / fmag, f2 / fmag)
             return
-        # sliding: stop on a reversal or below the sticking speed, with the kinetic force carried on
+        # sliding: stop on a reversal or below the sticking speed, the bristle unloaded at the tool
         d0, d1, d2 = xyz(self.direction, self.space)
         if speed <= self.stick_speed or t0 * d0 + t1 * d1 + t2 * d2 <= 0.0:
-            dn = n0 * d0 + n1 * d1 + n2 * d2
-            d0, d1, d2 = d0 - dn * n0, d1 - dn * n1, d2 - dn * n2
-            nd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            d0, d1, d2 = (d0 / nd, d1 / nd, d2 / nd) if nd > 1e-12 else (0.0, 0.0, 0.0)
-            self.mode = STICK
-            c = self.mu_k * fn / self.sigma0
-            self.anchor = self._vector(p0 - c * d0, p1 - c * d1, p2 - c * d2)
+            self.mode, self.anchor = STICK, self._vector(p0, p1, p2)
         else:
             self.direction = self._vector(t0 / speed, t1 / speed, t2 / speed)
 
