@@ -140,6 +140,83 @@ def test_mesh_checks_its_input_and_file():
     assert ElasticMesh(np.eye(3), [[0, 1, 2]], 1e4).kind == 0  # 3-D: the Python loop (the compiled one is planar)
 
 
+TETRA_V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+TETRA_F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # counter-clockwise seen from outside
+
+
+def test_consistently_wound_tetrahedron_gives_the_closed_form_distance():
+    """The unit corner tetrahedron, wound outward: φ at (1,1,1) is its distance to the plane x + y + z = 1, +2/√3 (no
+    force), at (0.2, 0.3, −0.5) +0.5 (below the face z = 0), at (0.1, 0.1, 0.1) −0.1 (the three faces through the origin)."""
+    env = ElasticMesh(TETRA_V, TETRA_F, 1e4)
+    assert env.closed
+    phi, pc, nu = env.geometry(np.array([1.0, 1.0, 1.0]))
+    assert phi == pytest.approx(2.0 / math.sqrt(3.0), abs=1e-12)
+    np.testing.assert_allclose(pc, [1 / 3, 1 / 3, 1 / 3], atol=1e-12)
+    np.testing.assert_allclose(nu, np.ones(3) / math.sqrt(3.0), atol=1e-12)
+    assert not env.wrench(np.array([1.0, 1.0, 1.0]), np.zeros(3)).any()
+    assert env.signed_distance(np.array([0.2, 0.3, -0.5])) == pytest.approx(0.5, abs=1e-12)
+    assert env.signed_distance(np.array([0.1, 0.1, 0.1])) == pytest.approx(-0.1, abs=1e-12)
+
+
+def test_mesh_refuses_a_closed_tetrahedron_with_one_face_reversed():
+    """One face of the tetrahedron reversed (was: φ(1,1,1) = −1.155 m, a 11.5 kN push in free space): its three edges
+    now run the same way as in their neighbours, refused naming the count and the fix."""
+    F = TETRA_F.copy()
+    F[3] = F[3, ::-1]
+    with pytest.raises(ParameterError, match=r"faces must be wound consistently .* got 3 edge\(s\) traversed twice in the "
+                                             r"same direction .*trimesh.repair.fix_normals"):
+        ElasticMesh(TETRA_V, F, 1e4)
+
+
+def test_mesh_refuses_an_inside_out_mesh_and_a_repeated_triangle():
+    """All faces reversed (consistent, normals inward: all the space outside would be solid) is refused with its signed
+    volume, −1/6 m³ for the unit tetrahedron; so is a triangle given twice (either vertex order) and, in an open patch,
+    an edge two triangles traverse the same way."""
+    with pytest.raises(ParameterError, match=r"faces must be wound with outward normals .* closed surface of 4 triangles "
+                                             r".* signed volume -0.166667 m\^3 \(must be positive\)"):
+        ElasticMesh(TETRA_V, TETRA_F[:, ::-1], 1e4)
+    for twin in (TETRA_F[1], TETRA_F[1, ::-1]):
+        with pytest.raises(ParameterError, match=r"faces must each be a distinct triangle; got 1 repeated \(triangles 1 and 4"):
+            ElasticMesh(TETRA_V, np.vstack([TETRA_F, twin]), 1e4)
+    square = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
+    assert not ElasticMesh(square, [[0, 2, 1], [0, 3, 2]], 1e4).closed  # open, one-sided: either side may be solid
+    with pytest.raises(ParameterError, match=r"got 1 edge\(s\) traversed twice in the same direction \(e.g. vertices "
+                                             r"\[0, 2\] by triangles 0 and 1\)"):
+        ElasticMesh(square, [[0, 1, 2], [0, 3, 2]], 1e4)
+
+
+def test_mesh_parts_inward_are_refused_unless_they_bound_a_cavity():
+    """Two closed parts: an inward-wound ball inside an outward one is a cavity (accepted: φ > 0 at the centre, within the
+    inner icosphere's sag of its radius, < 0 in the shell); the same ball beside it, not inside, is refused though the
+    total signed volume is positive."""
+    outer = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    inner = trimesh.creation.icosphere(subdivisions=2, radius=0.05)
+    sag, _ = _sag_and_tilt(inner, np.zeros(3), 0.05)
+    n = len(outer.vertices)
+    faces = np.vstack([outer.faces, inner.faces[:, ::-1] + n])
+    env = ElasticMesh(np.vstack([outer.vertices, inner.vertices]), faces, 1e4)
+    assert env.closed
+    assert 0.05 - sag - 1e-12 <= env.signed_distance(np.zeros(3)) <= 0.05 + 1e-12
+    assert env.signed_distance(np.array([0.075, 0.0, 0.0])) < 0.0 < env.signed_distance(np.array([0.2, 0.0, 0.0]))
+    with pytest.raises(ParameterError, match=r"closed surface of 320 triangles \(triangle 320 among them\) wound inward"):
+        ElasticMesh(np.vstack([outer.vertices, inner.vertices + [1.0, 0.0, 0.0]]), faces, 1e4)
+
+
+def test_mesh_file_wound_inconsistently_is_refused_naming_the_file(tmp_path):
+    """trimesh reads the faces as written (process=True merges vertices, does not fix winding): the refusal names the file."""
+    F = TETRA_F.copy()
+    F[3] = F[3, ::-1]
+    for faces, name, match in ((F, "flipped.stl", "must be wound consistently"),
+                               (TETRA_F[:, ::-1], "inside_out.obj", "must be wound with outward normals")):
+        path = tmp_path / name
+        trimesh.Trimesh(TETRA_V, faces, process=False).export(path)
+        with pytest.raises(ParameterError, match=f"faces of mesh '{path}' {match}"):
+            ElasticMesh.from_file(path, 1e4)
+    good = tmp_path / "good.ply"
+    trimesh.Trimesh(TETRA_V, TETRA_F, process=False).export(good)
+    assert ElasticMesh.from_file(good, 1e4).signed_distance(np.ones(3)) == pytest.approx(2.0 / math.sqrt(3.0), abs=1e-12)
+
+
 def _mesh_scenario(tmp_path: Path, stl: Path) -> Path:
     """panda-sphere with its ball replaced by a mesh file next to the scenario (a relative path), 1 s."""
     text = (Path(fc.__file__).parent / "scenarios" / "panda-sphere.toml").read_text()

@@ -8,9 +8,10 @@ distance of the tip to the mesh:
   can be that close, found with k-d trees on the vertices and the centroids);
 * the sign of φ comes from the angle-weighted pseudo-normal of the feature p_c lies on (the face's
   normal, the sum of an edge's two face normals, a vertex's angle-weighted normal: Bærentzen and
-  Aanæs 2005), which is exact for a closed, consistently wound mesh; an open mesh (e.g. a patch of
-  ground) is one-sided: the environment is on the side opposite to its faces' normals (the
-  right-hand rule of the vertex order);
+  Aanæs 2005), which is exact for a closed, consistently wound mesh with outward normals (the only
+  closed winding :class:`ElasticMesh` accepts); an open mesh (e.g. a patch of ground) is one-sided:
+  the environment is on the side opposite to its faces' normals (the right-hand rule of the vertex
+  order);
 * the normal is **ν = ∇φ** = sign · (p − p_c)/|p − p_c|: the face normal wherever p_c lies inside a
   face, and, where p_c lies on an edge or a vertex, the direction from it, which turns continuously
   from one face's normal to the next. Not a smoothed (Phong) vertex normal, because ∇φ keeps the
@@ -97,6 +98,70 @@ def closest_point_on_triangles(p, a, b, c, cand):  # pragma: no cover - compiled
     return q_best, i_best, w_best
 
 
+def _check_winding(V: np.ndarray, F: np.ndarray, cross: np.ndarray, edges: np.ndarray, edge_of: np.ndarray,
+                   counts: np.ndarray, source: str | None) -> None:
+    """Refuse faces that are not one consistently wound surface (see :class:`ElasticMesh`'s Raises).
+
+    ``cross`` (nf, 3) is (b − a) × (c − a) per face; ``edges`` (ne, 2) the undirected edges (sorted vertex
+    pairs); ``edge_of`` (3 nf,) the edge of face i's side j (vertex j to j + 1) at 3 i + j; ``counts`` each
+    edge's number of faces."""
+    name = "faces" if source is None else f"faces of mesh {source!r}"
+    nf = F.shape[0]
+    tri = np.sort(F, axis=1)
+    _, first, again = np.unique(tri, axis=0, return_index=True, return_inverse=True)
+    again = again.ravel()
+    dup = np.flatnonzero(first[again] != np.arange(nf))
+    if dup.size:
+        i, j = int(first[again[dup[0]]]), int(dup[0])
+        raise ParameterError(f"{name} must each be a distinct triangle; got {dup.size} repeated (triangles {i} and {j} "
+                             f"both join vertices {tri[j].tolist()}): remove the repeats")
+    forward = (F < np.roll(F, -1, axis=1)).ravel()  # side j runs from the lower vertex index to the higher
+    ahead = np.bincount(edge_of, weights=forward, minlength=edges.shape[0])
+    same = np.flatnonzero((counts == 2) & (ahead != 1))
+    if same.size:
+        e = int(same[0])
+        f1, f2 = (int(k) for k in np.flatnonzero(edge_of == e) // 3)
+        raise ParameterError(
+            f"{name} must be wound consistently (two triangles sharing an edge traverse it in opposite directions); "
+            f"got {same.size} edge(s) traversed twice in the same direction (e.g. vertices {edges[e].tolist()} by "
+            f"triangles {f1} and {f2}): order each triangle's vertices counter-clockwise seen from outside "
+            "(e.g. trimesh.repair.fix_normals)")
+    if not np.any(counts == 2):
+        return
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    ne = edges.shape[0]  # the parts: faces joined through their shared edges
+    graph = coo_matrix((np.ones(3 * nf), (np.repeat(np.arange(nf), 3), nf + edge_of)), shape=(nf + ne, nf + ne))
+    parts, label = connected_components(graph, directed=False)
+    face_part = label[:nf]
+    closed = np.ones(parts, dtype=bool)
+    closed[label[nf + np.flatnonzero(counts != 2)]] = False
+    a = V[F[:, 0]] - V.mean(axis=0)
+    volume = np.bincount(face_part, weights=np.einsum("ij,ij->i", a, cross), minlength=parts) / 6.0
+    for part in np.flatnonzero(closed & ~(volume > 0.0)):
+        mine = face_part == part
+        others = np.flatnonzero(closed[face_part] & ~mine)
+        k = int(np.flatnonzero(mine)[0])
+        if others.size and _winding_number(V[F[k]].mean(axis=0), V, F[others]) > 0.5:
+            continue  # a cavity: its faces point into it, out of the solid around it
+        raise ParameterError(
+            f"{name} must be wound with outward normals (counter-clockwise seen from outside); got a closed surface "
+            f"of {int(mine.sum())} triangles (triangle {k} among them) wound inward, its signed volume "
+            f"{volume[part]:.6g} m^3 (must be positive), which makes the space outside it solid: reverse each "
+            "triangle's vertex order (e.g. trimesh.repair.fix_normals)")
+
+
+def _winding_number(p: np.ndarray, V: np.ndarray, F: np.ndarray) -> float:
+    """The winding number of the triangles F about the point p: the solid angles they subtend over 4π (Van
+    Oosterom and Strackee 1983); 1 inside a closed surface with outward normals, 0 outside it."""
+    a, b, c = V[F[:, 0]] - p, V[F[:, 1]] - p, V[F[:, 2]] - p
+    la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+    det = np.einsum("ij,ij->i", a, np.cross(b, c))
+    den = la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb + np.einsum("ij,ij->i", b, c) * la
+    return float(np.sum(np.arctan2(det, den))) / (2.0 * math.pi)
+
+
 class ElasticMesh(ElasticSurface):
     """An elastic surface given by a triangle mesh (3-D); see the module's text for φ, p_c and ν.
 
@@ -104,6 +169,14 @@ class ElasticMesh(ElasticSurface):
         vertices: (nv, 3) [m]; faces: (nf, 3) vertex indices, counter-clockwise seen from outside
             (the outward normal by the right-hand rule).
         stiffness, damping, task_dim: see :class:`~forcecontrol.environments.surfaces.ElasticSurface`.
+
+    Raises:
+        ParameterError: besides bad values, faces that are not one consistently wound surface: a
+            triangle given twice (any vertex order); an edge shared by two triangles traversed twice
+            in the same direction (one face reversed); a closed part (every edge of it shared by two
+            triangles) wound inward, its signed volume Σ (a−o)·((b−a)×(c−a))/6 not positive, unless
+            it bounds a cavity (it lies inside another closed part). Each would give φ the wrong
+            sign near the faces concerned, or everywhere outside.
     """
 
     describe_type: ClassVar[str | None] = "mesh"
@@ -154,6 +227,7 @@ class ElasticMesh(ElasticSurface):
         for i in range(3):
             np.add.at(en, inverse[:, i], self.face_normals)
         counts = np.bincount(inverse.ravel(), minlength=unique.shape[0])
+        _check_winding(V, F, cross, unique, inverse.ravel(), counts, source)
         #: True when every edge has exactly two faces (a closed surface: inside and outside are defined).
         self.closed = bool(np.all(counts == 2))
         self._edge_normals, self._face_edges = en, inverse  # face edge i joins its vertices i and i + 1
@@ -168,7 +242,9 @@ class ElasticMesh(ElasticSurface):
                   offset: Any = None, task_dim: int | None = None, max_bytes: int = 64 * 2**20) -> ElasticMesh:
         """A mesh read from an STL, OBJ or PLY file through trimesh (the library's safe reader: regular files
         only, ``max_bytes`` at most), its vertices multiplied by ``scale`` (e.g. 1e-3 for a file in mm) and
-        moved by ``offset`` (3,) [m]. Several bodies in one file are merged into one mesh."""
+        moved by ``offset`` (3,) [m]. Several bodies in one file are merged into one mesh. trimesh merges
+        duplicate vertices but keeps the faces' winding as written: a winding :meth:`__init__` refuses is
+        refused naming the file."""
         p = Path(path)
         sc = positive_scalar("scale", scale, "")
         off = np.zeros(3) if offset is None else as_vector("offset", offset, 3)
