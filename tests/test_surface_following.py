@@ -102,6 +102,90 @@ def test_estimator_refuses_bad_inputs_by_name():
         ConstraintFrameEstimator([0.0, 1.0], 0.0, TS)
 
 
+def _state(est: ConstraintFrameEstimator) -> tuple:
+    return est.normal.copy(), est.filtered.copy(), est.tangent.copy(), len(est.signals()["estimated_normal_angle"])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize(("force", "velocity", "match"), [
+    ([math.inf, -10.0], [0.0, 0.0], r"force must be finite \[N\]; got \[inf, "),
+    ([math.nan, -10.0], [0.01, 0.0], r"force must be finite \[N\]; got \[nan, "),
+    ([0.0, -10.0], [0.01, -math.inf], r"velocity must be finite \[m/s\]; got \[0.01, .*-inf\]"),
+    ([0.0, 0.0], [math.nan, 0.0], r"velocity must be finite \[m/s\]; got \[nan, "),
+])
+def test_estimator_refuses_a_non_finite_measurement_and_keeps_its_estimate(dim, force, velocity, match):
+    """A NaN or infinite force or velocity sample (was: 2-D, n̂ NaN for ever after one inf; 3-D, a misleading
+    'first_tangent' error; a NaN force taken for no contact) is refused by name, in 2-D and 3-D, the estimate, its filter,
+    tangent and log left as they were; the next good samples go on as if it had not come."""
+    def pad(v):
+        return [v[0]] + [0.0] * (dim - 2) + [v[1]]
+
+    est, twin = (ConstraintFrameEstimator(pad([0.3, -1.0]), 0.05, TS) for _ in range(2))
+    for e in (est, twin):
+        e.update(pad([1.0, -10.0]), pad([0.01, 0.0]))
+    before = _state(est)
+    with pytest.raises(ParameterError, match=match):
+        est.update(pad(force), pad(velocity))
+    after = _state(est)
+    assert all(np.array_equal(a, b) for a, b in zip(before[:3], after[:3])) and before[3] == after[3]
+    for e in (est, twin):
+        for _ in range(100):
+            e.update(pad([0.0, -10.0]), pad([0.01, 0.0]))
+    assert np.array_equal(est.normal, twin.normal) and np.array_equal(est.tangent, twin.tangent)
+    assert np.all(np.isfinite(est.normal))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_estimate_is_held_while_the_filter_cancels_to_zero(dim):
+    """With gain a = 1/2 (T_s = τ ln 2) one sample opposite to the estimate cancels the filter, n_f = n_f + a(−n_f − n_f)
+    = 0, which has no direction (was: ZeroDivisionError in 2-D, NaN and a 'first_tangent' error in 3-D): n̂ is held,
+    finite, the frame orthonormal; n_f keeps filtering, so the next such sample gives n_f = a u and n̂ = u."""
+    down, up = np.r_[[0.0] * (dim - 1), -1.0], np.r_[[0.0] * (dim - 1), 1.0]
+    est = ConstraintFrameEstimator(down, 1.0, math.log(2.0))
+    assert est.gain == pytest.approx(0.5, abs=1e-15)
+    n = est.update(10.0 * up, np.zeros(dim))
+    assert np.array_equal(n, down) and np.linalg.norm(est.filtered) < 1e-9
+    S = np.hstack(est.selection())
+    np.testing.assert_allclose(S.T @ S, np.eye(dim), atol=1e-15)
+    np.testing.assert_allclose(est.update(10.0 * up, np.zeros(dim)), up, atol=1e-15)
+    np.testing.assert_allclose(est.filtered, 0.5 * up, atol=1e-15)
+    assert np.all(np.isfinite(est.signals()["estimated_normal_angle"]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_while_the_tool_sticks_friction_tilts_the_estimate_by_atan_of_the_force_ratio(dim):
+    """Slower than min_speed friction is not removed (the documented limit): a tangential force of 0.3 f_n, what
+    μ_s = 0.3 allows while sticking, tilts the steady estimate by exactly atan 0.3 = 16.70° (closed form)."""
+    est = ConstraintFrameEstimator([0.0] * (dim - 1) + [-1.0], 0.05, TS)
+    for _ in range(2000):  # 40 τ
+        n = est.update([3.0] + [0.0] * (dim - 2) + [-10.0], [1e-4] + [0.0] * (dim - 1))
+    assert math.atan2(n[0], -n[-1]) == pytest.approx(math.atan(0.3), abs=1e-12)
+    assert math.degrees(math.atan(0.3)) == pytest.approx(16.70, abs=0.005)
+
+
+def test_run_whose_measured_force_turns_non_finite_stops_naming_the_measurement():
+    """In a run with the estimated frame, a sensor reading that turns infinite at t = 0.3 s stops the run with the
+    controller's MeasurementError naming measurement.wrench and the time (its input check comes before the estimator's
+    refusal); the estimate is left finite, logged for the 300 samples before."""
+    from forcecontrol.errors import MeasurementError
+    from forcecontrol.sensors.realistic import RealisticForceSensor
+
+    class Overflowing(RealisticForceSensor):
+        def measure(self, k, t, h, q=None):
+            out = super().measure(k, t, h, q)
+            return out if k < 300 else out + math.inf
+
+    arm = fc.PlanarTwoLink()
+    env = ElasticSphere([1.0, 0.35], 0.2, 1e4, damping=50.0)
+    est = ConstraintFrameEstimator([0.3, 1.0], 0.05, TS)
+    ctl = HybridCompliantController(arm, SelectionMatrices(*est.selection()), 1e-4, 50.0, 400.0, 2500.0, 100.0, TS,
+                                    frame=est)
+    ref = surface_following_reference(2, -0.05, 10.0, 1.0, 0.5, 0.5)
+    with pytest.raises(MeasurementError, match=r"measurement.wrench is not finite at t = 0.3 s: \[inf, inf\]"):
+        fc.simulate(arm, env, ctl, ref, q0=arm.inverse_kinematics([1.0, 0.15]), duration=1.0, sensor=Overflowing())
+    assert np.all(np.isfinite(est.normal)) and len(est.signals()["estimated_normal_angle"]) == 300
+
+
 class _FixedFrame:
     """A frame provider that never moves (S_f = n, S_v = n turned by +90°)."""
 

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..core.numba_cache import kernel_array
-from ..core.validate import positive_scalar
+from ..core.validate import _scalar, as_vector, positive_scalar
 from ..errors import ParameterError
 from .surfaces import PROJECTION_SETTLED, PROJECTION_STEPS, PROJECTION_STOP, HeightField
 
@@ -93,23 +93,24 @@ class BumpField(HeightField):
                  task_dim: int | None = None) -> None:
         if len(shape) != 2 or any(int(v) != v or v < 4 for v in shape):
             raise ParameterError(f"shape must be two integers >= 4 (samples along x and y); got {list(shape)!r}")
-        self.base = float(base)
-        self.amplitude = float(amplitude)
+        # each named here: a NaN or infinity in any of them would only show as non-finite sampled heights
+        self.base = _scalar("base", base, "a finite number", "m", math.isfinite)
+        self.amplitude = _scalar("amplitude", amplitude, "a finite number", "m", math.isfinite)
         self.wavelength = positive_scalar("wavelength", wavelength, "m")
-        o = np.asarray(origin, dtype=np.float64)
+        sp = positive_scalar("spacing", spacing, "m")
+        o = as_vector("origin", origin, 2)
         self.crest = o.copy() if crest is None else np.asarray(crest, dtype=np.float64)
-        if self.crest.shape != (2,):
-            raise ParameterError(f"crest must be (x, y) [m]; got {np.asarray(crest).tolist()!r}")
+        if self.crest.shape != (2,) or not np.all(np.isfinite(self.crest)):
+            raise ParameterError(f"crest must be (x, y), finite [m]; got {np.asarray(crest).tolist()!r}")
         rows = np.zeros((0, 4)) if dips is None else np.asarray(dips, dtype=np.float64).reshape(-1, 4) \
             if np.size(dips) % 4 == 0 else None
-        if rows is None or (rows.shape[0] and np.any(rows[:, 3] <= 0)):
-            raise ParameterError(f"dips must be rows [x, y, depth, width] with width > 0 [m]; got {dips!r}")
+        if rows is None or (rows.shape[0] and not (np.all(np.isfinite(rows)) and np.all(rows[:, 3] > 0))):
+            raise ParameterError(f"dips must be rows [x, y, depth, width] of finite numbers with width > 0 [m]; got {dips!r}")
         self.dips = kernel_array(rows, frozen=True)  # read-only: what the compiled projection reads
         self._k = 2.0 * math.pi / self.wavelength
         self._dips = [tuple(float(v) for v in r) for r in rows]  # the same rows as floats, for the Python formula
         # Python floats for the contact's scalar arithmetic (NumPy scalars give the same numbers, three times slower)
         self._cx, self._cy = float(self.crest[0]), float(self.crest[1])
-        sp = float(spacing)
         x = o[0] + sp * np.arange(int(shape[0]))
         y = o[1] + sp * np.arange(int(shape[1]))
         H = np.array([[self._height_slope(xi, yj)[0] for yj in y] for xi in x])

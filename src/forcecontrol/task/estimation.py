@@ -15,7 +15,9 @@ along the velocity removed by projecting it out):
   along −v̂ on the tool, so on a frictional surface ``f_⊥`` still points along the contact normal;
 * low-pass filtered, first order with time constant τ, on the vector's components (exact
   zero-order-hold discretisation, ``a = 1 − exp(−T_s/τ)``): ``n_f ← n_f + a (f_⊥/|f_⊥| − n_f)``;
-  the normal estimate is ``n̂ = n_f/|n_f|``; below ``min_force`` (no contact) the estimate is held;
+  the normal estimate is ``n̂ = n_f/|n_f|``; below ``min_force`` (no contact) the estimate is held,
+  and so is n̂ (n_f still filtering) while ``|n_f| < MIN_FILTERED`` (1e-9): samples opposite to n_f can
+  cancel it (with a = 1/2, one sample ``f_⊥/|f_⊥| = −n_f`` gives ``n_f = 0``), which has no direction;
 * the tangent: planar, ``t̂ = n̂`` turned by +90° (``[−n̂_y, n̂_x]``); 3-D, the measured velocity's
   part orthogonal to n̂ (the last one held when slower than ``min_speed``), and ``b̂ = n̂ × t̂``.
 
@@ -69,6 +71,15 @@ def _unwrapped(angle: float, previous: list[float]) -> float:
     return angle if not previous else previous[-1] + math.remainder(angle - previous[-1], 2.0 * math.pi)
 
 
+#: below this norm the filtered vector n_f (a mean of unit vectors) gives no direction: n̂ is held.
+MIN_FILTERED = 1e-9
+
+
+def _finite(name: str, values: list[float], unit: str) -> None:
+    if not all(map(math.isfinite, values)):
+        raise ParameterError(f"{name} must be finite [{unit}]; got {values} (the estimate is left as it was)")
+
+
 class ConstraintFrameEstimator:
     """The constraint frame's normal and tangent tracked from the measured force and velocity.
 
@@ -83,6 +94,10 @@ class ConstraintFrameEstimator:
         first_tangent: 3-D only: the first tangent guess (made orthogonal to the normal); default
             any vector orthogonal to it.
         truth: optional ``x -> true normal (d,)`` (into the surface), used for the logs only.
+
+    Friction is removed only while the tool slides faster than ``min_speed``: while it sticks or
+    creeps, the measured force's tangential part f_t stays in, and n̂ tilts from the contact normal
+    towards f_t by ``atan(|f_t|/f_n)``, up to ``atan μ_s`` (16.70° at μ_s = 0.3).
     """
 
     def __init__(self, first_normal: Any, time_constant: float, sample_time: float, *, min_force: float = 1.0,
@@ -138,26 +153,36 @@ class ConstraintFrameEstimator:
     def update(self, force: Any, velocity: Any, x: Any = None) -> np.ndarray:
         """One sample: filter the measured normal direction; returns n̂ (d,). ``force`` and
         ``velocity`` are base-frame (d,) [N], [m/s] (longer vectors are cut to d); ``x`` the tip
-        position, for the ``truth`` log only."""
+        position, for the ``truth`` log only.
+
+        Raises:
+            DimensionError: ``force`` or ``velocity`` has fewer than d components.
+            ParameterError: a NaN or infinite component of ``force`` or ``velocity`` (nothing changed).
+        """
         d = self.dim
         f = np.asarray(force, dtype=np.float64)[:d]
         v = np.asarray(velocity, dtype=np.float64)[:d]
+        fl, vl = f.tolist(), v.tolist()
+        if len(fl) != d or len(vl) != d:
+            raise DimensionError(f"force and velocity must have at least {d} components; got {len(fl)} and {len(vl)}")
+        if not math.isfinite(sum(fl) + sum(vl)):  # one test when all is well; then which one
+            _finite("force", fl, "N")
+            _finite("velocity", vl, "m/s")
         if d == 2:
-            return self._update2(*f.tolist(), *v.tolist(), x)
+            return self._update2(*fl, *vl, x)
         speed = math.sqrt(float(v @ v))
         if speed > self.min_speed and abs(float(v @ self.normal)) < 0.5 * speed:
             f = f - float(f @ v) / (speed * speed) * v  # friction along the (sliding) velocity removed
         fn = math.sqrt(float(f @ f))
         if fn > self.min_force:
             self.filtered = self.filtered + self.gain * (f / fn - self.filtered)
-            self.normal = self.filtered / np.linalg.norm(self.filtered)
+            na = float(np.linalg.norm(self.filtered))
+            if na >= MIN_FILTERED:  # else no direction: n̂ held
+                self.normal = self.filtered / na
         n = self.normal
-        if d == 2:
-            self.tangent = np.array([-n[1], n[0]])
-        else:
-            t = v - float(v @ n) * n if speed > self.min_speed else self.tangent - float(self.tangent @ n) * n
-            tn = float(np.linalg.norm(t))
-            self.tangent = t / tn if tn > 1e-12 else self._orthogonal(n, None)
+        t = v - float(v @ n) * n if speed > self.min_speed else self.tangent - float(self.tangent @ n) * n
+        tn = float(np.linalg.norm(t))
+        self.tangent = t / tn if tn > 1e-12 else self._orthogonal(n, None)
         self._record(x)
         return n
 
@@ -175,8 +200,9 @@ class ConstraintFrameEstimator:
             a0, a1 = a0 + g * (f0 / fn - a0), a1 + g * (f1 / fn - a1)
             self.filtered = np.array((a0, a1))
             na = math.sqrt(a0 * a0 + a1 * a1)
-            m0, m1 = a0 / na, a1 / na
-            self.normal = np.array((m0, m1))
+            if na >= MIN_FILTERED:  # else no direction: n̂ held
+                m0, m1 = a0 / na, a1 / na
+                self.normal = np.array((m0, m1))
         self.tangent = np.array((-m1, m0))
         self._record(x)
         return self.normal
