@@ -83,7 +83,7 @@ def _table_orientation(path: Path, rows: int) -> Any:
     norms = np.linalg.norm(quat, axis=1)
     if np.abs(norms - 1.0).max() > 1e-6:
         i = int(np.argmax(np.abs(norms - 1.0)))
-        raise ParameterError(f"{path}: qx qy qz qw must be unit quaternions; row {i} has norm {norms[i]:.9g}")
+        raise ParameterError(f"{path}: qx qy qz qw must be unit quaternions; data row {i + 1} has norm {norms[i]:.9g}")
     from scipy.spatial.transform import Rotation
 
     return Rotation.from_quat(quat).as_matrix(), quat

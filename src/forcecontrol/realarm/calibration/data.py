@@ -60,11 +60,11 @@ def calibration_data_from_columns(
         except (TypeError, ValueError) as exc:
             rows = [i for i, v in enumerate(list(cols[name])) if not is_number(v)]
             raise ParameterError(
-                f"column {name!r} must hold numbers; row {rows[0] if rows else '?'} is not a number"
+                f"column {name!r} must hold numbers; data row {rows[0] + 1 if rows else '?'} is not a number"
             ) from exc
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
-            raise MeasurementError(f"column {name!r} must be finite; row {int(bad[0])} is {a[bad[0]]}")
+            raise MeasurementError(f"column {name!r} must be finite; data row {int(bad[0]) + 1} is {a[bad[0]]}")
         return a
 
     def missing(names: tuple[str, ...]) -> list[str]:
@@ -76,7 +76,7 @@ def calibration_data_from_columns(
         bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
         if bad.size:
             raise ParameterError(
-                f"quaternion (qx, qy, qz, qw) must be unit; row {int(bad[0])} has norm {norm[bad[0]]:.6g}"
+                f"quaternion (qx, qy, qz, qw) must be unit; data row {int(bad[0]) + 1} has norm {norm[bad[0]]:.6g}"
             )
         from scipy.spatial.transform import Rotation
 
@@ -90,7 +90,7 @@ def calibration_data_from_columns(
         elif np.any(np.abs(phi) > 2.0 * np.pi):
             i = int(np.flatnonzero(np.abs(phi) > 2.0 * np.pi)[0])
             raise ParameterError(
-                f"column 'angle' is in radians and row {i} is {phi[i]:.6g}, beyond ±2π: the angles look like degrees; "
+                f"column 'angle' is in radians and data row {i + 1} is {phi[i]:.6g}, beyond ±2π: the angles look like degrees; "
                 "pass degrees=True (calibrate --degrees) if they are"
             )
         c, s = np.cos(phi), np.sin(phi)
