@@ -212,3 +212,25 @@ def test_the_reasons_the_engines_differ_are_those_of_the_run():
     assert {"chapter arm", "payload"} <= names("PlanarTwoLink", {"kind": "payload"})
     assert not {"chapter arm", "payload"} & names("PinocchioRobot", {"type": "ForceSensor"})
     assert "integration" in names("PinocchioRobot", None)
+
+
+def test_mujoco_runs_keep_the_controllers_signals_as_the_builtin_engine_does(tmp_path):
+    """The variable-stiffness tank case on MuJoCo: its tank energy, stiffness scale and storage are logged (they were
+    dropped: `run --engine mujoco` stopped on a KeyError drawing the tank, and its tank_energy_min check read NaN); the
+    tank energy follows the built-in engine's to the engines' difference, and `run --engine mujoco` draws and checks."""
+    from forcecontrol.scenarios.build import build_case
+    from journeys_helpers import forcecontrol as cli
+
+    runs = {}
+    for engine in ("mujoco", "python"):
+        p = build_case(fc.scenario("variable-stiffness").with_({"duration": 0.5}).cases[1])
+        runs[engine] = (simulate_mujoco if engine == "mujoco" else fc.simulate)(
+            p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=0.5,
+            **({} if engine == "mujoco" else {"engine": "python"}))
+    mj, py = runs["mujoco"].signals, runs["python"].signals
+    assert sorted(mj) == sorted(py) and {"tank_energy", "stiffness_scale", "storage"} <= set(mj)
+    assert np.all(np.isfinite(mj["tank_energy"]))
+    gap = np.abs(mj["tank_energy"] - py["tank_energy"])  # a schedule switch a sample apart moves one sample's T
+    assert np.median(gap) < 1e-3 and abs(mj["tank_energy"].min() - py["tank_energy"].min()) < 0.01
+    out = cli(tmp_path, "run", "variable-stiffness", "--engine", "mujoco", "--set", "duration=0.5")
+    assert "Traceback" not in out.stderr and (tmp_path / "forcecontrol-out" / "variable-stiffness").is_dir()

@@ -177,7 +177,9 @@ def test_tank_is_filled_with_the_damping_that_acted():
     tank = EnergyTank(T0, minimum=0.0, maximum=math.inf, dissipation_fraction=1.0)
     ctl = VariableImpedanceController(ARM, 100.0, 200.0, 1000.0, damping_schedule=damping, tank=tank, sample_time=Ts)
     x0 = ARM.forward_kinematics(Q0)
-    v = {0: np.array([0.3, -0.1]), 1: np.array([0.2, 0.4]), 2: np.array([-0.5, 0.1]), 3: np.array([0.1, 0.1])}
+    # speeds falling sample to sample: the loop's own loss, ½ M_d (|x̃̇_{k-1}|² − |x̃̇_k|²) with no port energy (x̃ held),
+    # is above the damper's share, so the cap on the deposit (what the loop really lost) does not bind here
+    v = {0: np.array([0.5, -0.3]), 1: np.array([0.2, 0.4]), 2: np.array([-0.3, 0.1]), 3: np.array([0.1, 0.1])}
     expected, T = [], T0
     for k in range(4):
         # q̇ = 0: the error rate x̃̇ = ẋ_d − J q̇ is the reference velocity itself
@@ -187,6 +189,23 @@ def test_tank_is_filled_with_the_damping_that_acted():
             T += Ts * D_of[k - 1] * float(v[k - 1] @ v[k - 1])
         expected.append(T)
     np.testing.assert_allclose(ctl.signals()["tank_energy"], expected, rtol=1e-12, atol=0.0)
+
+
+def test_tank_is_never_credited_more_than_the_loop_lost():
+    """Slip: the damper's Ts x̃̇ᵀ K_D x̃̇ credited whatever the loop did. Speeds rising with x̃ held: the loop's storage
+    grew with no energy at its port, so it lost nothing and the tank gets nothing; falling: it gets the loss when that
+    is below the damper's share (x̃̇ from 0.3 to 0.29 m/s with M_d = 100 kg: 0.295 J lost, 0.3 J the damper's at
+    K_D = 3333 N s/m)."""
+    Ts, T0 = 1e-3, 0.5
+    x0 = ARM.forward_kinematics(Q0)
+    for speeds, damping, deposit in (((0.1, 0.2, 0.3), 200.0, 0.0), ((0.3, 0.29), 1e4 / 3.0, 0.5 * 100.0 * (0.09 - 0.0841))):
+        tank = EnergyTank(T0, minimum=0.0, maximum=math.inf, dissipation_fraction=1.0)
+        ctl = VariableImpedanceController(ARM, 100.0, damping, 1000.0, tank=tank, sample_time=Ts)
+        for k, sp in enumerate(speeds):
+            ctl.step(k * Ts, _meas(Q0), fc.Reference(x0, np.array([sp, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2),
+                                                      np.zeros(2)))
+        assert damping * Ts * speeds[-2] ** 2 > deposit  # the damper's share would have been more
+        assert ctl.signals()["tank_energy"][-1] == pytest.approx(T0 + deposit, rel=1e-12, abs=1e-15)
 
 
 def test_tank_never_holds_more_than_its_maximum():

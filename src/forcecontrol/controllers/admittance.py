@@ -191,6 +191,7 @@ class AdmittanceController(_SpatialBase):
         h = self._wrench(measurement.wrench)
         R_d = euler_xyz_to_rotation(reference.position[3:])
         h_d = np.concatenate([R_d.T @ h[:3], R_d.T @ h[3:]])
+        self.held_wrench = h_d  # h_e^d held over this sample (the input of (9.37)'s discretisation)
         ref_t = self.compliant_reference(reference, h_d)
         if self.compiled:
             u = self._compiled_torque(t, q, qd, h, ref_t, self._eye6, self.motion_damping, self.motion_stiffness, False)

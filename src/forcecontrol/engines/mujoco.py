@@ -41,7 +41,7 @@ from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Refere
 from ..environments.base import Environment
 from ..errors import ParameterError, SimulationDivergedError
 from ..sim.limits import check_run_size
-from ..sim.simulation import SimulationResult
+from ..sim.simulation import SimulationResult, _controller_signals
 from ..spatial.closed_form import rotation_to_euler_xyz  # per sample
 from ..trajectories import ReferenceSignal
 from .compare import DIFFERENCES, compare_engines
@@ -379,7 +379,12 @@ class MujocoPlant:
             "mujoco": self.describe(),
             "engine_notes": list(getattr(self, "notes", [])),  # e.g. how MuJoCo's friction differs (mujoco_surfaces)
         }
-        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, **logs)  # type: ignore[arg-type]
+        # what the controller logged (a tank's energy, a search's events), as simulate keeps them
+        events = [dict(e) for e in getattr(controller, "events", [])]
+        if events:
+            meta["events"] = events
+        result = SimulationResult(t=times, reference=refs, label=label, metadata=meta, events=events,  # type: ignore[arg-type]
+                                  signals=_controller_signals(controller, N + 1), **logs)
         if status_k is not None:
             raise SimulationDivergedError(
                 f"MuJoCo run '{label or 'case'}' diverged at t = {status_k * Ts:.4f} s",
