@@ -186,6 +186,8 @@ def test_cases_without_a_sampled_verdict_say_why():
     """A scheduled impedance and the hybrid compliant scheme give ω_n, ζ without a sampled verdict: the case says so."""
     variable = analyze_scenario("variable-stiffness")["cases"]
     assert all("schedule" in c["sampled_loop_skipped"] for c in variable)
+    # its predicted steady state is the t = 0 gains' (the naive case bounces to 1634 N; the tank one ends near 26 N)
+    assert all("steady state" in c["sampled_loop_skipped"] and "t = 0" in c["sampled_loop_skipped"] for c in variable)
     hybrid = analyze_scenario("example-9.4")["cases"]
     assert all("hybrid" in c["sampled_loop_skipped"] for c in hybrid)
     assert all("sampled_loop_skipped" not in c for c in analyze_scenario("example-9.3")["cases"])

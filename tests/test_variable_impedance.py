@@ -249,3 +249,14 @@ def test_panda_admittance_naive_schedule_chatters_and_the_tank_keeps_contact():
     assert late["tank"].min() > 1.0 and late["tank"].max() < 0.2 * late["naive"].max()
     tank_energy = runs["tank"].signals["tank_energy"]
     assert np.all(tank_energy >= 0.005 - 1e-12) and np.all(tank_energy <= 0.05 + 1e-12)
+
+
+def test_the_compiled_engine_refusal_names_what_it_cannot_compile(arm):
+    """engine='compiled' with a scheduled controller: refused naming the controller's missing compiled law (the message
+    listed the arm, the plane and the controller, all built-in, without saying which one was the reason)."""
+    ctl = VariableImpedanceController(arm, M_D, K_D, 1000.0, stiffness_schedule=DirectionalStiffness(1e3, 1e4))
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], K_ENV)
+    with pytest.raises(ParameterError, match="the controller VariableImpedanceController has no compiled law") as err:
+        fc.simulate(arm, env, ctl, fc.Setpoint(X_D), q0=arm.inverse_kinematics([1.0, 0.0], elbow="up"), duration=0.01,
+                    engine="compiled")
+    assert "robot is" not in str(err.value) and "environment ElasticPlane" not in str(err.value)

@@ -332,8 +332,11 @@ def sampled_loop_skip_reason(parts: dict[str, Any], analysis: dict[str, Any]) ->
     if not any(_DYNAMICS.search(k) for k in analysis):
         return None
     name = type(ctl).__name__
-    if _scheduled(ctl):
-        why = "its gains follow a schedule over the run, which a loop at frozen gains does not cover"
+    if _scheduled(ctl) or getattr(ctl, "stiffness_schedule", None) is not None \
+            or getattr(ctl, "damping_schedule", None) is not None:
+        return (f"no sampled-loop stability verdict for this {name} case (its gains follow a schedule over the run, "
+                "which a loop at frozen gains does not cover); its steady state, ω_n and ζ are the continuous model's "
+                "at the gains of t = 0, which hold only until the schedule changes them")
     elif isinstance(ctl, (SpatialImpedanceController, AdmittanceController)) or int(getattr(ctl, "m", 0)) == 6:
         why = "a 6-D case: its sampled model serves the contact-force transient of --verify only"
     elif isinstance(ctl, HybridCompliantController):

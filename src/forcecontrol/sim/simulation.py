@@ -184,10 +184,18 @@ def simulate(
         why_6d = tree_loop_support(robot, environment, controller, sensor) or ""
         tree_ok = compiled_ok = not why_6d
     if engine == "compiled" and not compiled_ok:
+        missing = [what for what, ok in (
+            (f"the robot is a {type(robot).__name__}, not the built-in planar arm", isinstance(robot, PlanarTwoLink)),
+            (f"the environment {type(environment).__name__} has no compiled model", environment.kind in (1, 2, 3)),
+            (f"the controller {type(controller).__name__} has no compiled law (e.g. gains that change every sample)",
+             controller.compiled_law is not None),
+            (f"the sensor {type(sensor).__name__} is not the simple ForceSensor", sensor.compiled_ok),
+        ) if not ok]
         raise ParameterError(
             "engine='compiled' needs the built-in planar arm, a built-in environment and a "
             f"built-in controller (and the simple ForceSensor); got {type(robot).__name__}, "
             f"{type(environment).__name__}, {type(controller).__name__}, {type(sensor).__name__}"
+            + (f": {'; '.join(missing)}" if missing and not why_6d else "")
             + (f"; for a 6-D arm: {why_6d}" if why_6d else "")
         )
     if actuator is not None:
