@@ -260,3 +260,19 @@ def test_the_compiled_engine_refusal_names_what_it_cannot_compile(arm):
         fc.simulate(arm, env, ctl, fc.Setpoint(X_D), q0=arm.inverse_kinematics([1.0, 0.0], elbow="up"), duration=0.01,
                     engine="compiled")
     assert "robot is" not in str(err.value) and "environment ElasticPlane" not in str(err.value)
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"controller.tank_minimum": 0.2}, r"tank_maximum must be > tank_minimum = 0\.2 J"),
+    ({"controller.stiffness_high": 500.0}, r"stiffness_high must be >= stiffness_low = 1000"),
+    ({"controller.tank_initial": -1.0}, r"tank_initial must be a non-negative number"),
+])
+def test_scenario_errors_name_the_scenario_keys(change, message):
+    """A bad variable-impedance key is refused naming the scenario's keys (it named the Python arguments: 'maximum must
+    be > minimum', when the user had changed tank_minimum)."""
+    from forcecontrol.errors import ForceControlError
+
+    with pytest.raises(ForceControlError, match=message):
+        scn = fc.scenario("variable-stiffness").with_(change)
+        for case in scn.cases:
+            fc.scenarios.build_case(case)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -13,7 +14,20 @@ from .core import register_metric
 from .schema import Field, register_controller
 
 
+def _as_keys(exc: ParameterError, names: dict[str, str]) -> ParameterError:
+    """The error of a class built from scenario keys, its argument names replaced by those keys."""
+    text = re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: names[m.group(1)], str(exc))
+    return ParameterError(text)
+
+
 def _schedule(p: dict[str, Any]) -> Any:
+    try:
+        return _make_schedule(p)
+    except ParameterError as exc:
+        raise _as_keys(exc, {"low": "stiffness_low", "high": "stiffness_high", "mean": "stiffness_low"}) from None
+
+
+def _make_schedule(p: dict[str, Any]) -> Any:
     kind = p["schedule"]
     if kind == "constant":
         return None
@@ -29,8 +43,11 @@ def _schedule(p: dict[str, Any]) -> Any:
 def _variable(p: dict[str, Any], ctx: dict[str, Any]) -> VariableImpedanceController:
     tank = None
     if p["tank"]:
-        tank = EnergyTank(p["tank_initial"], minimum=p["tank_minimum"], maximum=p["tank_maximum"],
-                          dissipation_fraction=p["dissipation_fraction"])
+        try:
+            tank = EnergyTank(p["tank_initial"], minimum=p["tank_minimum"], maximum=p["tank_maximum"],
+                              dissipation_fraction=p["dissipation_fraction"])
+        except ParameterError as exc:
+            raise _as_keys(exc, {"initial": "tank_initial", "minimum": "tank_minimum", "maximum": "tank_maximum"}) from None
     return VariableImpedanceController(
         ctx["robot"], p["inertia"], p["damping"], p["stiffness_low"], stiffness_schedule=_schedule(p), tank=tank,
         sample_time=ctx["sample_time"],
