@@ -339,7 +339,8 @@ def test_a_settle_window_longer_than_the_run_is_said_and_averages_the_whole_run(
                          capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     assert "settle_window 0.2 s is longer than the run (0.05 s): the whole run is averaged" in res.stderr
-    assert json.loads(res.stdout)["cases"][0]["warnings"][0]["kind"] == "settle-window"
+    # the 0.05 s run ends in its contact transient: it has not settled either, and says so
+    assert [w["kind"] for w in json.loads(res.stdout)["cases"][0]["warnings"]] == ["not-settled", "settle-window"]
 
 
 def _short_example_9_2() -> str:

@@ -357,7 +357,8 @@ def test_a_run_pressed_deeper_than_the_curvature_warns_and_logs_the_event():
     events = [e for e in narrow.events if e["event"] == "contact-projection"]
     assert len(events) == 1 and "radius of curvature" in events[0]["detail"]
     case = SimpleNamespace(result=narrow, metrics={}, checks=[])
-    assert [w["kind"] for w in case_warnings(case)] == ["contact-projection"]
+    # a 0.3 s press through a dip it cannot follow: its force still swings (6 to 27 N over the last 0.1 s), also said
+    assert [w["kind"] for w in case_warnings(case)] == ["contact-projection", "not-settled"]
     import warnings
 
     with warnings.catch_warnings():

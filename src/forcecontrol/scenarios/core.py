@@ -441,6 +441,7 @@ def run_scenario(
                 metadata={"scenario": scn.name, "source": scn.source},
             )
         window = parts["settle_window"]
+        res.metadata["settle_window"] = float(window)  # what the settled values average (summary.not_settled)
         note_settle_window(res, window, parts["duration"], f"{scn.source}: [[case]] #{i + 1} ({case.label})")
         metrics = {}
         for name in ("x", "y", "fx", "fy"):

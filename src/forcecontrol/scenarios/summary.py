@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .model import CaseResult, ScenarioRun
 
 __all__ = ["settled_table", "checks_table", "contact_warnings", "case_events", "case_warnings", "config_warnings",
-           "html_summary", "task_axes"]
+           "html_summary", "not_settled", "task_axes"]
 
 #: the logged events that are warnings (a limit or a protective layer changed what was asked, or contact was
 #: lost); the others (a contact transition) are reported in ``events`` only.
@@ -90,6 +90,36 @@ def never_touched(case: CaseResult) -> str | None:
             f"the environment in {float(r.t[-1]):.4g} s")
 
 
+#: a case has not settled when its contact force's range over the run's tail exceeds this share of its level
+UNSETTLED_SWING = 0.1
+
+
+def not_settled(case: CaseResult) -> str | None:
+    """When the case's contact force still swings at the end of the run, what the run says of it; else None.
+
+    The tail is the last ``max(settle_window, 10 % of the run)``; the force |f| (translational part) has not settled
+    when its range there exceeds :data:`UNSETTLED_SWING` of ``max(mean |f|, 1 % of the peak |f|, 1 N)``: a bounce, an
+    oscillation, a loop beyond its stability limit. Its settled values, a mean over the last ``settle_window``, are
+    then not a steady state. A force that only ripples (a tool following a curve) stays within it."""
+    r = case.result
+    if getattr(r, "t", None) is None or getattr(r, "wrench", None) is None:  # a stand-in without a log
+        return None
+    window = float(r.metadata.get("settle_window", 0.1))
+    span = float(r.t[-1] - r.t[0])
+    tail = max(window, 0.1 * span)
+    sel = r.t >= r.t[-1] - tail - 1e-12
+    f = np.linalg.norm(r.wrench[sel][:, : min(int(r.m), 3)], axis=1)
+    f = f[np.isfinite(f)]
+    if f.size < 2:
+        return None
+    level = max(float(f.mean()), 0.01 * r.peak_contact_force_norm(), 1.0)
+    if float(np.ptp(f)) <= UNSETTLED_SWING * level:
+        return None
+    return (f"has not settled: its contact force still swings between {float(f.min()):.4g} and {float(f.max()):.4g} N "
+            f"over the last {tail:.3g} s, so its settled values (the mean of the last {window:g} s) are not a steady "
+            "state")
+
+
 def contact_warnings(run: ScenarioRun) -> list[str]:
     """One line per case that lost contact after touching (allowed by the scenario or not), or that never touched
     although its reference asks a force."""
@@ -98,6 +128,9 @@ def contact_warnings(run: ScenarioRun) -> list[str]:
         untouched = never_touched(c)
         if untouched:
             out.append(f"{c.label}: {untouched}")
+        swinging = not_settled(c)
+        if swinging:
+            out.append(f"{c.label}: {swinging}")
         lost = int(c.metrics.get("contact_losses", 0))
         if lost:
             allowed = all(ch["metric"] != "contact_losses" for ch in c.checks)
@@ -125,7 +158,8 @@ def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     events that are warnings (``WARNING_EVENTS``: ``servo-limit``, ``ik-limit``, ``force-mode-deviation``,
     ``safety``, ``stability``, ``contact lost``, ``hole not found``, ``contact-projection``: a curved surface
     penetrated beyond its radius of curvature), a force asked of a tool that never touched (``no-contact``) and
-    contact lost after touching (``contact-lost``, with its count), and a sampled loop that cannot settle
+    contact lost after touching (``contact-lost``, with its count), a contact force still swinging at the end
+    (``not-settled``: :func:`not_settled`), and a sampled loop that cannot settle
     (``sampled-unstable``, as ``analyze --json`` gives it: :func:`.parts_sampled.sampled_loop_warnings`): the
     ``warnings`` list of a case in ``run --json``."""
     out = config_warnings((case.result.metadata.get("controller") or {}).get("config_notes") or ())
@@ -137,6 +171,9 @@ def case_warnings(case: CaseResult) -> list[dict[str, Any]]:
     untouched = never_touched(case)
     if untouched:
         out.append({"kind": "no-contact", "t": None, "text": untouched})
+    swinging = not_settled(case)
+    if swinging:
+        out.append({"kind": "not-settled", "t": None, "text": swinging})
     lost = int(case.metrics.get("contact_losses", 0))
     if lost:
         allowed = all(ch["metric"] != "contact_losses" for ch in case.checks)
