@@ -61,6 +61,11 @@ def _scenario(**top):
     return s
 
 
+#: the samples of the default settle_window (0.1 s at 1 ms) the settled values average, t >= t_end - 0.1 s, both ends
+#: included, as `run`'s settled values do (the sweep took 100 and `run` 101: 199.9954210 vs 199.9954761 N)
+SETTLED_SAMPLES = 101
+
+
 def _reference_metrics(y, Ts, window, f_ref, band=0.02):
     """Settling time, overshoot and steady-state error computed directly with NumPy (the test's own)."""
     yf = y[-window:].mean()
@@ -211,7 +216,7 @@ def test_sweep_table_matches_per_case_python_simulations():
         res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"],
                           duration=1.5, engine="python")
         y = res.wrench[:, 0]
-        st, ov, err = _reference_metrics(y, 1e-3, 100, 10.0)
+        st, ov, err = _reference_metrics(y, 1e-3, SETTLED_SAMPLES, 10.0)
         assert row["settling_time"] == pytest.approx(st, abs=1e-12, nan_ok=True)
         assert row["overshoot"] == pytest.approx(ov, rel=1e-6, abs=1e-9)
         assert row["steady_state_force_error"] == pytest.approx(err, abs=1e-8)
@@ -452,7 +457,7 @@ def test_cases_outside_the_kernel_run_through_simulate_with_the_same_metrics(tmp
         p = build_case(CaseSpec("x", cfg, {}))
         r = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=1.0,
                         sensor=p["sensor"])
-        st, ov, err = _reference_metrics(r.wrench[:, 0], 1e-3, 100, 10.0)
+        st, ov, err = _reference_metrics(r.wrench[:, 0], 1e-3, SETTLED_SAMPLES, 10.0)
         assert row["overshoot"] == pytest.approx(ov, rel=1e-9, abs=1e-12)
         assert row["steady_state_force_error"] == pytest.approx(err, abs=1e-9)
         assert row["settling_time"] == pytest.approx(st, abs=1e-12, nan_ok=True)
@@ -521,6 +526,26 @@ def test_cli_rejects_a_bad_parameter_with_a_clear_message(tmp_path):
     assert r.exit_code == 2 and "controller.stifness" in r.output and "expected one of" in r.output
 
 
+def test_cli_refuses_a_key_given_to_set_and_swept(tmp_path):
+    """--set of a key the sweep varies: refused (exit 2) naming it, nothing written (the table ran the swept values
+    while --json reported the --set one)."""
+    out = tmp_path / "x.parquet"
+    r = CliRunner().invoke(app, ["sweep", "example-9.3", "--param", "environment.stiffness=1e3,2e3", "--set",
+                                 "environment.stiffness=5e3", "--out", str(out)])
+    assert r.exit_code == 2 and "--set environment.stiffness: the sweep varies it" in r.output
+    assert not out.exists()
+
+
+def test_cli_names_a_scheduler_address_it_cannot_use(tmp_path):
+    """--scheduler 'not an address': a clear error naming the option and the address (exit 2, JSON error object with
+    --json), not a ValueError traceback."""
+    r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "environment.stiffness=1e3,2e3", "--scheduler",
+                                 "not an address", "--out", str(tmp_path / "d.parquet"), "--no-figure", "--json"])
+    assert r.exit_code == 2, r.output
+    err = json.loads(r.stdout)["error"]
+    assert err["type"] == "SweepError" and "--scheduler 'not an address': cannot connect" in err["message"]
+
+
 def test_map_figure_is_written_with_the_boundary(tmp_path):
     """plot_sweep_map writes a PNG of the metrics over two swept parameters (analytic boundary included)."""
     d = SweepDefinition.from_options(
@@ -544,3 +569,24 @@ def test_reference_keys_are_the_hash_of_each_cases_samples():
         samples = np.ascontiguousarray(j.reference.sample(np.arange(j.N + 1) * j.Ts), dtype=np.float64)
         assert j.ref_key == hashlib.sha256(samples.tobytes()).hexdigest()
     assert len({j.ref_key for j in prep.jobs}) == 2  # one per sample time
+
+
+def test_the_sweeps_settled_force_is_runs_settled_value(monkeypatch):
+    """example-9.2, both cases: the sweep's settled_force equals `run`'s settled f_x (SimulationResult.settled_values
+    over the scenario's settle_window) to round-off, and the sweep runs the kernel it was prepared with on every worker
+    (the job carries it), whatever FORCECONTROL_SWEEP_KERNEL the worker has."""
+    from forcecontrol.scenarios import build_case
+    from forcecontrol.sweep.block import run_block
+
+    prep = prepare_sweep("example-9.2", SweepDefinition.from_options({"duration": [1.0]}))
+    rows = run_block(prep.jobs, 0.02, 0.05)
+    cases = {c.label: c for c in fc.scenario("example-9.2").with_(duration=1.0).cases}
+    for job, row in zip(prep.jobs, rows):
+        p = build_case(cases[job.label])
+        r = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=1.0)
+        want = r.settled_values(float(p["settle_window"]))["fx"]
+        assert row["settled_force"] == pytest.approx(abs(want), rel=1e-9)
+    assert {j.kernel for j in prep.jobs if j.fast} == {prep.metadata["kernel"]}
+    monkeypatch.setenv("FORCECONTROL_SWEEP_KERNEL", "scalar" if prep.metadata["kernel"] == "lanes8" else "lanes8")
+    again = run_block(prep.jobs, 0.02, 0.05)  # a worker with another setting runs the prepared kernel, to the bit
+    assert json.dumps(again, sort_keys=True, default=str) == json.dumps(rows, sort_keys=True, default=str)

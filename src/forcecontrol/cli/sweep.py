@@ -123,6 +123,13 @@ def sweep_command(
             definition = None
         if definition is not None:
             _check_figure_axes(definition, figure, x, y, note)
+            swept = {p.path for p in definition.parameters}
+            both = sorted(k for k in sets if k in swept)
+            if both:  # --set would be overridden case by case by the swept values
+                from ..sweep.spec import SweepError
+
+                raise SweepError(f"--set {', '.join(both)}: the sweep varies {'it' if len(both) == 1 else 'them'} "
+                                 "(--param or the [sweep] table); give each key either to --set or to the sweep")
         if scheduler is not None and workers is not None:
             note(f"--workers {workers} is ignored: the Dask cluster at {scheduler} runs the blocks on its own workers")
         with Progress(TextColumn("[bold]checking and building cases"), BarColumn(),

@@ -54,8 +54,9 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
     """The cases ``fast`` (one law) through the compiled batch: rows of ``OUT_COLUMNS`` (:mod:`forcecontrol.sim.batch`).
 
     ``kernel``: ``"lanes8"`` (:mod:`forcecontrol.sim.batch_lanes`, 8 cases per instruction) or
-    ``"scalar"`` (:mod:`forcecontrol.sim.batch`, one case at a time); by default the sweep's
-    choice (:func:`~forcecontrol.sweep.prepare.sweep_kernel`).
+    ``"scalar"`` (:mod:`forcecontrol.sim.batch`, one case at a time); by default the one the sweep was
+    prepared with (the jobs' ``kernel``, so every worker runs the same), else
+    :func:`~forcecontrol.sweep.prepare.sweep_kernel`'s.
     """
     from ..sim.batch import OUT_COLUMNS, run_batch
     from ..sim.batch_lanes import run_lanes
@@ -122,7 +123,7 @@ def run_fast(law: Any, fast: list[CaseJob], settle_band: float, stable_band: flo
         np.array([j.window for j in fast], np.int64), float(settle_band), float(stable_band),
     )
     out = np.empty((C, len(OUT_COLUMNS)))
-    if (kernel or sweep_kernel(law)) == "lanes8":
+    if (kernel or (fast[0].kernel if fast else "") or sweep_kernel(law)) == "lanes8":  # the prepared sweep's choice
         # lanes take the cases grouped by sub-steps, environment and length (fewer masked lanes)
         run_lanes(law, np.lexsort((N, env_kind, nsub)), *args, out)
     else:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,6 +62,9 @@ class CaseJob(_RunShape):
     parts: dict[str, Any] | None = None
     #: the label its table row carries (``label`` marked when the sweep replaces what the case set).
     row_label: str = ""
+    #: the compiled batch chosen when the sweep was prepared (:func:`~forcecontrol.sweep.prepare.sweep_kernel`), so a
+    #: worker with another FORCECONTROL_SWEEP_KERNEL runs the same one; "" outside the kernel.
+    kernel: str = ""
 
     @property
     def steps(self) -> int:
@@ -223,7 +227,9 @@ def _new_plant(label: str, parts: dict[str, Any], ref_keys: dict[Any, Any] | Non
 
         nsub = choose_substeps(robot, env, q0, Ts, mobility=_per_object(memo, "mobility", robot, (q0.tobytes(),), mobility))
     d, f_ref = _force_direction(env, ref, N * Ts, ctl, int(robot.task_dim))
-    window = max(1, int(round(float(parts["settle_window"]) / Ts)))
+    # the samples of the last settle_window, both ends included: the ones SimulationResult.settled_values averages
+    # (t >= t_end - settle_window; round(settle_window / Ts) was one fewer, e.g. 100 of run's 101 at 0.1 s, 1 ms)
+    window = int(math.floor(float(parts["settle_window"]) / Ts + 1e-9)) + 1
     compiled = (
         isinstance(robot, PlanarTwoLink) and getattr(env, "kind", 0) in (1, 2) and getattr(ctl, "compiled_law", None) is not None
         and robot.task_dim == 2

@@ -305,7 +305,11 @@ def _client(scheduler: Any):
 
     if isinstance(scheduler, Client):
         return scheduler, False
-    return Client(scheduler, set_as_default=False), True
+    try:
+        return Client(scheduler, set_as_default=False), True
+    except (OSError, ValueError, TypeError) as exc:  # unreachable, timed out, not an address
+        raise SweepError(f"--scheduler {scheduler!r}: cannot connect to a Dask scheduler there "
+                         f"({type(exc).__name__}: {exc}); expected an address such as tcp://HOST:8786") from None
 
 
 #: times a block lost with its worker (``KilledWorker``, a cancelled future) is submitted again.
