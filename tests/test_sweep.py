@@ -546,6 +546,14 @@ def test_cli_names_a_scheduler_address_it_cannot_use(tmp_path):
     assert err["type"] == "SweepError" and "--scheduler 'not an address': cannot connect" in err["message"]
 
 
+def test_cli_names_an_out_folder_it_cannot_write_in():
+    """--out in a folder no file can be created in (/proc): a clear error naming --out (exit 2), not a traceback."""
+    r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "environment.stiffness=1e3,2e3", "--out",
+                                 "/proc/x.parquet", "--no-figure"])
+    assert r.exit_code == 2, r.output
+    assert "cannot write next to '/proc/x.parquet'" in r.output and "choose another --out" in r.output
+
+
 def test_map_figure_is_written_with_the_boundary(tmp_path):
     """plot_sweep_map writes a PNG of the metrics over two swept parameters (analytic boundary included)."""
     d = SweepDefinition.from_options(

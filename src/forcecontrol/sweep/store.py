@@ -324,7 +324,11 @@ def _pid_lock(lock: Path, out: Path):
     a written temporary file), so a reader never sees it empty; a dead owner's lock is taken over."""
     for _ in range(2):
         tmp = lock.with_name(f"{lock.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-        tmp.write_text(str(os.getpid()))
+        try:
+            tmp.write_text(str(os.getpid()))
+        except OSError as exc:  # a folder this process cannot write in (the table could not be written there either)
+            raise SweepError(f"cannot write next to {str(out)!r} (the sweep's lock {lock.name}): "
+                             f"{exc.strerror or exc}; choose another --out") from None
         try:
             os.link(tmp, lock)
         except FileExistsError:
