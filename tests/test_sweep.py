@@ -554,6 +554,29 @@ def test_cli_names_an_out_folder_it_cannot_write_in():
     assert "cannot write next to '/proc/x.parquet'" in r.output and "choose another --out" in r.output
 
 
+def test_cli_says_what_it_does_with_a_check_only_key_and_a_table_not_named_parquet(tmp_path):
+    """Sweeping `tolerance` (used only by the checks against the book) says the responses are the same (the rows were
+    identical with no word); an --out not named .parquet says the table is Parquet anyway."""
+    r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "tolerance=0.1,0.2", "--param", "duration=0.2",
+                                 "--case", "1", "--out", str(tmp_path / "t.csv"), "--no-figure"])
+    assert r.exit_code == 0, r.output
+    text = " ".join(r.output.split())
+    assert "'tolerance' is used only by the checks against the book's values" in text
+    assert "the table is written in Parquet whatever its suffix" in text
+    rows = pd.read_parquet(tmp_path / "t.csv")
+    assert len(rows) == 2 and rows["peak_force"].nunique() == 1
+
+
+def test_a_sweep_over_its_run_limit_counted_with_the_cases_is_refused_before_anything_is_built(monkeypatch):
+    """10⁶ variations x 6 cases: refused naming the product before a variation is made (the limit counted the
+    variations alone: 6·10⁶ jobs, about 27 GB, were built)."""
+    d = SweepDefinition.from_options({"environment.stiffness": "linspace(1e3, 1e6, 1000)",
+                                      "duration": "linspace(1, 2, 1000)"})
+    monkeypatch.setattr(SweepDefinition, "assignments", lambda *a, **k: pytest.fail("variations made before the check"))
+    with pytest.raises(SweepError, match=r"1,000,000 variations x 6 cases = 6,000,000 runs, more than the 1,000,000"):
+        prepare_sweep("example-9.3", d)
+
+
 def test_map_figure_is_written_with_the_boundary(tmp_path):
     """plot_sweep_map writes a PNG of the metrics over two swept parameters (analytic boundary included)."""
     d = SweepDefinition.from_options(

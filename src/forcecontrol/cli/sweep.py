@@ -137,6 +137,9 @@ def sweep_command(
                       disable=json_out or not err_console.is_terminal) as checking, noting():
             job = checking.add_task("build", total=None)
             prep = prepare_sweep(scn, definition, progress=lambda d, n: checking.update(job, completed=d, total=n))
+    except KeyboardInterrupt:
+        err_console.print("[yellow]interrupted[/] while checking and building the cases: nothing was run or written")
+        raise typer.Exit(code=130) from None
     except ForceControlError as exc:
         _fail(exc)
         return
@@ -146,6 +149,9 @@ def sweep_command(
         note(f"{which} contact force (f_d = 0 at the end of the run): their steady_state_force_error is y_final − d·f_d "
              "with f_d = 0, the settled force itself (as settled_force), not a distance from a force asked")
     path = out or Path("forcecontrol-out") / f"{_slug(scn.name)}-sweep.parquet"
+    if Path(path).suffix.lower() not in (".parquet", ".pq"):
+        note(f"--out {str(path)!r}: the table is written in Parquet whatever its suffix (read it with "
+             "pandas.read_parquet; name it .parquet to say so)")
     bar = Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} cases"),
         Rate(), TimeElapsedColumn(), TextColumn("left"), TimeRemainingColumn(), console=err_console,

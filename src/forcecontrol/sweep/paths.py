@@ -23,9 +23,19 @@ CHECK_ONLY: dict[tuple[str, str], dict[str, str]] = {
 }
 
 
+#: top-level keys used only by the checks against expected values, not by the simulation or the sweep's metrics.
+CHECK_ONLY_TOP: dict[str, str] = {
+    "tolerance": "the checks against the book's values (the sweep's table has no such check)",
+    "allow_contact_loss": "whether `run --check` counts a contact loss as a failure (the table reports contact_lost)",
+}
+
+
 def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str) -> str | None:
     """What to say when ``p`` names a key that case ``label`` uses only in a check (None otherwise)."""
     keys = p.keys
+    if len(keys) == 1 and keys[0] in CHECK_ONLY_TOP:
+        return (f"parameter '{p.path}' (case '{label}'): '{keys[0]}' is used only by {CHECK_ONLY_TOP[keys[0]]}, "
+                "not in the simulation: the swept values give the same responses")
     if len(keys) != 2:
         return None
     kind = (cfg.get(keys[0]) or {}).get("type")

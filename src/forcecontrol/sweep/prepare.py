@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import gc
 import json
+import math
 import os
 import warnings
 from collections.abc import Callable, Iterator
@@ -21,6 +22,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import DriftWarning, ForceControlError, ScenarioError
+from ..sim.limits import MAX_SWEEP_VALUES
 from .cases import CaseJob, _batch_sensor, _first_sample, _job, _Plant, _plant
 from .paths import _apply, _check_path, check_only_note, copy_tree, set_values, sweep_label
 from .spec import SweepDefinition, SweepError, SweepWarning, definition_hash
@@ -227,6 +229,11 @@ def prepare_sweep(
             note = check_only_note(p, case.config, case.label)
             if note is not None and len(p.values) != 1:
                 warnings.warn(note, SweepWarning, stacklevel=2)
+    variations = definition.samples if definition.design != "grid" else math.prod(len(p.values) for p in definition.parameters)
+    if len(selected) * variations > MAX_SWEEP_VALUES:  # the variations are bounded alone; each runs every case selected
+        raise SweepError(f"the sweep has {variations:,} variations x {len(selected)} cases = {len(selected) * variations:,} "
+                         f"runs, more than the {MAX_SWEEP_VALUES:,} a sweep may have; use fewer points or select cases "
+                         "(--case)")
     assignments = definition.assignments()
     columns = {p.path: _column_kind([a[p.path] for a in assignments]) for p in definition.parameters}
     params = list(definition.parameters)
