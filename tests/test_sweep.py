@@ -577,6 +577,17 @@ def test_a_sweep_over_its_run_limit_counted_with_the_cases_is_refused_before_any
         prepare_sweep("example-9.3", d)
 
 
+def test_an_out_ending_in_png_keeps_its_table_and_draws_the_figure_beside_it(tmp_path):
+    """--out t.png --force: the table stays a readable Parquet file and the figure goes to t-figure.png (it was drawn
+    over the table, which the next run then called a file forcecontrol had not written)."""
+    out = tmp_path / "t.png"
+    r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "environment.stiffness=1e3,2e3", "--param",
+                                 "duration=0.2", "--case", "1", "--out", str(out), "--force"])
+    assert r.exit_code == 0, r.output
+    assert len(pd.read_parquet(out)) == 2
+    assert (tmp_path / "t-figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_map_figure_is_written_with_the_boundary(tmp_path):
     """plot_sweep_map writes a PNG of the metrics over two swept parameters (analytic boundary included)."""
     d = SweepDefinition.from_options(

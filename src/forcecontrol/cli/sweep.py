@@ -175,8 +175,12 @@ def sweep_command(
     if figure:
         from ..sweep.figures import plot_sweep
 
+        figure_path = path.with_suffix(".png")
+        if figure_path == path:  # --out x.png: the figure must not be drawn over the table it was drawn from
+            figure_path = path.with_name(f"{path.stem}-figure.png")
+            note(f"--out {str(path)!r} ends in .png: the table is Parquet there, its figure is {str(figure_path)!r}")
         try:
-            fig_path, fig_notes = plot_sweep(result, path.with_suffix(".png"), x, y, overwrite=overwrite)
+            fig_path, fig_notes = plot_sweep(result, figure_path, x, y, overwrite=overwrite)
             files["figure"] = str(fig_path)
             for text in fig_notes:
                 note(text)
