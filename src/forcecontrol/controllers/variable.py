@@ -128,10 +128,9 @@ class EnergyTank:
     def __init__(self, initial: float = 1.0, *, minimum: float = 0.01, maximum: float = 10.0,
                  dissipation_fraction: float = 1.0) -> None:
         self.minimum = nonnegative_scalar("minimum", minimum, "J")
-        if not (maximum == math.inf or (isinstance(maximum, (int, float, np.integer, np.floating))
-                                        and not isinstance(maximum, bool))):
-            raise ParameterError(f"maximum must be a number [J] (inf allowed); got {maximum!r}")
-        maximum = math.inf if maximum == math.inf else nonnegative_scalar("maximum", maximum, "J")
+        # inf allowed (no cap); anything else a finite number >= 0, refused by name as initial and minimum are
+        maximum = math.inf if isinstance(maximum, float) and maximum == math.inf else nonnegative_scalar(
+            "maximum", maximum, "J")
         if not maximum > self.minimum:
             raise ParameterError(f"maximum must be > minimum = {self.minimum:.6g} J; got {maximum!r}")
         self.maximum = maximum
@@ -232,11 +231,22 @@ class _Scheduled:
         if self.tank is None:
             return np.array(K_s, dtype=np.float64), np.array(D_new, dtype=np.float64), K_s
         if ed_prev is not None:
-            damper = self.sample_time * float(ed_prev @ D @ ed_prev)  # type: ignore[attr-defined]
-            self.tank.fill(damper if loss is None else min(damper, max(loss, 0.0)) if math.isfinite(loss) else 0.0)
+            deposit = self.sample_time * float(ed_prev @ D @ ed_prev)  # type: ignore[attr-defined]
+            if loss is not None:  # never more than the loop lost (nothing when it lost none, or the loss is unknown)
+                deposit = min(deposit, loss) if loss > 0.0 else 0.0
+            self.tank.fill(deposit)
         dK = K_s - K
         alpha = self.tank.pay(0.5 * float(e @ dK @ e)) if np.any(dK) else 1.0
         return K + alpha * dK, np.array(D_new, dtype=np.float64), K_s
+
+    def _loss(self, port: float, e: np.ndarray, ed: np.ndarray, K_held: np.ndarray) -> float:
+        """The energy the loop lost over the last sample: ``port`` (the energy in through the contact) minus the rise
+        of H at the gains held over the sample, from the storage the last step recorded."""
+        return port - (self._storage(e, ed, K_held) - self._log["storage"][-1])
+
+    def _storage(self, e: np.ndarray, ed: np.ndarray, K: np.ndarray) -> float:
+        """H = ½ ėᵀ M ė + ½ eᵀ K e [J] (M the controller's constant inertia)."""
+        return 0.5 * float(ed @ self.inertia @ ed) + 0.5 * float(e @ K @ e)  # type: ignore[attr-defined]
 
     def _record(self, K: np.ndarray, K_s: np.ndarray, D: np.ndarray, storage: float) -> None:
         tr = float(np.trace(K_s))
@@ -319,23 +329,21 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
         T, x, xd = _frame_pose(self, measurement)  # the chapter's arm: x, ẋ alone, the law in one compiled call
         xt = np.asarray(reference.position, dtype=np.float64) - x
         xtd = np.asarray(reference.velocity, dtype=np.float64) - xd
-        h = np.asarray(measurement.wrench, dtype=np.float64)[: self.m]
         loss = None
-        if self._last_xtd is not None and self.tank is not None:
-            # what the sampled loop lost over the last sample: the port's energy (trapezoid of h_A over the
-            # error's step) minus the rise of H at the gains held over that sample
-            held = 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ self._K @ xt)
-            loss = 0.5 * float((h + self._last_h) @ (xt - self._last_xt)) - (held - self._last_storage)
+        if self.tank is not None:
+            h = np.asarray(measurement.wrench, dtype=np.float64)[: self.m]
+            if self._last_xtd is not None:  # the port's energy: the trapezoid of h_A over the error's step
+                loss = self._loss(0.5 * float((h + self._last_h) @ (xt - self._last_xt)), xt, xtd, self._K)
+            self._last_xt, self._last_h = xt, h
         K, D, K_s = self._scheduled_gains(t, xt, xtd, self._K, self._D, self.m, self._last_xtd, loss)
-        self._K, self._D, self._last_xtd, self._last_xt, self._last_h = K, D, xtd, xt, h
+        self._K, self._D, self._last_xtd = K, D, xtd
         self._params[IMPEDANCE.slice("K_D", self.m)] = np.ravel(D)
         self._params[IMPEDANCE.slice("K_P", self.m)] = np.ravel(K)
         if T is None and self._law_plain():
             u = _on_arm_step(self, t, measurement, reference, self._params)
         else:
             u = self._law_step(t, measurement, reference, T)
-        self._last_storage = 0.5 * float(xtd @ self.inertia @ xtd) + 0.5 * float(xt @ K @ xt)
-        self._record(K, K_s, D, self._last_storage)
+        self._record(K, K_s, D, self._storage(xt, xtd, K))
         return u
 
     def _law_plain(self) -> bool:
@@ -402,18 +410,14 @@ class VariableAdmittanceController(_Scheduled, AdmittanceController):
         """Update the gains of (9.37) (tank-limited), then the admittance law for this sample."""
         z, zd = self.state[:6].copy(), self.state[6:].copy()
         loss = None
-        if self._last_zd is not None and self.tank is not None:
-            # what the virtual system lost over the last sample: the port's energy (its input held, (9.37)'s
-            # exact discretisation) minus the rise of H_t at the gains held over that sample
-            held = 0.5 * float(zd @ self.inertia @ zd) + 0.5 * float(z @ self.stiffness @ z)
-            loss = float(self._last_hd @ (z - self._last_z)) - (held - self._last_storage)
+        if self._last_zd is not None and self.tank is not None:  # the port's energy: its input held over the sample
+            loss = self._loss(float(self._last_hd @ (z - self._last_z)), z, zd, self.stiffness)
         K, D, K_s = self._scheduled_gains(t, z, zd, self.stiffness, self.damping, 6, self._last_zd, loss)
         self._last_zd, self._last_z = zd, z
         if not (np.array_equal(K, self.stiffness) and np.array_equal(D, self.damping)):
             self.stiffness, self.damping = K, D
             self._discretise()
-        self._last_storage = 0.5 * float(zd @ self.inertia @ zd) + 0.5 * float(z @ K @ z)
-        self._record(K, K_s, D, self._last_storage)
+        self._record(K, K_s, D, self._storage(z, zd, K))
         u = super().step(t, measurement, reference)
         self._last_hd = self.held_wrench
         return u
