@@ -80,6 +80,34 @@ def test_stability_limit_is_where_the_spectral_radius_crosses_one_and_gain_margi
     assert rep.gain_margin * 2000.0 == pytest.approx(k, rel=2e-3)
 
 
+
+def test_margins_with_slicot_equal_python_controls_own_frequency_response(monkeypatch):
+    """The test install has SLICOT (extra `slycot`, in `all`), which python-control uses for a state-space loop's
+    frequency response; the margins equal those of python-control's fallback (a linear solve per frequency) to 1e-9,
+    on the UR5's 6-D loop and on the chapter's arm with a two-sample delay."""
+    import control.statesp
+
+    pytest.importorskip("pinocchio")
+    import slycot  # noqa: F401  (a missing extra is a failure here, not a skip)
+
+    from forcecontrol.scenarios import load_scenario
+    from forcecontrol.scenarios.build import build_case
+
+    c = chapter_arm_case(250.0, delay=2)
+    loops = [(admittance_servo_loop(c["controller"], c["q0"], c["normal"]), 3000.0)]
+    parts = build_case(load_scenario("ur5-admittance-servo").cases[0])
+    loops.append((admittance_servo_loop(parts["controller"], parts["q0"], [0.0, 0.0, 1.0]), 3000.0))
+    with_slicot = [loop.margins(k) for loop, k in loops]
+
+    def no_slicot(self, x):  # what python-control does when SLICOT is not installed
+        raise ImportError("slycot")
+
+    monkeypatch.setattr(control.statesp.StateSpace, "slycot_laub", no_slicot)
+    fallback = [loop.margins(k) for loop, k in loops]
+    for got, want in zip(with_slicot, fallback):
+        assert all(math.isfinite(v) for v in want[:2])
+        assert got == pytest.approx(want, rel=1e-9)
+
 def test_equilibrium_force_closed_form_in_simulation():
     """Against the plane x = 1 (k = 2000 N/m) the settled force is that of the springs in series, k K_Pt/(k + K_Pt) δ_d (9.22)."""
     c = chapter_arm_case(500.0)
