@@ -546,6 +546,34 @@ def test_cli_names_a_scheduler_address_it_cannot_use(tmp_path):
     assert err["type"] == "SweepError" and "--scheduler 'not an address': cannot connect" in err["message"]
 
 
+def test_sigterm_stops_the_cli_sweep_as_ctrl_c_does_and_says_so(tmp_path, monkeypatch):
+    """SIGTERM while the sweep runs (`kill`, a job scheduler's stop): the finished cases are stored, the command says it
+    was terminated and how to resume, exits 143, and leaves SIGTERM's handler as it found it (before: the command
+    ended at once, said nothing, and left its worker processes running)."""
+    import forcecontrol.sweep.run as sweep_run
+
+    real = sweep_run.run_sweep
+
+    def terminated_after_two_cases(*args, progress=None, **kwargs):
+        def tick(done, total):
+            progress(done, total)
+            if done >= 2:
+                os.kill(os.getpid(), signal.SIGTERM)
+        return real(*args, progress=tick, **kwargs)
+
+    monkeypatch.setattr(sweep_run, "run_sweep", terminated_after_two_cases)
+    before = signal.getsignal(signal.SIGTERM)
+    out = tmp_path / "t.parquet"
+    r = CliRunner().invoke(app, ["sweep", "example-9.3", "--param", "environment.stiffness=linspace(1e3,1e4,8)",
+                                 "--set", "duration=0.2", "--workers", "1", "--block-size", "1", "--out", str(out),
+                                 "--no-figure"])
+    assert r.exit_code == 143, r.output
+    said = " ".join(r.output.split())
+    assert "terminated (SIGTERM): finished cases are stored in" in said and "run the same command again to resume" in said
+    assert 2 <= len(list(out.with_name(out.name + ".parts").glob("part-*.parquet"))) < 48
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 def test_cli_names_an_out_folder_it_cannot_write_in():
     """--out in a folder no file can be created in (/proc): a clear error naming --out (exit 2), not a traceback."""
     r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "environment.stiffness=1e3,2e3", "--out",

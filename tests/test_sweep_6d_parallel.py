@@ -217,3 +217,54 @@ def test_a_script_without_the_main_guard_is_told_so_at_once(guarded, tmp_path):
                            "exited with code 1"), last
     assert str(script) in last and "if __name__ == \"__main__\":" in last and "memory" not in last
     assert "submitted again" not in out.stderr  # not resubmitted: the same error at every attempt
+
+
+KILLED_PARENT = """
+import os, signal, sys
+from forcecontrol.sweep import SweepDefinition, prepare_sweep
+from forcecontrol.sweep import processes
+from forcecontrol.sweep.run import run_sweep
+
+def killed_once_running(done, total):
+    pids = processes.worker_pids()
+    if pids:
+        print(" ".join(map(str, pids)), flush=True)
+        os.kill(os.getpid(), signal.SIGKILL)  # as `kill -9` or the out-of-memory killer would
+
+if __name__ == "__main__":
+    d = SweepDefinition.from_options({"duration": [0.05], "environment.stiffness": [3000.0, 5000.0, 8000.0, 9000.0]})
+    run_sweep(prepare_sweep("panda-admittance-contact", d), OUT, workers=2, block_size=1, processes=True,
+              progress=killed_once_running)
+"""
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` is a live process (not gone, not a zombie waiting for its parent)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads process states from /proc")
+def test_worker_processes_end_when_the_sweep_process_is_killed(tmp_path):
+    """`kill -9` of a process sweep: its worker processes end within seconds, saying why on stderr, and release the
+    command's output pipes (before, they ran on, orphaned, and a caller waiting for the command's output hung)."""
+    import subprocess
+    import sys
+    import time
+
+    script = tmp_path / "study.py"
+    script.write_text(KILLED_PARENT.replace("OUT", repr(str(tmp_path / "s.parquet"))), encoding="utf-8")
+    proc = subprocess.Popen([sys.executable, str(script)], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    out, err = proc.communicate(timeout=120)  # returns only when every holder of the pipes has ended
+    assert proc.returncode == -signal.SIGKILL, err[-3000:]
+    workers = [int(p) for p in out.split()]
+    assert len(workers) == 2, out
+    deadline = time.monotonic() + 30
+    while any(map(_running, workers)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(map(_running, workers))
+    assert err.count("ended; this worker stops") == 2, err[-3000:]

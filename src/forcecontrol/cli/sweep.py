@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import signal
+import threading
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -159,15 +161,16 @@ def sweep_command(
     )
     task = bar.add_task(f"sweep {scn.name}", total=prep.n_cases)
     try:
-        with bar, noting():
+        with bar, noting(), _terminate_as_interrupt():
             result = run_sweep(
                 prep, path, scheduler=scheduler, workers=workers, block_size=block_size, overwrite=overwrite,
                 progress=lambda done, total: bar.update(task, completed=done),
             )
-    except KeyboardInterrupt:
-        err_console.print(f"[yellow]interrupted[/]: finished cases are stored in {path}.parts; run the same command "
+    except KeyboardInterrupt as exc:
+        what = "terminated (SIGTERM)" if isinstance(exc, _Terminated) else "interrupted"
+        err_console.print(f"[yellow]{what}[/]: finished cases are stored in {path}.parts; run the same command "
                           "again to resume")
-        raise typer.Exit(code=130) from None
+        raise typer.Exit(code=143 if isinstance(exc, _Terminated) else 130) from None
     except ForceControlError as exc:
         _fail(exc)
         return
@@ -226,6 +229,29 @@ def sweep_command(
                       f"({summary['arm_steps_per_second']:,} per second, {result.scheduler})")
     for k, v in files.items():
         console.print(f"{k}: {v}")
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM during a sweep: handled as Ctrl-C (running blocks stored, workers stopped), said as what it was."""
+
+
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """While the sweep runs, SIGTERM (``kill``, a job scheduler's stop) stops it as Ctrl-C does: the finished and
+    running blocks are stored and the worker processes end; before, it ended the command at once, printed nothing and
+    left the workers running. Only in the main thread (where Python runs signal handlers)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, frame: Any) -> None:
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _check_figure_axes(definition: Any, figure: bool, x: str | None, y: str | None, note: Any) -> None:

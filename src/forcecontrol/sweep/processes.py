@@ -23,11 +23,16 @@ Faults:
   script, that each worker imports that script and a sweep at its top level needs
   ``if __name__ == "__main__":`` (tested with such a script);
 - Ctrl-C: the workers ignore SIGINT; the parent starts nothing new, stores the blocks that are
-  running when they end (a second Ctrl-C stops the workers at once) and re-raises, as with threads.
+  running when they end (a second Ctrl-C stops the workers at once) and re-raises, as with threads;
+- the parent killed (``kill -9``, the out-of-memory killer): each worker watches its parent's sentinel
+  (the pipe the parent holds open while it lives) and exits, saying so on stderr; before, the fork
+  server's workers ran on, orphaned, holding the dead command's output pipes open (a caller waiting for
+  their end waited for ever).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import io
 import multiprocessing
@@ -35,6 +40,7 @@ import os
 import pickle
 import signal
 import sys
+import threading
 import types
 import warnings
 from collections.abc import Callable
@@ -140,8 +146,30 @@ def sweep_engine(jobs: list[Any], engine: str = "auto") -> str:
 
 
 def _init_worker() -> None:
-    """A worker ignores Ctrl-C: the parent decides (it lets running blocks end and stores them)."""
+    """A worker ignores Ctrl-C: the parent decides (it lets running blocks end and stores them); it exits when its
+    parent process ends (:func:`_exit_with_parent`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = multiprocessing.parent_process()
+    sentinel = getattr(parent, "sentinel", None)
+    if sentinel is not None:
+        threading.Thread(target=_exit_with_parent, args=(sentinel, parent.pid), name="parent-watch",
+                         daemon=True).start()
+
+
+def _exit_with_parent(sentinel: int, parent_pid: int | None) -> None:
+    """Wait until the parent's end of ``sentinel`` closes (the parent ended, however), then end this worker.
+
+    The sentinel is the pipe whose write end the parent holds while it lives (multiprocessing's parent sentinel,
+    for the forkserver and spawn start methods); it becomes readable only then. ``os._exit``: nothing of the
+    block running here is wanted any more (the parent that would store it is gone).
+    """
+    from multiprocessing.connection import wait as wait_for
+
+    wait_for([sentinel])
+    with contextlib.suppress(Exception):
+        print(f"forcecontrol sweep worker {os.getpid()}: its sweep process {parent_pid} ended; this worker stops",
+              file=sys.stderr, flush=True)
+    os._exit(1)
 
 
 def _portable(exc: BaseException) -> bytes | None:
