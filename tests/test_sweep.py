@@ -574,6 +574,31 @@ def test_sigterm_stops_the_cli_sweep_as_ctrl_c_does_and_says_so(tmp_path, monkey
     assert signal.getsignal(signal.SIGTERM) is before
 
 
+def test_a_figure_drawn_for_another_sweep_is_not_replaced_without_force(tmp_path):
+    """Two sweeps whose tables differ by their suffix (s.parquet, s.pq) share the figure s.png: the second leaves the
+    first's figure untouched and says why (its table is written, exit 0); with --force it replaces it and says so; the
+    same sweep again redraws its own figure without a word (before: the other sweep's figure was replaced silently)."""
+    def sweep(out, stiffness, *extra):
+        return CliRunner().invoke(app, ["sweep", "example-9.2", "--param", f"environment.stiffness={stiffness}",
+                                        "--set", "duration=0.2", "--out", str(tmp_path / out), *extra])
+
+    first = sweep("s.parquet", "1e3,2e3")
+    assert first.exit_code == 0, first.output
+    png = tmp_path / "s.png"
+    drawn = png.read_bytes()
+    other = sweep("s.pq", "3e3,4e3")
+    said = " ".join(other.output.split())
+    assert other.exit_code == 0 and (tmp_path / "s.pq").is_file(), other.output
+    assert "no figure drawn: the sweep's figure" in said and "was drawn for another sweep" in said, said
+    assert png.read_bytes() == drawn
+    forced = sweep("s.pq", "3e3,4e3", "--force")
+    said = " ".join(forced.output.split())
+    assert forced.exit_code == 0 and "was drawn for another sweep" in said and "replaced by this sweep's figure" in said
+    assert png.read_bytes() != drawn
+    again = sweep("s.pq", "3e3,4e3")
+    assert again.exit_code == 0 and "another sweep" not in again.output, again.output
+
+
 def test_cli_names_an_out_folder_it_cannot_write_in():
     """--out in a folder no file can be created in (/proc): a clear error naming --out (exit 2), not a traceback."""
     r = CliRunner().invoke(app, ["sweep", "example-9.2", "--param", "environment.stiffness=1e3,2e3", "--out",

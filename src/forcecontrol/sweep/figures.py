@@ -214,8 +214,8 @@ def plot_sweep_map(
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Rectangle
 
-    _claim(out, overwrite)
     df, meta = _source(source)
+    _claim(out, overwrite, meta.get("sweep_id"))
     if x == y:
         raise SweepError(f"figure axes x and y must be two different swept parameters; got '{x}' for both")
     df, fixed = _select(df, meta, (x, y), fixed)
@@ -278,9 +278,9 @@ def plot_sweep_map(
     return _save(fig, plt, out, meta.get("sweep_id"))
 
 
-def _claim(out: str | Path, overwrite: bool | None) -> None:
-    """Refuse a figure path holding a file this library did not write (unless ``overwrite``; then warn).
-    ``overwrite=None``: checked by the caller (:func:`plot_sweep`)."""
+def _claim(out: str | Path, overwrite: bool | None, sweep_id: Any = None) -> None:
+    """Refuse a figure path holding a file this library did not write, or another sweep's figure (unless
+    ``overwrite``; then warn). ``overwrite=None``: checked by the caller (:func:`plot_sweep`)."""
     if overwrite is None:
         return
     import warnings
@@ -288,7 +288,7 @@ def _claim(out: str | Path, overwrite: bool | None) -> None:
     from .spec import SweepWarning
     from .store import check_file_output
 
-    note = check_file_output(Path(out), overwrite)
+    note = check_file_output(Path(out), overwrite, sweep_id=None if sweep_id is None else str(sweep_id))
     if note:
         warnings.warn(note, SweepWarning, stacklevel=3)
 
@@ -336,8 +336,8 @@ def plot_sweep_curves(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    _claim(out, overwrite)
     df, meta = _source(source)
+    _claim(out, overwrite, meta.get("sweep_id"))
     df, fixed = _select(df, meta, (x,), fixed)
     _numeric(df, x)
     cases = meta.get("cases", [])
@@ -406,8 +406,9 @@ def plot_sweep(
     """
     from .store import check_file_output
 
-    replaced = check_file_output(Path(out), overwrite)
     df, meta = _source(source)
+    sweep_id = meta.get("sweep_id")
+    replaced = check_file_output(Path(out), overwrite, sweep_id=None if sweep_id is None else str(sweep_id))
     params = list(meta.get("parameters", []))
     for p in (x, y):
         if p is not None and p not in params:

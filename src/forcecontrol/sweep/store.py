@@ -186,14 +186,17 @@ def mark_file(path: Path, sweep_id: str) -> None:
     os.replace(tmp, m)
 
 
-def check_file_output(path: Path, force: bool, what: str = "figure") -> str | None:
+def check_file_output(path: Path, force: bool, what: str = "figure", sweep_id: str | None = None) -> str | None:
     """The rule of :func:`check_output` for a file the sweep writes beside its table (its ``what``).
 
-    A file of the library's own (its mark names it) is replaced; a user's file only with ``force``
-    (the returned note says so); a folder never.
+    A file of the library's own (its mark names it) is replaced when it was drawn for this sweep
+    (``sweep_id``, or any sweep when None); one drawn for another sweep (two tables whose names
+    differ by their suffix, ``s.parquet`` and ``s.pq``, share ``s.png``) and a user's file only with
+    ``force`` (the returned note says so); a folder never.
 
     Raises:
-        OutputError: ``path`` is a folder, or a file this library did not write (and not ``force``).
+        OutputError: ``path`` is a folder, a file this library did not write, or another sweep's (and
+            not ``force``).
     """
     if path.is_dir():
         raise OutputError(f"the sweep's {what} {str(path)!r} is an existing folder; a folder is never replaced, even "
@@ -202,10 +205,17 @@ def check_file_output(path: Path, force: bool, what: str = "figure") -> str | No
         return None
     try:
         doc = json.loads(marker_path(path).read_text())
-        if isinstance(doc, dict) and doc.get("file") == path.name:
-            return None
     except (OSError, ValueError):
-        pass
+        doc = None
+    if isinstance(doc, dict) and doc.get("file") == path.name:
+        theirs = doc.get("sweep_id")
+        if sweep_id is None or theirs in (None, "None", str(sweep_id)):
+            return None
+        if not force:
+            raise OutputError(f"the sweep's {what} {str(path)!r} was drawn for another sweep (id {theirs}; this "
+                              f"one {sweep_id}); it is left untouched: choose another --out, or pass --force to "
+                              "replace it")
+        return f"--force: {str(path)} was drawn for another sweep (id {theirs}); it is replaced by this sweep's {what}"
     if not force:
         raise OutputError(f"the sweep's {what} {str(path)!r} is an existing file that forcecontrol did not write; it is "
                           "left untouched: choose another --out, or pass --force to replace it")
