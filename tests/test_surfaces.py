@@ -366,3 +366,26 @@ def test_a_run_pressed_deeper_than_the_curvature_warns_and_logs_the_event():
         wide = press(_narrow_dip(0.05, stiffness=300.0, damping=20.0))
     assert not [e for e in wide.events or () if e["event"] == "contact-projection"]
     assert wide.wrench[-1, 1] < -5.0  # in contact: the tip pushes the surface down (h_e = −f_n ν)
+
+
+@pytest.mark.parametrize("which", range(5))
+def test_a_nan_position_or_velocity_gives_a_nan_wrench_never_a_silent_zero(which):
+    """A NaN in the position (anywhere) or in the velocity (while in contact, with damping) gives a NaN wrench, as the
+    plane's does; before, the curved surfaces returned zero (NaN fails φ >= 0 and max(0.0, nan) is 0.0), a contact
+    that silently vanished for a caller outside the simulator (which checks its state itself)."""
+    s = _surfaces()[which]
+    s.damping = 50.0
+    inside = next(p for p in _near_points(s, 40) if s.signed_distance(p) < -1e-3)
+    still = np.zeros(s.space)
+    assert np.all(np.isfinite(s.wrench(inside, still))) and np.any(s.wrench(inside, still) != 0.0)
+    for i in range(s.space):
+        bad = inside.copy()
+        bad[i] = np.nan
+        assert np.all(np.isnan(s.wrench(bad, still)[: s.space])), (type(s).__name__, i)
+        v = still.copy()
+        v[i] = np.nan
+        assert np.all(np.isnan(s.wrench(inside, v)[: s.space])), (type(s).__name__, "velocity", i)
+    p, v = np.zeros(3), np.zeros(3)
+    p[: s.space] = inside
+    p[0] = np.nan
+    assert math.isnan(s.normal_force_at(*p, *v)[0])

@@ -70,6 +70,11 @@ def _unit(name: str, value: Any, size: int) -> np.ndarray:
     return v / norm
 
 
+def _pushing(f: float) -> float:
+    """max(0, f) that keeps a NaN (Python's max(0.0, nan) is 0.0: a NaN position or velocity gave no force)."""
+    return f if not f <= 0.0 else 0.0
+
+
 class ElasticSurface(Environment):
     """A one-sided elastic surface given by its geometry (base class of the curved surfaces).
 
@@ -147,7 +152,7 @@ class ElasticSurface(Environment):
         if phi >= 0.0:
             return 0.0, nu, -phi
         vn = float(nu @ np.asarray(xd, dtype=np.float64)[: self.space])
-        return max(0.0, -self.stiffness * phi - self.damping * vn), nu, -phi
+        return _pushing(-self.stiffness * phi - self.damping * vn), nu, -phi  # NaN φ (a NaN position) included
 
     def normal_force_at(self, p0: float, p1: float, p2: float, v0: float, v1: float,
                         v2: float) -> tuple[float, float, float, float]:
@@ -163,12 +168,12 @@ class ElasticSurface(Environment):
         """:meth:`normal_force_at` from the signed distance φ and the normal (the closed forms' common end)."""
         if phi >= 0.0:
             return 0.0, n0, n1, n2
-        return max(0.0, -self.stiffness * phi - self.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
+        return _pushing(-self.stiffness * phi - self.damping * (n0 * v0 + n1 * v1 + n2 * v2)), n0, n1, n2
 
     def wrench(self, x: np.ndarray, xd: np.ndarray) -> np.ndarray:
         out = np.zeros(self.dim)
         fn, nu, _ = self.normal_force(x, xd)
-        if fn > 0.0:
+        if not fn <= 0.0:  # a force, or NaN from a NaN position or velocity (never a silent zero)
             out[: self.space] = -fn * nu
         return out
 
