@@ -389,3 +389,23 @@ def test_a_nan_position_or_velocity_gives_a_nan_wrench_never_a_silent_zero(which
     p[: s.space] = inside
     p[0] = np.nan
     assert math.isnan(s.normal_force_at(*p, *v)[0])
+
+
+def test_a_contact_beyond_the_height_grid_is_said_once_per_run_and_a_contact_over_it_is_not():
+    """The heights cover x in [0, 2] m: pressing on the surface at x = 1 says nothing; pressing at x = 2.3 (where the
+    surface is the edge's spline extrapolated) is recorded and said by take_projection_note, once, naming the point and
+    the grid's extent; out of contact beyond the grid nothing is said (before: the extrapolation was silent)."""
+    xs = np.linspace(0.0, 2.0, 41)
+    hf = HeightField(0.1 * np.sin(3 * xs) + 0.3, [0.0], 0.05, 1e4)
+    assert hf.take_projection_note() is None
+    over = np.array([1.0, hf.height([1.0]) - 0.002])
+    assert np.any(hf.wrench(over, np.zeros(2)) != 0.0) and hf.take_projection_note() is None
+    above_beyond = np.array([2.3, hf.height([2.3]) + 0.05])
+    assert np.all(hf.wrench(above_beyond, np.zeros(2)) == 0.0) and hf.take_projection_note() is None
+    beyond = np.array([2.3, hf.height([2.3]) - 0.002])
+    for _ in range(3):
+        assert np.any(hf.wrench(beyond, np.zeros(2)) != 0.0)
+    note = hf.take_projection_note()
+    assert note is not None and "in contact beyond the grid at 3 contact evaluation(s)" in note, note
+    assert "first at p = [2.3," in note and "x in [0, 2] m" in note and "extrapolated" in note
+    assert hf.take_projection_note() is None  # said once: the record is cleared

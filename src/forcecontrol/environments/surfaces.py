@@ -288,7 +288,8 @@ class HeightField(ElasticSurface):
     Gauss–Newton projection on the spline (from the point straight above/below), so φ is the true
     signed distance to the interpolated surface where the projection is unique (within the
     surface's radius of curvature); ν at p_c is the spline's normal. Outside the grid the surface
-    is the edge's spline extrapolated; keep the tool over the grid.
+    is the edge's spline extrapolated; keep the tool over the grid (a contact beyond it is said after
+    the run: a :class:`~forcecontrol.errors.ContactModelWarning` and the ``contact-projection`` event).
 
     Args:
         heights: h on the grid: (nx,) in 2-D, (nx, ny) in 3-D (``heights[i, j]`` at ``(x_i, y_j)``) [m];
@@ -323,6 +324,9 @@ class HeightField(ElasticSurface):
             raise ParameterError(f"spacing must be positive and finite [m]; got {sp.tolist()}")
         self.spacing = sp
         grids = [self.origin[i] + sp[i] * np.arange(H.shape[i]) for i in range(axes)]
+        # the grid's extent (a contact whose foot point lies beyond it is said: take_projection_note)
+        self._lo = np.array([g[0] for g in grids])
+        self._hi = np.array([g[-1] for g in grids])
         if axes == 1:
             self._spline1 = InterpolatedUnivariateSpline(grids[0], H, k=3)
             self._d1 = self._spline1.derivative(1)
@@ -402,7 +406,25 @@ class HeightField(ElasticSurface):
         phi = float(nu @ (p - s))
         if not settled and phi < 0.0:  # in contact deeper than the radius of curvature (see take_projection_note)
             self._projection_unresolved(p, phi, PROJECTION_STEPS)
+        if phi < 0.0 and (np.any(u < self._lo - 1e-12) or np.any(u > self._hi + 1e-12)):  # in contact where no height was given
+            count, first = getattr(self, "_outside", (0, None))
+            self._outside = (count + 1, first if first is not None else np.array(p, dtype=np.float64))
         return phi, s, nu
+
+    def take_projection_note(self) -> str | None:
+        """What :meth:`ElasticSurface.take_projection_note` says, and whether the tool was in contact beyond the grid
+        (where the surface is the edge's spline extrapolated, not the given heights); both records are cleared."""
+        notes = [super().take_projection_note()]
+        count, first = getattr(self, "_outside", (0, None))
+        self._outside = (0, None)
+        if count and first is not None:
+            names = "xy"[: self.space - 1]
+            span = ", ".join(f"{n} in [{a:.5g}, {b:.5g}]" for n, a, b in zip(names, self._lo, self._hi))
+            where = ", ".join(f"{v:.5g}" for v in first)
+            notes.append(f"{type(self).__name__}: the tool was in contact beyond the grid at {count} contact "
+                         f"evaluation(s), first at p = [{where}] m (the grid covers {span} m): there the surface is "
+                         "the edge's spline extrapolated, not given heights; extend the grid over the tool's path")
+        return "; ".join(n for n in notes if n) or None
 
     def describe(self) -> dict[str, Any]:
         out = super().describe()
