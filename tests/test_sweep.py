@@ -544,6 +544,7 @@ def test_cli_names_a_scheduler_address_it_cannot_use(tmp_path):
     assert r.exit_code == 2, r.output
     err = json.loads(r.stdout)["error"]
     assert err["type"] == "SweepError" and "--scheduler 'not an address': cannot connect" in err["message"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # no parts folder left behind: nothing was run
 
 
 def test_sigterm_stops_the_cli_sweep_as_ctrl_c_does_and_says_so(tmp_path, monkeypatch):

@@ -211,6 +211,7 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
                     "choose another output path or overwrite it"
                 )
             shutil.rmtree(parts_dir)
+    created = not parts_dir.exists()  # removed again if the run fails before it stores a part (a bad scheduler)
     parts_dir.mkdir(parents=True, exist_ok=True)
     if not stamp.exists():
         tmp = stamp.with_name(".sweep.json.tmp")
@@ -239,17 +240,22 @@ def _run_locked(prep, out, parts_dir, stamp, scheduler, workers, block_size, pro
     t0 = time.perf_counter()
     band = (prep.definition.settle_band, prep.definition.stable_band, sweep_engine(prep.jobs, engine))  # run_block's arguments
     where = "local"
-    if scheduler is None:
-        n = workers or os.cpu_count() or 1
-        slow = [j for j in todo if not j.fast]
-        slow_blocks = _blocks(slow, n, block_size, BLOCK_STEPS, 4)
-        if use_processes(sum(j.steps for j in slow), len(slow_blocks), n, processes):
-            _run_local(_blocks([j for j in todo if j.fast], n, block_size), n, band, store)
-            run_processes(slow_blocks, n, band, store)
+    try:
+        if scheduler is None:
+            n = workers or os.cpu_count() or 1
+            slow = [j for j in todo if not j.fast]
+            slow_blocks = _blocks(slow, n, block_size, BLOCK_STEPS, 4)
+            if use_processes(sum(j.steps for j in slow), len(slow_blocks), n, processes):
+                _run_local(_blocks([j for j in todo if j.fast], n, block_size), n, band, store)
+                run_processes(slow_blocks, n, band, store)
+            else:
+                _run_local(_blocks(todo, n, block_size), n, band, store)
         else:
-            _run_local(_blocks(todo, n, block_size), n, band, store)
-    else:
-        where = _run_dask(scheduler, todo, block_size, band, store)
+            where = _run_dask(scheduler, todo, block_size, band, store)
+    except Exception:
+        if created and not any(parts_dir.glob("part-*.parquet")):  # nothing to resume: leave no folder behind
+            shutil.rmtree(parts_dir, ignore_errors=True)
+        raise
     seconds = time.perf_counter() - t0
     table = _assemble(parts_dir, prep)
     _write_atomic(with_checksum(table, prep.sweep_id), out)
