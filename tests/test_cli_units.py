@@ -88,6 +88,39 @@ def test_sweep_table_keeps_its_units_and_json_has_them(tmp_path):
     assert header[-3:] == ["median settling [s]", "max overshoot [%]", "max |ss error| [N]"]
     doc = _json(*args)
     assert doc["units"]["settling_time"] == "s" and doc["units"]["overshoot"] == "%" and doc["units"]["seconds"] == "s"
+    assert doc["units"]["diverged_at"] == "s"  # the table's column of the time a case diverged
+
+
+@pytest.mark.parametrize("params", [["environment.stiffness=1000,2000"],
+                                    ["environment.stiffness=1000,2000", "controller.damping=500,800"]])
+def test_sweep_figures_show_the_metrics_units(tmp_path, monkeypatch, params):
+    """The sweep's curves and maps name each metric with its unit, as the tables do (settled_force [N], settling_time
+    [s]); before, the panels' titles and the colour bars had none."""
+    from forcecontrol.sweep import figures
+
+    texts: list[str] = []
+    real = figures._save
+
+    def reading(fig, plt, out, sweep_id=None):
+        texts.extend(t.get_text() for t in fig.findobj(lambda o: hasattr(o, "get_text")))
+        return real(fig, plt, out, sweep_id)
+
+    monkeypatch.setattr(figures, "_save", reading)
+    args = ["sweep", "example-9.2", "--case", "1", "--set", "duration=0.3", "--out", str(tmp_path / "s.parquet")]
+    for p in params:
+        args += ["-p", p]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0 and (tmp_path / "s.png").is_file(), res.output
+    import re
+
+    from forcecontrol.scenarios.units import SWEEP_METRIC_UNITS
+
+    shown = " ".join(texts)
+    drawn = [m for m in SWEEP_METRIC_UNITS if re.search(rf"\b{m}\b", shown)]
+    assert len(drawn) >= 2, shown[:400]
+    for metric in drawn:  # every time a metric is named, its unit follows
+        assert len(re.findall(rf"\b{metric}\b", shown)) == shown.count(f"{metric} [{SWEEP_METRIC_UNITS[metric]}]"), (
+            metric, shown[:600])
 
 
 def test_units_of_reference_and_rotational_columns():

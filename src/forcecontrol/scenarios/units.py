@@ -27,6 +27,7 @@ _NAMED = {
     "tangential_speed_error": "m/s", "constraint_violation": "m",
     "steady_normal_force": "N", "steady_penetration": "m", "L_f": "-", "force_sample_pole": "-",
     "settling_time": "s", "overshoot": "%", "steady_state_force_error": "N", "peak_force": "N", "settled_force": "N",
+    "diverged_at": "s",
     "k": "N/m", "k_min": "N/m", "k_max": "N/m", "stiffness_range": "N/m", "phase_margin_deg": "deg",
     "gain_margin_db": "dB", "spectral_radius": "-", "sample_time": "s", "delay_samples": "samples",
     "filter_cutoff": "Hz", "arm_inertia": "kg", "damping_ratio": "-", "seconds": "s", "arm_steps_per_second": "1/s",
@@ -52,7 +53,7 @@ _PER_AXIS: tuple[tuple[str, str | None], ...] = (
 )
 _MODAL = re.compile(r"^(motion|velocity|force|normal)_(omega_n|zeta)(_\d+)?$")
 SWEEP_METRIC_UNITS = {"settling_time": "s", "overshoot": "%", "steady_state_force_error": "N", "peak_force": "N",
-                      "settled_force": "N"}
+                      "settled_force": "N", "diverged_at": "s"}
 
 
 def unit(name: str) -> str:

@@ -256,7 +256,7 @@ def plot_sweep_map(
                     grey.set_hatch("///")
             else:
                 mesh = ax.scatter(sub[x][~bad], sub[y][~bad], c=vals[~bad], cmap="viridis", s=12)
-            fig.colorbar(mesh, ax=ax, label=f"{metric} (stable cases)")
+            fig.colorbar(mesh, ax=ax, label=f"{_with_unit(metric)} (stable cases)")
             ax.scatter(sub[x][bad], sub[y][bad], marker="x", color="red", s=18, linewidths=1.0)
             if bad.any():
                 ax.add_patch(Rectangle((0, 0), 0, 0, facecolor="0.78", edgecolor="red", hatch="///", visible=False,
@@ -269,13 +269,21 @@ def plot_sweep_map(
                     axis_set("log")
             ax.set_xlabel(x)
             ax.set_ylabel(y)
-            ax.set_title(f"{figure_safe(label)}\n{metric}", fontsize=9)
+            ax.set_title(f"{figure_safe(label)}\n{_with_unit(metric)}", fontsize=9)
             if c == 0 and ax.get_legend_handles_labels()[0]:  # a row's cases are stable or not alike in every column
                 ax.legend(fontsize=7, loc="best")  # (nothing to explain: no legend, and no matplotlib warning)
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x} and {y}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""),
                              TITLE_LIMIT), fontsize=10)
     return _save(fig, plt, out, meta.get("sweep_id"))
+
+
+def _with_unit(metric: str) -> str:
+    """A metric's name with its unit in brackets (``settled_force [N]``), as the tables show them."""
+    from ..scenarios.units import SWEEP_METRIC_UNITS
+
+    u = SWEEP_METRIC_UNITS.get(metric, "")
+    return f"{metric} [{u}]" if u else metric
 
 
 def _claim(out: str | Path, overwrite: bool | None, sweep_id: Any = None) -> None:
@@ -375,7 +383,7 @@ def plot_sweep_curves(
             if _log(xv):
                 ax.set_xscale("log")
             ax.set_xlabel(x)
-            ax.set_title(metric, fontsize=9)
+            ax.set_title(_with_unit(metric), fontsize=9)
     axs[0, 0].legend(fontsize=7, loc="best")
     title = meta.get("title") or meta.get("scenario", "")
     fig.suptitle(figure_safe(f"{title}: sweep over {x}" + (f" ({json.dumps(fixed, default=str)})" if fixed else ""), TITLE_LIMIT),
