@@ -276,3 +276,37 @@ def test_scenario_errors_name_the_scenario_keys(change, message):
         scn = fc.scenario("variable-stiffness").with_(change)
         for case in scn.cases:
             fc.scenarios.build_case(case)
+
+
+class _TurningStiffness:
+    """A stiffness of fixed eigenvalues (1e4 and 1e3 N/m) whose axes turn at 5 rad/s: its trace never changes."""
+
+    def __call__(self, t, x_tilde, x_tilde_dot):
+        c, s = math.cos(5.0 * t), math.sin(5.0 * t)
+        R = np.array([[c, -s], [s, c]])
+        return R @ np.diag([1e4, 1e3]) @ R.T
+
+
+def test_a_turning_schedule_that_the_tank_refuses_shows_in_stiffness_refused_not_in_the_trace_ratio(arm):
+    """A schedule that turns K (constant trace) with a nearly empty tank: stiffness_scale stays 1 while the applied K
+    differs from the scheduled one; stiffness_refused is ‖K_s − K‖_F / ‖K_s‖_F recomputed from the logged applied K and
+    the schedule (outside the controller's bookkeeping), and is 0 to round-off without a tank."""
+    schedule = _TurningStiffness()
+    q0 = arm.inverse_kinematics([1.0, 0.0], elbow="up")
+    env = fc.ElasticPlane([1.0, 0.0], [-1.0, 0.0], K_ENV)
+
+    def run(tank):  # starts at the schedule's K(0): only its turning is asked afterwards
+        ctl = VariableImpedanceController(arm, M_D, K_D, schedule(0.0, None, None), stiffness_schedule=schedule,
+                                          tank=tank, sample_time=1e-3)
+        return fc.simulate(arm, env, ctl, fc.Setpoint(X_D), q0=q0, duration=0.4, engine="python")
+
+    res = run(EnergyTank(1e-6, minimum=0.0, maximum=1e-6, dissipation_fraction=0.0))  # pays for (almost) nothing
+    scale, refused = res.signals["stiffness_scale"], res.signals["stiffness_refused"]
+    K = res.signals["stiffness"].reshape(-1, 2, 2)
+    K_s = np.array([schedule(t, None, None) for t in res.t])
+    want = np.linalg.norm(K_s - K, axis=(1, 2)) / np.linalg.norm(K_s, axis=(1, 2))
+    assert refused == pytest.approx(want, abs=1e-12)
+    assert np.max(refused) > 0.5 and np.min(scale) > 0.99  # refused in direction, never in size
+    free = run(None)
+    assert np.all(np.isnan(free.signals["tank_energy"]))  # no tank: the schedule is applied as asked
+    assert np.max(free.signals["stiffness_refused"]) < 1e-12

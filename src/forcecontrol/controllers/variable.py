@@ -196,8 +196,8 @@ def _schedule_matrix(name: str, value: Any, m: int, t: float) -> np.ndarray:
 class _Scheduled:
     """What both variable laws share: the schedules, the tank's bookkeeping and the signal log."""
 
-    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "storage")
-    _LOGGED = ("tank_energy", "stiffness_scale", "storage", "stiffness", "damping")
+    SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "stiffness_refused", "storage")
+    _LOGGED = ("tank_energy", "stiffness_scale", "stiffness_refused", "storage", "stiffness", "damping")
 
     def _set_schedules(self, stiffness_schedule: Any, damping_schedule: Any, tank: Any, error: str) -> None:
         for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
@@ -253,6 +253,9 @@ class _Scheduled:
         log = self._log
         log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
         log["stiffness_scale"].append(float(np.trace(K)) / tr if tr > 0.0 else 1.0)
+        # the part of the schedule not applied, whatever its direction (a schedule that turns K keeps the trace)
+        size = float(np.linalg.norm(K_s))
+        log["stiffness_refused"].append(float(np.linalg.norm(K_s - K)) / size if size > 0.0 else 0.0)
         log["storage"].append(storage)
         log["stiffness"].append(K.ravel().copy())
         log["damping"].append(D.ravel().copy())
@@ -276,8 +279,10 @@ class VariableImpedanceController(_Scheduled, ImpedanceController):
 
     Logged signals (``signals()``; in a simulation, ``result.signals``): ``tank_energy`` [J]
     (NaN without a tank), ``stiffness_scale`` (trace of the applied K_P over the trace of the
-    scheduled one), ``storage`` H [J] and ``stiffness`` / ``damping`` (the applied matrices,
-    flattened per sample).
+    scheduled one: how much of the scheduled size is applied), ``stiffness_refused``
+    (‖K_s − K_P‖_F / ‖K_s‖_F: the part of the schedule the tank refused, in any direction, 0 when it
+    is applied as asked; a schedule that turns K_P keeps the trace ratio at 1 while it is refused),
+    ``storage`` H [J] and ``stiffness`` / ``damping`` (the applied matrices, flattened per sample).
 
     Args:
         robot: the manipulator (position task space, as :class:`ImpedanceController`).
@@ -377,7 +382,8 @@ class VariableAdmittanceController(_Scheduled, AdmittanceController):
     the compliant frame is unchanged.
 
     Logged signals (``signals()``): ``tank_energy`` [J] (NaN without a tank),
-    ``stiffness_scale``, ``storage`` H_t [J], ``stiffness`` and ``damping`` (flattened 6 × 6).
+    ``stiffness_scale``, ``stiffness_refused`` (as :class:`VariableImpedanceController`'s), ``storage`` H_t [J],
+    ``stiffness`` and ``damping`` (flattened 6 × 6).
 
     Args:
         robot, inertia, damping, stiffness: as :class:`AdmittanceController` (the gains at t = 0).

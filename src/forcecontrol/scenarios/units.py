@@ -21,7 +21,7 @@ _AXIS = {
 #: named quantities: log columns and signals, scenario metrics, analysis quantities, result fields
 _NAMED = {
     "t": "s", "t_end": "s", "tip_position": "m", "contact_force": "N", "peak_contact_force_norm": "N",
-    "tank_energy": "J", "storage": "J", "stiffness_scale": "-", "tank_energy_min": "J",
+    "tank_energy": "J", "storage": "J", "stiffness_scale": "-", "stiffness_refused": "-", "tank_energy_min": "J",
     "penetration": "m", "normal_force": "N", "contact_force_norm": "N", "impact_peak_force": "N",
     "peak_force_last_second": "N", "first_contact_time": "s", "contact_separation": "m",
     "tangential_speed_error": "m/s", "constraint_violation": "m",

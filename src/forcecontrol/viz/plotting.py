@@ -21,7 +21,8 @@ __all__ = [
 #: axis labels of the plottable columns.
 SIGNAL_LABELS: dict[str, str] = {
     "tank_energy": "tank energy T [J]",
-    "stiffness_scale": "applied / scheduled stiffness [-]",
+    "stiffness_scale": "tr applied / tr scheduled stiffness [-]",
+    "stiffness_refused": "schedule refused ‖K_s − K‖/‖K_s‖ [-]",
     "storage": "impedance storage H [J]",
     "x": "tip x [m]",
     "y": "tip y [m]",
