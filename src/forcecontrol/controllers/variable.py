@@ -197,7 +197,8 @@ class _Scheduled:
     """What both variable laws share: the schedules, the tank's bookkeeping and the signal log."""
 
     SIGNALS: ClassVar[tuple[str, ...]] = ("tank_energy", "stiffness_scale", "stiffness_refused", "storage")
-    _LOGGED = ("tank_energy", "stiffness_scale", "stiffness_refused", "storage", "stiffness", "damping")
+    #: what each step appends; the scheduled K_s is kept to derive stiffness_scale and stiffness_refused in signals()
+    _LOGGED = ("tank_energy", "storage", "stiffness", "damping", "scheduled")
 
     def _set_schedules(self, stiffness_schedule: Any, damping_schedule: Any, tank: Any, error: str) -> None:
         for name, f in (("stiffness_schedule", stiffness_schedule), ("damping_schedule", damping_schedule)):
@@ -249,20 +250,31 @@ class _Scheduled:
         return 0.5 * float(ed @ self.inertia @ ed) + 0.5 * float(e @ K @ e)  # type: ignore[attr-defined]
 
     def _record(self, K: np.ndarray, K_s: np.ndarray, D: np.ndarray, storage: float) -> None:
-        tr = float(np.trace(K_s))
         log = self._log
         log["tank_energy"].append(self.tank.energy if self.tank is not None else math.nan)
-        log["stiffness_scale"].append(float(np.trace(K)) / tr if tr > 0.0 else 1.0)
-        # the part of the schedule not applied, whatever its direction (a schedule that turns K keeps the trace)
-        size = float(np.linalg.norm(K_s))
-        log["stiffness_refused"].append(float(np.linalg.norm(K_s - K)) / size if size > 0.0 else 0.0)
         log["storage"].append(storage)
         log["stiffness"].append(K.ravel().copy())
         log["damping"].append(D.ravel().copy())
+        log["scheduled"].append(K_s.ravel().copy())
 
     def signals(self) -> dict[str, np.ndarray]:
-        """What the controller logged at each step since the last reset (arrays, one row per step)."""
-        return {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items()}
+        """What the controller logged at each step since the last reset (arrays, one row per step), with the
+        applied stiffness against the scheduled one: ``stiffness_scale`` (trace ratio, 1 where the schedule's trace
+        is 0) and ``stiffness_refused`` (‖K_s − K‖_F / ‖K_s‖_F, 0 where K_s = 0: the part of the schedule not
+        applied, whatever its direction; a schedule that turns K keeps the trace)."""
+        out = {k: np.asarray(v, dtype=np.float64) for k, v in self._log.items() if k != "scheduled"}
+        K, K_s = out["stiffness"], np.asarray(self._log["scheduled"], dtype=np.float64)
+        if K.size == 0:
+            out["stiffness_scale"] = out["stiffness_refused"] = np.zeros(0)
+            return out
+        m = math.isqrt(K.shape[1])
+        tr_s = np.trace(K_s.reshape(-1, m, m), axis1=1, axis2=2)
+        tr = np.trace(K.reshape(-1, m, m), axis1=1, axis2=2)
+        size = np.linalg.norm(K_s, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["stiffness_scale"] = np.where(tr_s > 0.0, tr / tr_s, 1.0)
+            out["stiffness_refused"] = np.where(size > 0.0, np.linalg.norm(K_s - K, axis=1) / size, 0.0)
+        return out
 
 
 class VariableImpedanceController(_Scheduled, ImpedanceController):

@@ -296,7 +296,7 @@ def _claim(out: str | Path, overwrite: bool | None, sweep_id: Any = None) -> Non
     from .spec import SweepWarning
     from .store import check_file_output
 
-    note = check_file_output(Path(out), overwrite, sweep_id=None if sweep_id is None else str(sweep_id))
+    note = check_file_output(Path(out), overwrite, sweep_id=sweep_id)
     if note:
         warnings.warn(note, SweepWarning, stacklevel=3)
 
@@ -415,8 +415,7 @@ def plot_sweep(
     from .store import check_file_output
 
     df, meta = _source(source)
-    sweep_id = meta.get("sweep_id")
-    replaced = check_file_output(Path(out), overwrite, sweep_id=None if sweep_id is None else str(sweep_id))
+    replaced = check_file_output(Path(out), overwrite, sweep_id=meta.get("sweep_id"))
     params = list(meta.get("parameters", []))
     for p in (x, y):
         if p is not None and p not in params:

@@ -186,7 +186,7 @@ def mark_file(path: Path, sweep_id: str) -> None:
     os.replace(tmp, m)
 
 
-def check_file_output(path: Path, force: bool, what: str = "figure", sweep_id: str | None = None) -> str | None:
+def check_file_output(path: Path, force: bool, what: str = "figure", sweep_id: Any = None) -> str | None:
     """The rule of :func:`check_output` for a file the sweep writes beside its table (its ``what``).
 
     A file of the library's own (its mark names it) is replaced when it was drawn for this sweep
