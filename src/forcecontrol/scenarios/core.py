@@ -44,8 +44,10 @@ from .model import (  # noqa: F401
     CaseResult,
     CaseSpec,
     ScenarioRun,
+    UnusedKeyNote,
     check_mathtext,
     note_settle_window,
+    unused_key_notes,
 )
 from .schema import check_table
 
@@ -418,6 +420,9 @@ def run_scenario(
     """
     scn = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     out = []
+    key_notes = unused_key_notes(scn.cases, scn.source)
+    for _, text, _ in key_notes:
+        warnings.warn(text, UnusedKeyNote, stacklevel=2)
     for i, case in enumerate(scn.cases):
         parts = build_case(case, where=f"{scn.source}: [[case]] #{i + 1}")
         if engine == "mujoco":
@@ -441,6 +446,9 @@ def run_scenario(
                 metadata={"scenario": scn.name, "source": scn.source},
             )
         window = parts["settle_window"]
+        notes = [text for _, text, cases in key_notes if i in cases]
+        if notes:
+            res.metadata["key_notes"] = notes  # run --json: the case's warnings (kind "unused-key")
         res.metadata["settle_window"] = float(window)  # what the settled values average (summary.not_settled)
         note_settle_window(res, window, parts["duration"], f"{scn.source}: [[case]] #{i + 1} ({case.label})")
         metrics = {}

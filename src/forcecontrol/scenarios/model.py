@@ -21,7 +21,7 @@ from ..sim.limits import (
     MAX_ZEROING_SAMPLES,
 )
 from ..sim.simulation import SimulationResult
-from .schema import MAX_TIME, Field
+from .schema import MAX_TIME, Field, unused_keys
 from .servo_robot import SERVO_FIELDS
 
 if TYPE_CHECKING:
@@ -40,6 +40,8 @@ __all__ = [
     "CaseSpec",
     "CaseResult",
     "ScenarioRun",
+    "UnusedKeyNote",
+    "unused_key_notes",
 ]
 
 
@@ -66,6 +68,44 @@ TOP_FIELDS: dict[str, Field] = {
     "expected": Field("table", default=None),
     "case": Field("table", default=None),  # checked separately (array of tables)
 }
+
+
+class UnusedKeyNote(UserWarning):
+    """A key the scenario sets that its part does not use in any case that sets it (:attr:`.schema.Field.used_when`):
+    accepted, and said (stderr and ``run --json``), not silently ignored."""
+
+
+def unused_key_notes(cases: Any, source: str) -> list[tuple[str, str, list[int]]]:
+    """The keys of the environment, controller and reference that no case setting them uses: ``(path, text, cases)``,
+    the key's dotted path (``"controller.stiffness_high"``), the note, and the cases (0-based) that set the key.
+
+    A key one case uses and another does not (a ``[[case]]`` switching the law) is used: no note.
+    """
+    from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES
+
+    registries = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}
+    setting: dict[tuple[str, str], list[int]] = {}
+    unused: dict[tuple[str, str], dict[int, str]] = {}
+    for i, case in enumerate(cases):
+        for table, registry in registries.items():
+            cfg = case.config.get(table)
+            spec = registry.get(cfg.get("type")) if isinstance(cfg, dict) else None
+            if spec is None:
+                continue
+            for key, f in spec.fields.items():
+                if f.used_when is not None and cfg.get(key) is not None:
+                    setting.setdefault((table, key), []).append(i)
+            for key, why in unused_keys(spec.fields, cfg):
+                unused.setdefault((table, key), {})[i] = why
+    out = []
+    for (table, key), where in unused.items():
+        if len(where) == len(setting[(table, key)]):  # unused by every case that sets it
+            reasons = sorted(set(where.values()))
+            scope = "in every case" if len(where) == len(cases) else f"in case(s) {', '.join(str(i + 1) for i in where)}"
+            out.append((f"{table}.{key}", f"{source}: [{table}] key '{key}' is not used and its value is ignored: "
+                        f"{'; '.join(reasons)} "
+                        f"({scope})", sorted(where)))
+    return out
 
 
 class SettleWindowNote(UserWarning):
@@ -380,7 +420,8 @@ class ScenarioRun:
                     # what stderr said about the case (summary.case_warnings), and the run's notes (settle_window)
                     "warnings": case_warnings(c) + [{"kind": "settle-window", "t": None, "text": str(n)}
                                                     for n in c.result.metadata.get("run_notes") or ()]
-                    + [{"kind": "engine-note", "t": None, "text": str(n)} for n in c.result.metadata.get("engine_notes") or ()],
+                    + [{"kind": "engine-note", "t": None, "text": str(n)} for n in c.result.metadata.get("engine_notes") or ()]
+                    + [{"kind": "unused-key", "t": None, "text": str(n)} for n in c.result.metadata.get("key_notes") or ()],
                     "events": case_events(c),
                 }
                 for c in self.cases

@@ -156,8 +156,8 @@ register_controller(
 
 
 def _hybrid_rigid(p: dict[str, Any], ctx: dict[str, Any]) -> HybridRigidController:
-    """Gains that the chosen laws do not use are ignored here (so that a [[case]] can switch law
-    without deleting keys); the controller itself refuses them."""
+    """Gains that the chosen laws do not use are not passed on (so that a [[case]] can switch law
+    without deleting keys; the controller itself refuses them); the scenario says so (``Field.used_when``)."""
     velocity = p["motion"] == "velocity"
     law = p["force_law"]
     return HybridRigidController(
@@ -176,8 +176,9 @@ register_controller(
         **_TASK_FIELDS,
         "motion": Field("str", default="velocity", choices=("velocity", "position"), doc="(9.80) or (9.95)"),
         "velocity_gain": Field("gain", True, doc="K_Pν (9.80) or K_Dr (9.95) [1/s]"),
-        "velocity_integral_gain": Field("gain", doc="K_Iν (9.80) [1/s²] (motion = velocity)"),
-        "position_gain": Field("gain", doc="K_Pr (9.95) [1/s²] (motion = position)"),
+        "velocity_integral_gain": Field("gain", doc="K_Iν (9.80) [1/s²] (motion = velocity)",
+                                        used_when=("motion", ("velocity",))),
+        "position_gain": Field("gain", doc="K_Pr (9.95) [1/s²] (motion = position)", used_when=("motion", ("position",))),
         **force_law_fields("integral"),
     },
     _hybrid_rigid,

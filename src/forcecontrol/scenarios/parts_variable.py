@@ -54,6 +54,8 @@ def _variable(p: dict[str, Any], ctx: dict[str, Any]) -> VariableImpedanceContro
     )
 
 
+_DIRECTIONAL, _SINUSOIDAL, _TANK = ("schedule", ("directional",)), ("schedule", ("sinusoidal",)), ("tank", (True,))
+
 register_controller(
     "variable-impedance",
     {
@@ -62,14 +64,15 @@ register_controller(
         "stiffness_low": Field("number", True, doc="K_P at t = 0, the low stiffness or the sinusoid's mean [N/m]"),
         "schedule": Field("str", default="directional", choices=("constant", "directional", "sinusoidal"),
                           doc="directional: high while the error shrinks; sinusoidal: mean + amplitude sin(2π f t)"),
-        "stiffness_high": Field("number", doc="directional schedule: the high stiffness [N/m]"),
-        "amplitude": Field("number", doc="sinusoidal schedule: amplitude [N/m]"),
-        "frequency": Field("number", doc="sinusoidal schedule: frequency [Hz]"),
+        "stiffness_high": Field("number", doc="directional schedule: the high stiffness [N/m]", used_when=_DIRECTIONAL),
+        "amplitude": Field("number", doc="sinusoidal schedule: amplitude [N/m]", used_when=_SINUSOIDAL),
+        "frequency": Field("number", doc="sinusoidal schedule: frequency [Hz]", used_when=_SINUSOIDAL),
         "tank": Field("bool", default=True, doc="pay stiffness changes from an energy tank (passive) or not (naive)"),
-        "tank_initial": Field("number", default=0.05, doc="T₀ [J]"),
-        "tank_minimum": Field("number", default=0.01, doc="T_min [J]"),
-        "tank_maximum": Field("number", default=0.1, doc="T_max [J]"),
-        "dissipation_fraction": Field("number", default=0.5, doc="σ: share of the damper's dissipation stored"),
+        "tank_initial": Field("number", default=0.05, doc="T₀ [J]", used_when=_TANK),
+        "tank_minimum": Field("number", default=0.01, doc="T_min [J]", used_when=_TANK),
+        "tank_maximum": Field("number", default=0.1, doc="T_max [J]", used_when=_TANK),
+        "dissipation_fraction": Field("number", default=0.5, doc="σ: share of the damper's dissipation stored",
+                                      used_when=_TANK),
     },
     _variable,
     "impedance with force measurement (9.30)-(9.31), scheduled stiffness, optional energy tank",

@@ -34,6 +34,7 @@ __all__ = [
     "ENVIRONMENTS",
     "REFERENCES",
     "check_table",
+    "unused_keys",
 ]
 
 
@@ -56,6 +57,10 @@ class Field:
         fields: a ``"table"`` field's own keys (a nested table such as ``[robot.servo]``): the table is
             checked against them where its parent is (:func:`check_table`), and they appear in the
             schema (``forcecontrol schema``, ``--json``) under ``[parent.key]``.
+        used_when: ``(key, values)``: the part uses this key only when the table's ``key`` (given or
+            defaulted) is one of ``values`` (e.g. a schedule's or a law's own gain); set otherwise, it is
+            accepted (a ``[[case]]`` may switch the law without deleting keys) and said to be unused
+            (:func:`unused_keys`: a note on stderr and in ``run --json``; a sweep's warning).
     """
 
     kind: str
@@ -67,6 +72,7 @@ class Field:
     high: float | None = None
     bound: str = ""
     fields: dict[str, Field] | None = dc_field(default=None, compare=False, hash=False)
+    used_when: tuple[str, tuple[Any, ...]] | None = None
 
     def range_text(self) -> str:
         """The allowed range in words (``"in [0, 100000], at most the run's samples"``), or ``""``."""
@@ -447,6 +453,31 @@ def force_law_fields(default: str) -> dict[str, Field]:
     return {
         "force_law": Field("str", default=default, choices=("feedforward", "proportional", "integral"),
                            doc="(9.92), (9.93) or (9.94)"),
-        "force_gain": Field("gain", doc="K_Pλ (9.93) [-], below 1 (sampled reaction) (force_law = proportional)"),
-        "force_integral_gain": Field("gain", doc="K_Iλ (9.94) [1/s], below 2/Ts (force_law = integral)"),
+        "force_gain": Field("gain", doc="K_Pλ (9.93) [-], below 1 (sampled reaction) (force_law = proportional)",
+                            used_when=("force_law", ("proportional",))),
+        "force_integral_gain": Field("gain", doc="K_Iλ (9.94) [1/s], below 2/Ts (force_law = integral)",
+                                     used_when=("force_law", ("integral",))),
     }
+
+
+def _toml_value(v: Any) -> str:
+    return json.dumps(v) if isinstance(v, (bool, str)) else repr(v)
+
+
+def unused_keys(fields: dict[str, Field], table: dict[str, Any]) -> list[tuple[str, str]]:
+    """The keys ``table`` sets that its part does not use (their :attr:`Field.used_when` does not hold), each
+    with the reason in words: ``[("stiffness_high", "it applies only when schedule = \"directional\"; schedule is
+    \"constant\"")]``. ``table`` as written (a key absent or ``None`` is not set); the condition's key as given
+    or defaulted."""
+    out = []
+    for key, f in fields.items():
+        if f.used_when is None or table.get(key) is None:
+            continue
+        cond, values = f.used_when
+        value = table.get(cond)
+        if value is None:
+            value = fields[cond].default
+        if value not in values:
+            allowed = " or ".join(_toml_value(v) for v in values)
+            out.append((key, f"it applies only when {cond} = {allowed}; {cond} is {_toml_value(value)}"))
+    return out

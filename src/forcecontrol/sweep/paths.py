@@ -30,9 +30,14 @@ CHECK_ONLY_TOP: dict[str, str] = {
 }
 
 
-def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str) -> str | None:
-    """What to say when ``p`` names a key that case ``label`` uses only in a check (None otherwise)."""
+def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str, swept: frozenset[str] = frozenset()) -> str | None:
+    """What to say when ``p`` names a key that case ``label`` uses only in a check, or does not use at all (a key whose
+    :attr:`~forcecontrol.scenarios.schema.Field.used_when` does not hold in the case, unless the sweep also sets the
+    key it depends on: a path of ``swept``); None otherwise."""
     keys = p.keys
+    unused = _unused_note(p, cfg, label, swept)
+    if unused is not None:
+        return unused
     if len(keys) == 1 and keys[0] in CHECK_ONLY_TOP:
         return (f"parameter '{p.path}' (case '{label}'): '{keys[0]}' is used only by {CHECK_ONLY_TOP[keys[0]]}, "
                 "not in the simulation: the swept values give the same responses")
@@ -44,6 +49,23 @@ def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str) -> str |
         return None
     return (f"parameter '{p.path}' (case '{label}'): [{keys[0]}] of type '{kind}' uses '{keys[1]}' only in {use}, "
             "not in the simulation: the swept values give the same responses")
+
+
+def _unused_note(p: SweepParameter, cfg: dict[str, Any], label: str, swept: frozenset[str]) -> str | None:
+    from ..scenarios.schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, unused_keys
+
+    keys = p.keys
+    registry = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}.get(keys[0])
+    table = cfg.get(keys[0]) if registry is not None and len(keys) == 2 else None
+    spec = registry.get(table.get("type")) if isinstance(table, dict) and registry is not None else None
+    f = spec.fields.get(keys[1]) if spec is not None else None
+    if f is None or f.used_when is None or f"{keys[0]}.{f.used_when[0]}" in swept:
+        return None
+    why = dict(unused_keys({keys[1]: f, f.used_when[0]: spec.fields[f.used_when[0]]}, {**table, keys[1]: 0.0})).get(keys[1])
+    if why is None:
+        return None
+    return (f"parameter '{p.path}' (case '{label}'): [{keys[0]}] of type '{table['type']}' does not use '{keys[1]}' ({why}): "
+            "the swept values give the same responses")
 
 
 def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:

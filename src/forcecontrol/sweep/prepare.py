@@ -211,6 +211,7 @@ def prepare_sweep(
     from ..scenarios import CaseSpec, Scenario, build_case
     from ..scenarios.build import PartShare, build_sensor
     from ..scenarios.build_share import warnings_shown
+    from ..scenarios.model import unused_key_notes
 
     if isinstance(scenario, Scenario):
         scn, file_def = scenario, None
@@ -223,12 +224,16 @@ def prepare_sweep(
             "--param environment.stiffness=logspace(3,6,40)"
         )
     selected = _select_cases(scn, definition.cases)
+    swept = frozenset(p.path for p in definition.parameters)
     for _, case in selected:
         for p in definition.parameters:
             _check_path(p, case.config, case.label)
-            note = check_only_note(p, case.config, case.label)
+            note = check_only_note(p, case.config, case.label, swept)
             if note is not None and len(p.values) != 1:
                 warnings.warn(note, SweepWarning, stacklevel=2)
+    for path, text, _ in unused_key_notes([case for _, case in selected], scn.source):
+        if path not in swept:  # a swept one: said above, with the values that do not change the response
+            warnings.warn(text, SweepWarning, stacklevel=2)
     variations = definition.samples if definition.design != "grid" else math.prod(len(p.values) for p in definition.parameters)
     if len(selected) * variations > MAX_SWEEP_VALUES:  # the variations are bounded alone; each runs every case selected
         raise SweepError(f"the sweep has {variations:,} variations x {len(selected)} cases = {len(selected) * variations:,} "
