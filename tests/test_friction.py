@@ -227,3 +227,24 @@ def test_simulate_warns_when_the_tool_broke_away_from_an_undamped_bristle():
     with pytest.warns(ContactModelWarning, match="undamped bristle"):
         r = _run(env, _pull(0.55 * F_N), 2.0)
     assert np.any(r.signals["stick"][r.t > 0.8] == 0.0)
+
+
+@pytest.mark.parametrize("key, value", [("viscous", 30.0), ("stick_speed", 1e-3), ("stick_stiffness", 1e5),
+                                        ("stick_damping", 50.0)])
+def test_a_friction_key_on_a_frictionless_surface_is_refused_not_ignored(key, value):
+    """A sphere without static/kinetic has no friction: viscous, stick_speed (and the bristle's keys) given there would
+    do nothing, so they are refused naming the key and its value (viscous = 30 N s/m used to run frictionless)."""
+    from forcecontrol.errors import ScenarioError
+    from forcecontrol.scenarios import build_case, load_scenario
+
+    doc = {
+        "name": "s", "duration": 0.1, "sample_time": 0.001,
+        "robot": {"model": "chapter-arm", "start_position": [1.0, 0.0]},
+        "environment": {"type": "elastic-sphere", "center": [1.3, 0.0], "radius": 0.3, "stiffness": 1e4, key: value},
+        "controller": {"type": "impedance", "inertia": 10.0, "damping": 300.0, "stiffness": 1000.0},
+        "reference": {"type": "setpoint", "position": [1.02, 0.0]},
+    }
+    with pytest.raises(ScenarioError, match=rf"\[environment\].*{key} needs friction: give static"):
+        load_scenario(doc)
+    doc["environment"]["static"] = 0.3
+    assert isinstance(build_case(load_scenario(doc).cases[0])["environment"], FrictionalContact)

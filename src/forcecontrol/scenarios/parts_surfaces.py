@@ -48,6 +48,10 @@ def _with_friction(surface: Any, p: dict[str, Any]) -> Any:
         for key in ("stick_stiffness", "stick_damping"):
             if p[key] is not None:
                 raise ParameterError(f"{key} needs friction: give static (and kinetic) too")
+        for key in ("viscous", "stick_speed"):  # a value other than the default would be ignored: refused, as above
+            if p[key] != FRICTION_FIELDS[key].default:
+                raise ParameterError(f"{key} needs friction: give static (and kinetic) too; got {key} = {p[key]!r} "
+                                     "on a frictionless surface")
         return surface
     mu_s = p["static"] if p["static"] is not None else p["kinetic"]
     mu_k = p["kinetic"] if p["kinetic"] is not None else mu_s
