@@ -168,3 +168,14 @@ def test_every_condition_names_a_key_of_its_table_and_values_it_can_take():
                     ok = (v in c.choices) if c.kind == "str" else (c.kind == "bool" and isinstance(v, bool))
                     assert ok, (spec.name, key, v)
     assert marked >= 11
+
+
+@pytest.mark.parametrize("figures", [False, True])
+def test_analyze_says_it_once_with_or_without_its_figures(tmp_path: Path, figures: bool):
+    """`analyze FILE` (and with --figures, which simulates): the note once on stderr, and in --json's notes."""
+    (tmp_path / "vi.toml").write_text(VI_TOML, encoding="utf-8")
+    extra = ("--figures", "--force") if figures else ()
+    table = forcecontrol(tmp_path, "analyze", "vi.toml", *extra)
+    assert table.stderr.count("key 'stiffness_high' is not used and its value is ignored") == 1, table.stderr
+    doc = json.loads(forcecontrol(tmp_path, "analyze", "vi.toml", "--json", *extra).stdout)
+    assert sum("key 'stiffness_high' is not used" in n for n in doc["notes"]) == 1, doc["notes"]

@@ -64,6 +64,10 @@ def analyze_command(
             compile_notice()
         sets = parse_sets(set_)
         scn, set_notes = apply_sets(load_scenario(scenario), sets)
+        if not figures:  # else the figures' run says them (plot_scheme_figures' notes)
+            from ..scenarios.model import unused_key_notes
+
+            set_notes = [*set_notes, *(text for _, text, _ in unused_key_notes(scn.cases, scn.source))]
         with busy(f"analysing {scn.name}" + (f": simulating its {len(scn.cases)} case(s) to verify (compiling on a first "
                                              "run)" if verify else ""), quiet=json_out or not verify):
             report = analyze_scenario(scn, verify=verify)

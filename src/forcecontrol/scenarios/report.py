@@ -282,7 +282,8 @@ def plot_scheme_figures(
         engine: simulator engine.
         notes: when given, a line is appended for each figure drawn without the linearised overlay
             (the linear model is that of the direct force schemes on an elastic environment, set point
-            reference), saying why.
+            reference), saying why, and one for each key the scenario sets that no case uses
+            (:func:`~.model.unused_key_notes`, then not warned as an :class:`~.model.UnusedKeyNote`).
 
     Returns:
         The written files, one per controller type, in order of first appearance.
@@ -291,10 +292,14 @@ def plot_scheme_figures(
 
     from ..viz.plotting import SIGNAL_LABELS, plot_results
     from .core import Scenario, build_case, load_scenario, run_scenario
+    from .model import UnusedKeyNote, unused_key_notes
 
     scn = source if isinstance(source, Scenario) else load_scenario(source)
     with warnings.catch_warnings():
         warnings.simplefilter("default")
+        if notes is not None:  # said in the notes instead
+            warnings.filterwarnings("ignore", category=UnusedKeyNote)
+            notes.extend(text for _, text, _ in unused_key_notes(scn.cases, scn.source))
         run = run_scenario(scn, engine=engine)
     groups: dict[str, list[int]] = {}
     for i, case in enumerate(run.cases):
