@@ -277,3 +277,34 @@ def test_moving_selection_needs_velocity_motion_and_planar_constraint():
     with pytest.raises(DimensionError, match=r"one constraint on a 2-dimensional operational space; got dim 3"):
         HybridRigidController(CHAPTER_ARM, CircleConstraint([1.0, 0.5, 0.0], 0.3), velocity_gain=1.0,
                               velocity_integral_gain=1.0, force_integral_gain=1.0)
+
+
+@pytest.mark.parametrize("unilateral", [True, False])
+@pytest.mark.parametrize("which", ["plane", "circle"])
+def test_the_planar_scalar_solve_equals_the_general_one(which, unilateral, monkeypatch):
+    """One operational constraint on the 2-joint arm is solved on scalars (RigidEnvironment._solve_planar_one): q̈, λ
+    and h_e equal the general path's (arrays, LAPACK) to round-off on 300 random states, in contact and released,
+    pushing and (unilateral) pulling."""
+    from forcecontrol.environments.rigid import CircleConstraint, PlaneConstraint, RigidEnvironment
+
+    arm = CHAPTER_ARM
+    c = PlaneConstraint.inclined(math.pi / 4, [1.0, 0.0]) if which == "plane" else CircleConstraint([1.2, 0.1], 0.25)
+    env = RigidEnvironment(c, unilateral=unilateral)
+    rng = np.random.default_rng(5)
+    fast, general = [], []
+    for _ in range(300):
+        q = arm.inverse_kinematics([1.0, 0.0]) + rng.normal(0.0, 0.05, 2)
+        qd, u = rng.normal(0.0, 1.0, 2), rng.normal(0.0, 200.0, 2)
+        assert env._planar_one
+        fast.append(env.solve(arm, q, qd, u)[:3])
+        with monkeypatch.context() as m:
+            m.setattr(RigidEnvironment, "_planar_one", property(lambda self: False))
+            general.append(env.solve(arm, q, qd, u)[:3])
+    for i, what in enumerate(("q̈", "λ", "h_e")):
+        a = np.array([f[i] for f in fast])
+        b = np.array([g[i] for g in general])
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-9 * np.abs(b).max(), err_msg=what)
+    lam = np.array([g[1][0] for g in general])
+    assert (lam != 0.0).sum() > 50 and (lam > 0.0).any() != unilateral  # both signs when bilateral; released ones
+    if unilateral:
+        assert (lam == 0.0).sum() > 20

@@ -324,6 +324,10 @@ class RigidEnvironment(Environment):
             (q̈, λ, h_e, robot terms).
         """
         T = robot.terms(q, qd)
+        if self._planar_one and T.B.shape == (2, 2):
+            fast = self._solve_planar_one(q, qd, u, T)
+            if fast is not None:
+                return fast
         phi, Jphi, jdq = self.constraint.terms(robot, q, qd, T)
         w = self.stabilisation_frequency
         s = -2.0 * w * (Jphi @ qd) - w * w * phi
@@ -366,6 +370,46 @@ class RigidEnvironment(Environment):
             # a joint-space constraint on a redundant arm: the wrench whose joint torques are closest to J_φᵀ λ
             h = np.linalg.lstsq(T.J.T, Jphi.T @ lam, rcond=None)[0]
         return qdd, lam, h, T
+
+    def _solve_planar_one(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, T: Any) -> tuple | None:
+        """:meth:`solve` for one operational constraint on a 2-joint planar arm, on scalars (the arithmetic of the
+        general path, without its 1×1 and 2×2 arrays: equal to round-off, tested); None when B is not numerically
+        positive definite (the general path then solves)."""
+        Binv = _inverse2(T.B)
+        if Binv is None:
+            return None
+        c = self.constraint
+        x, xd = T.x, T.xd
+        phi = float(c.psi(x)[0])
+        g0, g1 = c.gradient(x)[0].tolist()
+        (J00, J01), (J10, J11) = T.J.tolist()
+        jp0, jp1 = g0 * J00 + g1 * J10, g0 * J01 + g1 * J11  # J_φ = G J
+        jd0, jd1 = T.Jdq.tolist()
+        jdq = g0 * jd0 + g1 * jd1 + float(c.gradient_rate(x, xd)[0])
+        v0, v1 = qd.tolist()
+        w = self.stabilisation_frequency
+        s = -2.0 * w * (jp0 * v0 + jp1 * v1) - w * w * phi
+        n0, n1 = T.n.tolist()
+        u0, u1 = u.tolist()
+        f0, f1 = u0 - n0, u1 - n1
+        (i00, i01), (i10, i11) = Binv.tolist()
+        bf0, bf1 = i00 * f0 + i01 * f1, i10 * f0 + i11 * f1  # B⁻¹ (u − n)
+        bj0, bj1 = i00 * jp0 + i01 * jp1, i10 * jp0 + i11 * jp1  # B⁻¹ J_φᵀ
+        lam = 0.0
+        if not self.unilateral or phi <= self.contact_tolerance:
+            A = jp0 * bj0 + jp1 * bj1
+            if A == 0.0:
+                raise SingularityError(f"the constraint Jacobian J_φ lost rank at q = {np.asarray(q).tolist()}")
+            lam = (jp0 * bf0 + jp1 * bf1 + jdq - s) / A
+            if self.unilateral and lam > 0.0:  # it would pull: released
+                lam = 0.0
+        qdd = np.array((bf0 - bj0 * lam, bf1 - bj1 * lam))
+        return qdd, np.array((lam,)), np.array((g0 * lam, g1 * lam)), T
+
+    @property
+    def _planar_one(self) -> bool:
+        c = self.constraint
+        return isinstance(c, OperationalConstraint) and c.size == 1 and c.dim == 2 and self.dim == 2
 
     def acceleration(self, robot, q, qd, u):
         qdd, _, h, _ = self.solve(robot, q, qd, u)
