@@ -196,3 +196,33 @@ def test_recorded_run_consistency_errors():
         rec.columns()
     with pytest.raises(MeasurementError, match="shorter than one period"):
         rec.resample(0.5)
+
+
+@pytest.mark.parametrize("stamps", ["header", "receive"])
+def test_epoch_nanosecond_stamps_keep_their_spacing_exactly(tmp_path, stamps):
+    """Stamps exactly 10 000 000 ns apart at today's epoch (1.7e9 s): read as 0.01 s apart to the last bit of the
+    relative times (the origin is subtracted in integer nanoseconds; a float of epoch seconds has 0.24 µs steps), and
+    a 100 Hz joint-state stream resamples at 1 ms with the default max_gap = 10 periods (it was refused as a gap of
+    0.0100002 s). Stamps 100 ns apart stay apart."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from rosfiles_helpers import _typestore
+
+    ts = _typestore()
+    Time, Header, JS = (ts.types[n] for n in ("builtin_interfaces/msg/Time", "std_msgs/msg/Header",
+                                                 "sensor_msgs/msg/JointState"))
+    t0 = 1_700_000_000 * 10**9 + 123_456_789
+    ns = [t0 + 10_000_000 * k for k in range(40)] + [t0 + 10_000_000 * 39 + 100]  # the last 100 ns after the one before
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+        conn = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=ts)
+        for k, n in enumerate(ns):
+            msg = JS(header=Header(stamp=Time(sec=n // 10**9, nanosec=n % 10**9), frame_id=""), name=["j1", "j2"],
+                     position=np.array([0.1 * k, 0.0]), velocity=np.zeros(2), effort=np.zeros(0))
+            w.write(conn, n, bytes(ts.serialize_cdr(msg, "sensor_msgs/msg/JointState")))
+    run = read_bag(tmp_path / "bag", wrench_topic=None, stamps=stamps)
+    want = np.array([(n - t0) for n in ns], dtype=np.float64) / 1e9
+    assert np.array_equal(run.t, want)
+    assert run.time_origin == pytest.approx(t0 / 1e9, abs=1e-6)
+    assert run.t[-1] - run.t[-2] == pytest.approx(1e-7, rel=1e-6)
+    grid = run.resample(0.001, end=0.39)
+    assert grid.t.shape == (391,)

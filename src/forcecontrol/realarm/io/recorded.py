@@ -215,8 +215,9 @@ class RecordedRun:
                 )
             inside = (ts[1:] > lo) & (ts[:-1] < hi)
             gaps = np.diff(ts)
-            if np.any(inside & (gaps > max_gap)):
-                i = int(np.flatnonzero(inside & (gaps > max_gap))[0])
+            over = inside & (gaps > max_gap * (1.0 + 1e-9))  # a gap of exactly max_gap, to the stamps' round-off, is allowed
+            if np.any(over):
+                i = int(np.flatnonzero(over)[0])
                 raise MeasurementError(
                     f"{self.source}: the {name} stream has a gap of {gaps[i]:.6g} s after t = {ts[i]:.6g} s, larger than "
                     f"max_gap = {max_gap:.6g} s; cut the window (start/end) or raise max_gap"

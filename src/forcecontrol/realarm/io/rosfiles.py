@@ -12,7 +12,7 @@ import numpy as np
 from ...core.files import MAX_RECORDING_BYTES, check_regular
 from ...errors import MeasurementError, ParameterError
 from ..conventions import BY_END_EFFECTOR
-from ..conventions.ros import stamp_to_seconds
+from ..conventions.ros import stamp_to_ns
 from .recorded import RecordedRun
 
 __all__ = ["read_bag", "read_mcap", "DEFAULT_JOINT_TOPIC", "DEFAULT_WRENCH_TOPIC"]
@@ -83,8 +83,8 @@ def _assemble(
     if wrench_components not in (1, 2, 3, 6):
         raise ParameterError(f"wrench_components must be 1, 2, 3 or 6 (fx, fy, fz, mx, my, mz); got {wrench_components!r}")
 
-    def when(ns: int, msg: Any) -> float:
-        return stamp_to_seconds(msg.header.stamp) if stamps == "header" else ns * 1e-9
+    def when(ns: int, msg: Any) -> int:  # integer nanoseconds: the origin is subtracted before they become seconds
+        return stamp_to_ns(msg.header.stamp) if stamps == "header" else int(ns)
 
     t, q, qd, tau, names = [], [], [], [], None
     for k, (ns, msg) in enumerate(joints):
@@ -118,22 +118,22 @@ def _assemble(
         frames.add(msg.header.frame_id)
     if len(frames) > 1:
         raise MeasurementError(f"{source}: the wrench topic changes frame ({sorted(frames)}); one frame per log")
-    t_arr = np.asarray(t)
-    origin = float(min(t_arr.min(), min(tw) if tw else np.inf))
+    origin = min(min(t), min(tw) if tw else min(t))
+    t_arr = np.array([k - origin for k in t], dtype=np.float64) / 1e9  # exact integers below 2⁵³ ns, then seconds
     order = np.argsort(t_arr, kind="stable")  # bags store by receive time; stamps may interleave
     has_tau = all(x is not None for x in tau)
     wrench = None
     t_wrench = None
     if tw:
-        tw_arr = np.asarray(tw)
+        tw_arr = np.array([k - origin for k in tw], dtype=np.float64) / 1e9
         worder = np.argsort(tw_arr, kind="stable")
-        wrench, t_wrench = np.asarray(h)[worder], tw_arr[worder] - origin
+        wrench, t_wrench = np.asarray(h)[worder], tw_arr[worder]
     frame = frames.pop() if frames else "base"
     return RecordedRun(
-        t=t_arr[order] - origin, q=np.asarray(q)[order], qd=np.asarray(qd)[order],
+        t=t_arr[order], q=np.asarray(q)[order], qd=np.asarray(qd)[order],
         tau=np.asarray(tau)[order] if has_tau else None, wrench=wrench, t_wrench=t_wrench,
         wrench_frame=frame or "base", wrench_point=wrench_point or frame or "base", wrench_sense=wrench_sense,
-        joint_names=tuple(names or ()), time_origin=origin, source=source,
+        joint_names=tuple(names or ()), time_origin=origin / 1e9, source=source,
         metadata={"skipped_corrupt": len(skipped)} if skipped else {},
     )
 
