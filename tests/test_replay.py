@@ -133,3 +133,86 @@ def test_replay_and_compare_argument_errors(example_9_2):
     later = RecordedRun(t=rec.t + 50.0, q=rec.q, qd=rec.qd)  # 50 s later: no overlap within ±10 ms
     with pytest.raises(MeasurementError, match="overlap by fewer than 10 samples"):
         compare_traces(res, later, max_shift=0.01)
+
+
+@pytest.fixture(scope="module")
+def panda_run():
+    """panda-table-line's first case for 0.3 s (its log in the model's joint order), and a builder of fresh parts."""
+    scn = fc.scenario("panda-table-line").with_(duration=0.3)
+
+    def parts():
+        return build_case(scn.cases[0])
+
+    p = parts()
+    res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=p["duration"],
+                      sensor=p["sensor"])
+    return res, parts
+
+
+def test_a_log_whose_joint_states_list_the_joints_in_another_order_replays_in_the_models(tmp_path, panda_run):
+    """A JointState need not follow the URDF's order: a bag whose names and columns are reversed together (the same
+    physical run) replays to the same torques as the bag in the model's order, and says it reordered them (it was
+    replayed column by column: 16 000 N m off). A bag naming other joints is refused, naming both lists."""
+    from forcecontrol.realarm.replay import model_joint_names
+
+    res, parts = panda_run
+    names = model_joint_names(parts()["robot"])
+    assert names == tuple(f"panda_joint{i}" for i in range(1, 8))
+    rev = list(reversed(range(7)))
+    outs = []
+    for tag, perm in (("model", list(range(7))), ("reversed", rev)):
+        c = np.ascontiguousarray  # rows of the log's columns, as a message holds them
+        bag = write_bag(tmp_path / tag, res.t, c(res.q[:, perm]), c(res.qd[:, perm]), c(res.torque[:, perm]), res.t,
+                        c(res.wrench_measured), names=[names[i] for i in perm], frame="base")
+        rec = read_bag(bag)
+        assert rec.joint_names == tuple(names[i] for i in perm)
+        p = parts()
+        outs.append(replay(p["controller"], rec, p["reference"], p["robot"]))
+    np.testing.assert_allclose(outs[1].torque, outs[0].torque, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(outs[0].torque, res.torque, rtol=0, atol=1e-6 * np.abs(res.torque).max())
+    ordered = read_bag(tmp_path / "reversed").in_joint_order(names)
+    assert ordered.joint_names == names and "reordered to the model's order" in ordered.metadata["notes"][0]
+    np.testing.assert_array_equal(ordered.q, res.q)
+    other = write_bag(tmp_path / "other", res.t, c(res.q), c(res.qd), c(res.torque), res.t, c(res.wrench_measured),
+                      names=[f"joint_{i}" for i in range(7)], frame="base")
+    p = parts()
+    with pytest.raises(DimensionError, match=r"the log's joints \['joint_0'.*are not the model's \['panda_joint1'"):
+        replay(p["controller"], read_bag(other), p["reference"], p["robot"])
+
+
+def test_replay_cli_says_it_reordered_the_joints(tmp_path, panda_run):
+    """`forcecontrol replay panda-table-line BAG --json` of the reversed bag: the note, and the model's joint names in
+    the recording block."""
+    import json
+
+    from forcecontrol.realarm.replay import model_joint_names
+    from journeys_helpers import forcecontrol
+
+    res, parts = panda_run
+    names = model_joint_names(parts()["robot"])
+    rev = list(reversed(range(7)))
+    c = np.ascontiguousarray
+    write_bag(tmp_path / "bag", res.t, c(res.q[:, rev]), c(res.qd[:, rev]), c(res.torque[:, rev]), res.t,
+              c(res.wrench_measured), names=[names[i] for i in rev], frame="base")
+    doc = json.loads(forcecontrol(tmp_path, "replay", "panda-table-line", "bag", "--json").stdout)
+    assert any("reordered to the model's order" in n for n in doc["notes"])
+    assert doc["recording"]["joint_names"] == list(names)
+    assert doc["metrics"]["torque_difference_max"] < 1.0
+
+
+def test_compare_trace_cli_matches_the_joints_by_name(tmp_path, panda_run):
+    """`forcecontrol compare-trace panda-table-line BAG --json` with the joints reversed in the bag: the note, and the
+    position error of the same run (0 to the bag's float precision) instead of the columns compared crosswise."""
+    import json
+
+    from forcecontrol.realarm.replay import model_joint_names
+    from journeys_helpers import forcecontrol
+
+    res, parts = panda_run
+    names = model_joint_names(parts()["robot"])
+    rev, c = list(reversed(range(7))), np.ascontiguousarray
+    write_bag(tmp_path / "bag", res.t, c(res.q[:, rev]), c(res.qd[:, rev]), c(res.torque[:, rev]), res.t,
+              c(res.wrench_measured), names=[names[i] for i in rev], frame="base")
+    doc = json.loads(forcecontrol(tmp_path, "compare-trace", "panda-table-line", "bag", "--json").stdout)
+    assert any("reordered to the model's order" in n for n in doc["notes"])
+    assert doc["metrics"]["shift"] == 0.0 and doc["metrics"]["position_error_max"] < 1e-9

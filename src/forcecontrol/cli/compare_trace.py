@@ -29,22 +29,23 @@ _DATA_SUFFIXES = (".csv", ".parquet", ".pq", ".mcap", ".db3")
 
 def _simulated(
     source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str]
-) -> tuple[Any, str, int, str]:
-    """The simulated trace: a data file as it is, or a scenario's case simulated now; its name, task dimension and
-    the stem of its output folder (the file's stem or the scenario's name; a case label such as 'k = 1e4 N/m' is no path)."""
+) -> tuple[Any, str, int, str, Any]:
+    """The simulated trace: a data file as it is, or a scenario's case simulated now; its name, task dimension, the
+    stem of its output folder (the file's stem or the scenario's name; a case label such as 'k = 1e4 N/m' is no path)
+    and the scenario's robot (None for a data file)."""
     from ..scenarios import load_scenario
     from ..sim.simulation import simulate
 
     p = Path(source)
     if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
         rec = read_log(p, fmt, 6, *args)
-        return rec, str(p), rec.m, p.stem
+        return rec, str(p), rec.m, p.stem, None
     scn = load_scenario(source)
     spec, parts = pick_case(scn, case)
     res = simulate(parts["robot"], parts["environment"], parts["controller"], parts["reference"], q0=parts["q0"],
                    qd0=parts["qd0"], duration=parts["duration"], sensor=parts["sensor"], substeps=parts["substeps"],
                    label=spec.label)
-    return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim), scn.name
+    return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim), scn.name, parts["robot"]
 
 
 def _max_shift(value: float) -> float:
@@ -75,16 +76,23 @@ def compare_trace_command(
     from rich.table import Table
 
     from ..errors import ForceControlError
-    from ..realarm.replay import compare_traces
+    from ..realarm.io import RecordedRun
+    from ..realarm.replay import compare_traces, model_joint_names
 
     compile_notice()
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
-        sim, name, m, stem = _simulated(simulated, case, format, args)
+        sim, name, m, stem, robot = _simulated(simulated, case, format, args)
         rec = read_log(recorded, format, m, *args)
+        if robot is not None:  # a JointState's order need not be the model's
+            rec = rec.in_joint_order(model_joint_names(robot))
+        if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:
+            rec = rec.in_joint_order(sim.joint_names)
         cmp = compare_traces(sim, rec, max_shift=max_shift)
         folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force, ctx)
-        say_note(note)
+        log_notes = list(rec.metadata.get("notes", []))
+        for text in [*log_notes, note]:
+            say_note(text)
         figure = cmp.plot(folder / "compare-trace.png")
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
@@ -93,8 +101,8 @@ def compare_trace_command(
              "force_error_max": "N"}
     report = {"simulated": name, "recorded": str(recorded), "samples": int(cmp.t.size), "metrics": cmp.metrics,
               "files": {"figure": str(figure)}, "units": {k: u for k, u in units.items() if k in cmp.metrics}}
-    if note:
-        report["notes"] = [note]
+    if note or log_notes:
+        report["notes"] = [*log_notes, *([note] if note else [])]
     if json_out:
         print_json(report)
         return

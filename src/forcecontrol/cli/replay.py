@@ -167,7 +167,7 @@ def replay_command(
     from rich.table import Table
 
     from ..errors import ForceControlError
-    from ..realarm.replay import replay
+    from ..realarm.replay import model_joint_names, replay
     from ..scenarios import load_scenario
 
     compile_notice()
@@ -180,6 +180,7 @@ def replay_command(
             step(f"reading {data}")
             rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense,
                            None if sense is None else sense.value)
+            rec = rec.in_joint_order(model_joint_names(robot))  # a JointState's order need not be the model's
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
             result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X)
@@ -198,7 +199,8 @@ def replay_command(
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
               "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets,
-              "recording": {"format": rec.metadata.get("format"), "wrench_frame": rec.wrench_frame,
+              "recording": {"format": rec.metadata.get("format"), "joint_names": list(rec.joint_names),
+                            "wrench_frame": rec.wrench_frame,
                             "wrench_point": rec.wrench_point, "wrench_sense": rec.wrench_sense,
                             "sensor_pose": None if X is None else {"rotation": X.rotation.tolist(),
                                                                    "translation": X.translation.tolist(),

@@ -125,6 +125,16 @@ class ReplayResult:
         return finish_figure(fig, path)
 
 
+def model_joint_names(robot: Any) -> tuple[str, ...] | None:
+    """The names of a URDF/Pinocchio robot's joints in its order (what a log's joint columns are matched to), or None
+    for a robot without named joints (the chapter's planar arm)."""
+    m = getattr(robot, "model", None)
+    if m is None or not hasattr(m, "names") or not hasattr(m, "joints"):
+        return None
+    names = tuple(str(m.names[i]) for i in range(1, int(m.njoints)) if int(m.joints[i].nq) > 0)
+    return names if len(names) == int(robot.nq) else None
+
+
 def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: RobotModel | None) -> tuple[int, int]:
     if not isinstance(controller, Controller):
         raise ParameterError(f"controller must be a forcecontrol Controller; got {type(controller).__name__}")
@@ -301,6 +311,7 @@ def replay(
             controller needs a wrench the log does not have.
     """
     n, m = _check_dimensions(controller, recorded, robot)
+    recorded = recorded.in_joint_order(model_joint_names(robot if robot is not None else controller.robot))
     if not isinstance(reference, ReferenceSignal):
         raise ParameterError(f"reference must be a ReferenceSignal (e.g. Setpoint); got {type(reference).__name__}")
     if reference.dim != m:

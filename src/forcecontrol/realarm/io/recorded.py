@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -173,6 +174,34 @@ class RecordedRun:
             raise ParameterError(f"{self.source}: the recording has no pose columns")
         T = self.pose[int(k)]
         return Transform(T[:3, :3], T[:3, 3], parent="base", child=self.pose_frame)
+
+    def in_joint_order(self, names: Sequence[str] | None) -> RecordedRun:
+        """The run with its joint columns (q, q̇, τ) in the order ``names`` (a model's joints).
+
+        A log's joint order is the recorder's (a ``JointState`` need not follow the URDF's): the
+        columns are permuted when the log names the same joints in another order (said in
+        ``metadata["notes"]``); unchanged when ``names`` is None, or when either side names no joints
+        (``joint1``, ... by column: the order cannot be checked).
+
+        Raises:
+            DimensionError: the log names other joints than ``names`` (both lists named).
+        """
+        if names is None or tuple(names) == self.joint_names:
+            return self
+        names = tuple(str(n) for n in names)
+        unnamed = tuple(f"joint{i + 1}" for i in range(self.n))
+        if (self.joint_names == unnamed or names == unnamed) and set(names) != set(self.joint_names):
+            return self  # no names on one side (a table's columns q1, q2, ...): the order cannot be checked
+        if sorted(names) != sorted(self.joint_names):
+            raise DimensionError(
+                f"{self.source}: the log's joints {list(self.joint_names)} are not the model's {list(names)}; read the "
+                "log with joint_names set to the model's joints in its order (or use the model the log was recorded on)"
+            )
+        idx = [self.joint_names.index(j) for j in names]
+        notes = [*self.metadata.get("notes", []),
+                 f"the log's joints {list(self.joint_names)} reordered to the model's order {list(names)}"]
+        return replace(self, q=self.q[:, idx], qd=self.qd[:, idx], tau=None if self.tau is None else self.tau[:, idx],
+                       joint_names=names, metadata={**self.metadata, "notes": notes})
 
     @property
     def n(self) -> int:
