@@ -145,3 +145,29 @@ def test_calibrate_plan_writes_poses_that_calibrate(tmp_path):
     assert table.exit_code == 0 and f"{rep['condition_number']:.3g}" in table.stdout
     bad = runner.invoke(app, ["calibrate-plan", "chapter-arm", "2"])
     assert bad.exit_code == 2 and "n_poses must be an integer >= 3" in bad.output
+
+
+def test_calibrate_reads_an_excel_csv_with_a_byte_order_mark_as_the_same_file(tmp_path):
+    """Excel's "CSV UTF-8" starts with a byte-order mark: the same readings with and without it give the same
+    calibration (its first column was read as '\\ufeffqx' and the file refused)."""
+    plain = _quaternion_csv(tmp_path / "cal.csv")
+    bom = tmp_path / "excel.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    reps = []
+    for p in (plain, bom):
+        out = runner.invoke(app, ["calibrate", str(p), "--json"])
+        assert out.exit_code == 0, out.output
+        reps.append(json.loads(out.stdout))
+    assert reps[0]["mass"] == reps[1]["mass"] and reps[0]["com"] == reps[1]["com"]
+
+
+def test_calibrate_refuses_a_reading_beyond_any_sensor(tmp_path):
+    """A corrupt 1e200 N reading is refused naming the reading (it gave a tool of 5.5e197 kg ± inf, exit 0)."""
+    rot = Rotation.random(12, random_state=4)
+    F, T = _readings(rot.as_matrix())
+    F[5, 2] = 1e200
+    rows = [[*rot.as_quat()[i], *F[i], *T[i]] for i in range(12)]
+    _write_csv(tmp_path / "huge.csv", ["qx", "qy", "qz", "qw", "fx", "fy", "fz", "tx", "ty", "tz"], rows)
+    out = runner.invoke(app, ["calibrate", str(tmp_path / "huge.csv")])
+    assert out.exit_code == 2, out.output
+    assert "reading 5" in out.output and "beyond any sensor's range" in out.output

@@ -12,6 +12,7 @@ import numpy as np
 from ...core.validate import positive_scalar
 from ...errors import DimensionError, MeasurementError, ParameterError
 from ...sensors.gravity import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor
+from ..io.recorded import MAX_RECORDED_MAGNITUDE
 
 __all__ = ["CalibrationResult", "calibrate", "regressor_condition", "tare", "MAX_CONDITION"]
 
@@ -51,6 +52,11 @@ def _readings(name: str, value: Any, k: int, n: int) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         i = int(np.argwhere(~np.isfinite(a))[0, 0])
         raise MeasurementError(f"{name} must be finite; reading {i} is {a[i].tolist()}")
+    big = np.abs(a) > MAX_RECORDED_MAGNITUDE
+    if np.any(big):  # a corrupt reading (1e200 N gave a tool of 5.5e197 kg ± inf, and an overflow)
+        i = int(np.argwhere(big)[0, 0])
+        raise MeasurementError(f"{name}: reading {i} is {a[i].tolist()}, beyond any sensor's range (at most "
+                               f"{MAX_RECORDED_MAGNITUDE:.0e} in magnitude); clean or drop that reading first")
     return a
 
 

@@ -150,7 +150,8 @@ def read_columns(path: str | Path, what: str = "calibration data file", max_byte
         import csv
         import io
 
-        rows = list(csv.reader(io.StringIO(read_text_limited(p, what, max_bytes), newline="")))
+        text = read_text_limited(p, what, max_bytes).removeprefix("\ufeff")  # a byte-order mark (Excel's UTF-8 CSV)
+        rows = list(csv.reader(io.StringIO(text, newline="")))
         if len(rows) < 2:
             raise ParameterError(f"{str(p)!r} holds no data rows (a header row and one row per reading are needed)")
         header, body = rows[0], [r for r in rows[1:] if r]
