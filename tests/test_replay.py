@@ -149,6 +149,38 @@ def panda_run():
     return res, parts
 
 
+def _about_base_origin(res, robot) -> np.ndarray:
+    """The run's wrenches (base axes, about the end-effector) with the moment about the base origin, as a ROS
+    WrenchStamped in the base frame holds it: μ_o = μ_e + p_e × f, p_e by Pinocchio's forward kinematics."""
+    h = np.array(res.wrench_measured, dtype=np.float64)
+    p_e = np.array([robot.frame_pose(q)[1] for q in res.q])
+    h[:, 3:] += np.cross(p_e, h[:, :3])
+    return np.ascontiguousarray(h)
+
+
+def test_a_base_frame_wrench_stamped_is_about_the_base_origin(tmp_path, panda_run):
+    """A 6-D WrenchStamped in the base frame holds the moment about the base origin: replay moves it to the
+    end-effector (μ_e = μ_o − p_e × f) and gives back the simulated torques; the same data read as about the
+    end-effector (wrench_point=) replay alike (it was used as the end-effector's moment: 24 N m off, 4385 N m)."""
+    res, parts = panda_run
+    robot = parts()["robot"]
+    h_o = _about_base_origin(res, robot)
+    assert np.abs(h_o[:, 3:] - res.wrench_measured[:, 3:]).max() > 1.0  # the two points differ here
+    c = np.ascontiguousarray
+    base = write_bag(tmp_path / "base", res.t, c(res.q), c(res.qd), c(res.torque), res.t, h_o, frame="base",
+                     names=[f"panda_joint{i}" for i in range(1, 8)])
+    ee = write_bag(tmp_path / "ee", res.t, c(res.q), c(res.qd), c(res.torque), res.t, c(res.wrench_measured),
+                   frame="base", names=[f"panda_joint{i}" for i in range(1, 8)])
+    rec = read_bag(base)
+    assert (rec.wrench_frame, rec.wrench_point) == ("base", "base")
+    outs = []
+    for r in (rec, read_bag(ee, wrench_point="end-effector")):
+        p = parts()
+        outs.append(replay(p["controller"], r, p["reference"], p["robot"]))
+    for out in outs:
+        np.testing.assert_allclose(out.torque, res.torque, rtol=0, atol=1e-6 * np.abs(res.torque).max())
+
+
 def test_a_log_whose_joint_states_list_the_joints_in_another_order_replays_in_the_models(tmp_path, panda_run):
     """A JointState need not follow the URDF's order: a bag whose names and columns are reversed together (the same
     physical run) replays to the same torques as the bag in the model's order, and says it reordered them (it was
@@ -163,7 +195,7 @@ def test_a_log_whose_joint_states_list_the_joints_in_another_order_replays_in_th
     for tag, perm in (("model", list(range(7))), ("reversed", rev)):
         c = np.ascontiguousarray  # rows of the log's columns, as a message holds them
         bag = write_bag(tmp_path / tag, res.t, c(res.q[:, perm]), c(res.qd[:, perm]), c(res.torque[:, perm]), res.t,
-                        c(res.wrench_measured), names=[names[i] for i in perm], frame="base")
+                        _about_base_origin(res, parts()["robot"]), names=[names[i] for i in perm], frame="base")
         rec = read_bag(bag)
         assert rec.joint_names == tuple(names[i] for i in perm)
         p = parts()
@@ -193,7 +225,7 @@ def test_replay_cli_says_it_reordered_the_joints(tmp_path, panda_run):
     rev = list(reversed(range(7)))
     c = np.ascontiguousarray
     write_bag(tmp_path / "bag", res.t, c(res.q[:, rev]), c(res.qd[:, rev]), c(res.torque[:, rev]), res.t,
-              c(res.wrench_measured), names=[names[i] for i in rev], frame="base")
+              _about_base_origin(res, parts()["robot"]), names=[names[i] for i in rev], frame="base")
     doc = json.loads(forcecontrol(tmp_path, "replay", "panda-table-line", "bag", "--json").stdout)
     assert any("reordered to the model's order" in n for n in doc["notes"])
     assert doc["recording"]["joint_names"] == list(names)

@@ -289,7 +289,10 @@ def replay(
         reference: references as functions of time, from t = 0 at the first replayed sample.
         robot: the robot model (default: the controller's); its joints and task dimension must
             match the log's.
-        base_frame: the name of the frame the controller's wrench is expressed in.
+        base_frame: the name of the frame the controller's wrench is expressed in. A 6-D wrench
+            in it about the base origin (``wrench_point == base_frame``: a ROS ``WrenchStamped`` in
+            the base frame) has its moment moved to the end-effector with the forward kinematics at
+            the recorded q, ``μ_e = μ_o − p_e × f``; about the end-effector (the library's logs), as is.
         end_effector_frame: the name a log uses for the end-effector frame (the robot's own
             frame name, e.g. ``panda_hand_tcp``, is accepted too). A wrench recorded in it is
             rotated per sample into the base frame with the forward kinematics at the recorded
@@ -319,8 +322,10 @@ def replay(
     model = robot if robot is not None else controller.robot
     in_base = recorded.wrench is None or recorded.wrench_frame == base_frame
     if not in_base:
-        # (in the base frame, the moment's point is the user's to convert: the log cannot say where it was taken)
         _check_wrench_frame(recorded, model, base_frame, end_effector_frame, sensor_pose)
+    elif recorded.m == 6 and recorded.wrench_point == base_frame and not hasattr(model, "frame_pose"):
+        raise FrameError(f"the log's 6-D wrench is about the base origin {base_frame!r}; moving it to the end-effector "
+                         f"needs the robot's forward kinematics, which a {type(model).__name__} does not give")
     Ts = controller.sample_time
     rec = recorded.resample(Ts, max_gap=max_gap, start=start, end=end)
     N = rec.t.size
@@ -331,6 +336,9 @@ def replay(
         h = np.zeros((N, m))
     elif in_base:
         h = sign * rec.wrench
+        if rec.m == 6 and rec.wrench_point == base_frame:  # a WrenchStamped in the base frame: about its origin
+            p_e = np.array([model.frame_pose(qk)[1] for qk in rec.q])  # type: ignore[attr-defined]
+            h = np.hstack([h[:, :3], h[:, 3:] - np.cross(p_e, h[:, :3])])  # μ_e = μ_o − p_e × f
     else:
         h = sign * wrench_to_base(model, rec.q, rec.wrench, sensor_pose=sensor_pose)
     refs = np.ascontiguousarray(reference.sample(t), dtype=np.float64)
