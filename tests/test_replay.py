@@ -244,7 +244,29 @@ def test_compare_trace_cli_matches_the_joints_by_name(tmp_path, panda_run):
     names = model_joint_names(parts()["robot"])
     rev, c = list(reversed(range(7))), np.ascontiguousarray
     write_bag(tmp_path / "bag", res.t, c(res.q[:, rev]), c(res.qd[:, rev]), c(res.torque[:, rev]), res.t,
-              c(res.wrench_measured), names=[names[i] for i in rev], frame="base")
+              _about_base_origin(res, parts()["robot"]), names=[names[i] for i in rev], frame="base")
     doc = json.loads(forcecontrol(tmp_path, "compare-trace", "panda-table-line", "bag", "--json").stdout)
     assert any("reordered to the model's order" in n for n in doc["notes"])
     assert doc["metrics"]["shift"] == 0.0 and doc["metrics"]["position_error_max"] < 1e-9
+    # the base-origin moments compared about the end-effector, as simulated (the scenario's sensor noise aside)
+    assert doc["metrics"]["force_error_max"] < 1e-6
+
+
+def test_compare_traces_converts_an_end_effector_frame_wrench_or_refuses_without_a_robot(panda_run):
+    """The same run's wrench logged in the end-effector frame: with the robot, compared in the base frame (errors 0,
+    shift 0; it was compared as if in the base frame: 60 N RMS, the shift at its bound); without it, a FrameError."""
+    from dataclasses import replace
+
+    from forcecontrol.realarm.replay import end_effector_rotation
+
+    res, parts = panda_run
+    robot = parts()["robot"]
+    sim = recorded_from_simulation(res)
+    R = np.array([end_effector_rotation(robot, q) for q in res.q])
+    h = res.wrench_measured
+    local = np.hstack([np.einsum("kji,kj->ki", R, h[:, :3]), np.einsum("kji,kj->ki", R, h[:, 3:])])  # Rᵀ f, Rᵀ μ
+    rec = replace(sim, wrench=local, wrench_frame="end-effector", source="tool-frame log")
+    cmp = compare_traces(res, rec, robot=robot)
+    assert cmp.metrics["shift"] == 0.0 and cmp.metrics["force_error_max"] < 1e-9
+    with pytest.raises(FrameError, match=r"tool-frame log: the wrench is in frame 'end-effector'.*give the robot"):
+        compare_traces(res, rec)

@@ -88,7 +88,7 @@ def compare_trace_command(
             rec = rec.in_joint_order(model_joint_names(robot))
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:
             rec = rec.in_joint_order(sim.joint_names)
-        cmp = compare_traces(sim, rec, max_shift=max_shift)
+        cmp = compare_traces(sim, rec, max_shift=max_shift, robot=robot)
         folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force, ctx)
         log_notes = list(rec.metadata.get("notes", []))
         for text in [*log_notes, note]:

@@ -22,8 +22,7 @@ import numpy as np
 
 from ..controllers.base import REFERENCE_FIELDS, Controller, Measurement, Reference
 from ..core.axes import joint_columns
-from ..errors import DimensionError, FrameError, MeasurementError, ParameterError
-from ..robots import PlanarTwoLink
+from ..errors import DimensionError, MeasurementError, ParameterError
 from ..robots.base import RobotModel
 from ..spatial import Transform
 from ..trajectories import ReferenceSignal
@@ -32,10 +31,17 @@ from .conventions import BY_END_EFFECTOR
 from .io import RecordedRun
 from .io.recorded import wrench_axis_names
 from .traces import TraceComparison, compare_traces, recorded_from_simulation
+from .wrenches import (
+    _check_wrench_convention,
+    end_effector_rotation,
+    model_joint_names,
+    recorded_wrench_in_base,
+    wrench_to_base,
+)
 
 __all__ = [
     "replay", "wrench_to_base", "end_effector_rotation", "ReplayResult", "recorded_from_simulation", "compare_traces",
-    "TraceComparison",
+    "TraceComparison", "recorded_wrench_in_base", "model_joint_names",
 ]
 
 
@@ -125,16 +131,6 @@ class ReplayResult:
         return finish_figure(fig, path)
 
 
-def model_joint_names(robot: Any) -> tuple[str, ...] | None:
-    """The names of a URDF/Pinocchio robot's joints in its order (what a log's joint columns are matched to), or None
-    for a robot without named joints (the chapter's planar arm)."""
-    m = getattr(robot, "model", None)
-    if m is None or not hasattr(m, "names") or not hasattr(m, "joints"):
-        return None
-    names = tuple(str(m.names[i]) for i in range(1, int(m.njoints)) if int(m.joints[i].nq) > 0)
-    return names if len(names) == int(robot.nq) else None
-
-
 def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: RobotModel | None) -> tuple[int, int]:
     if not isinstance(controller, Controller):
         raise ParameterError(f"controller must be a forcecontrol Controller; got {type(controller).__name__}")
@@ -160,107 +156,6 @@ def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: Robo
             f"{type(controller).__name__} reads the contact force, but the log {recorded.source} has no wrench"
         )
     return n, m
-
-
-def end_effector_rotation(robot: RobotModel, q: Any) -> np.ndarray:
-    """The end-effector frame's rotation R_e (3, 3) in the base frame at joint positions q.
-
-    Spatial robots (:class:`~forcecontrol.robots.pinocchio.PinocchioRobot`) give it by their
-    forward kinematics (``frame_pose``); for the planar arm (:class:`~forcecontrol.robots.PlanarTwoLink`)
-    it is the rotation about z by ``q1 + q2``.
-
-    Raises:
-        FrameError: the robot model has no end-effector orientation.
-    """
-    if hasattr(robot, "frame_pose"):
-        return np.asarray(robot.frame_pose(q)[0], dtype=np.float64)
-    if isinstance(robot, PlanarTwoLink):
-        phi = float(np.sum(np.asarray(q, dtype=np.float64)))
-        c, s = np.cos(phi), np.sin(phi)
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    raise FrameError(
-        f"{type(robot).__name__} has no end-effector orientation (no frame_pose); convert the wrench into the base frame first"
-    )
-
-
-def wrench_to_base(robot: RobotModel, q: Any, wrench: Any, *, sensor_pose: Transform | None = None) -> np.ndarray:
-    """Wrenches recorded in the end-effector (or a sensor) frame, re-expressed in the base frame, per sample.
-
-    For each sample k, with R_e = R_e(q_k) (:func:`end_effector_rotation`): without a sensor pose
-    ``f = R_e f_e``, ``μ = R_e μ_e``; with a sensor at ``(R_es, p_es)`` in the end-effector frame,
-    ``R = R_e R_es``, ``f = R f_s``, and the moment moves to the end-effector origin,
-    ``μ = R μ_s − r × f`` with ``r = −R_e p_es`` (from the sensor origin to the end-effector's).
-    The sense is kept.
-
-    Args:
-        robot: the robot model; q: joint positions (N, n) [rad].
-        wrench: (N, m) [N, N m]: ``fx fy`` (m = 2, planar: the z component is taken as 0),
-            ``fx fy fz`` (3) or ``[f; μ]`` (6).
-        sensor_pose: the sensor frame's pose in the end-effector frame, or None.
-
-    Returns:
-        (N, m) the wrenches in the base frame, the moments about the end-effector origin.
-
-    Raises:
-        DimensionError: q and wrench have different numbers of rows, or m is not 2, 3 or 6.
-        FrameError: the robot has no orientation, or a sensor offset with a wrench that has no moment.
-    """
-    q = np.atleast_2d(np.asarray(q, dtype=np.float64))
-    h = np.atleast_2d(np.asarray(wrench, dtype=np.float64))
-    if h.shape[0] != q.shape[0]:
-        raise DimensionError(f"wrench must have one row per joint sample ({q.shape[0]}); got shape {h.shape}")
-    m = h.shape[1]
-    if m not in (2, 3, 6):
-        raise DimensionError(f"wrench must have 2 (fx fy), 3 (fx fy fz) or 6 (f; μ) components; got {m}")
-    R_es = np.eye(3) if sensor_pose is None else sensor_pose.rotation
-    p_es = np.zeros(3) if sensor_pose is None else sensor_pose.translation
-    if m < 6 and np.any(p_es != 0.0):
-        raise FrameError(
-            f"a sensor offset {p_es.tolist()} moves the moment, but the wrench has {m} components and no moment: "
-            "record all 6 components, or give a sensor_pose with zero translation"
-        )
-    out = np.empty_like(h)
-    for k in range(h.shape[0]):
-        R_e = end_effector_rotation(robot, q[k])
-        R = R_e @ R_es
-        f = R @ np.concatenate([h[k, :3], np.zeros(3 - min(m, 3))])
-        if m == 6:
-            r = -(R_e @ p_es)
-            out[k] = np.concatenate([f, R @ h[k, 3:] - np.cross(r, f)])
-        else:
-            out[k] = f[:m]
-    return out
-
-
-def _check_wrench_frame(
-    recorded: RecordedRun, robot: RobotModel, base_frame: str, end_effector_frame: str, sensor_pose: Transform | None
-) -> None:
-    """The log's wrench frame is the end-effector's (any name the robot has for it) or the sensor's, else FrameError."""
-    ee_names = {end_effector_frame} | ({robot.frame} if isinstance(getattr(robot, "frame", None), str) else set())
-    frame, point = recorded.wrench_frame, recorded.wrench_point
-    if sensor_pose is not None:
-        if not isinstance(sensor_pose, Transform):
-            raise ParameterError(f"sensor_pose must be a forcecontrol Transform; got {type(sensor_pose).__name__}")
-        if sensor_pose.parent not in ee_names or sensor_pose.child != frame:
-            raise FrameError(
-                f"sensor_pose must be the pose of the log's wrench frame {frame!r} in the end-effector frame "
-                f"{end_effector_frame!r}; got {sensor_pose.parent}<-{sensor_pose.child}"
-            )
-        if point != frame:
-            raise FrameError(f"a sensor-frame wrench must be about the sensor's origin {frame!r}; the log's is about {point!r}")
-        return
-    if frame not in ee_names:
-        raise FrameError(
-            f"the controller needs the wrench in the base frame {base_frame!r}; the log's is in {frame!r}, which is not the "
-            f"end-effector frame either ({', '.join(sorted(map(repr, ee_names)))}): pass sensor_pose= for a sensor frame, "
-            "base_frame=/end_effector_frame= if it is one of those under another name, or convert it first "
-            "(forcecontrol.realarm.conventions, forcecontrol convert)"
-        )
-    if recorded.m == 6 and point not in ee_names:
-        raise FrameError(
-            f"the log's 6-D wrench is in the end-effector frame but about {point!r}, not the end-effector origin: "
-            "give sensor_pose= (its translation places that point) or move the moment first"
-        )
 
 
 def replay(
@@ -320,12 +215,7 @@ def replay(
     if reference.dim != m:
         raise DimensionError(f"reference must be {m}-dimensional like the controller's task space; got {reference.dim}")
     model = robot if robot is not None else controller.robot
-    in_base = recorded.wrench is None or recorded.wrench_frame == base_frame
-    if not in_base:
-        _check_wrench_frame(recorded, model, base_frame, end_effector_frame, sensor_pose)
-    elif recorded.m == 6 and recorded.wrench_point == base_frame and not hasattr(model, "frame_pose"):
-        raise FrameError(f"the log's 6-D wrench is about the base origin {base_frame!r}; moving it to the end-effector "
-                         f"needs the robot's forward kinematics, which a {type(model).__name__} does not give")
+    _check_wrench_convention(recorded, model, base_frame, end_effector_frame, sensor_pose)
     Ts = controller.sample_time
     rec = recorded.resample(Ts, max_gap=max_gap, start=start, end=end)
     N = rec.t.size
@@ -334,13 +224,8 @@ def replay(
     sign = 1.0 if rec.wrench_sense == BY_END_EFFECTOR else -1.0
     if rec.wrench is None:
         h = np.zeros((N, m))
-    elif in_base:
-        h = sign * rec.wrench
-        if rec.m == 6 and rec.wrench_point == base_frame:  # a WrenchStamped in the base frame: about its origin
-            p_e = np.array([model.frame_pose(qk)[1] for qk in rec.q])  # type: ignore[attr-defined]
-            h = np.hstack([h[:, :3], h[:, 3:] - np.cross(p_e, h[:, :3])])  # μ_e = μ_o − p_e × f
     else:
-        h = sign * wrench_to_base(model, rec.q, rec.wrench, sensor_pose=sensor_pose)
+        h = sign * recorded_wrench_in_base(rec, model, base_frame, end_effector_frame, sensor_pose)
     refs = np.ascontiguousarray(reference.sample(t), dtype=np.float64)
     k_f = REFERENCE_FIELDS.index("force")
     controller.reset(Measurement(rec.q[0].copy(), rec.qd[0].copy(), h[0].copy()), reference.at(0.0))

@@ -17,6 +17,7 @@ from ..sim.result import SimulationResult
 from ..viz.plotting import finish_figure
 from .io import RecordedRun
 from .io.recorded import wrench_axis_names
+from .wrenches import recorded_wrench_in_base
 
 __all__ = ["compare_traces", "TraceComparison", "recorded_from_simulation"]
 
@@ -91,6 +92,26 @@ class TraceComparison:
         return finish_figure(fig, path)
 
 
+def _convention(r: RecordedRun) -> tuple[str, str | None]:
+    return r.wrench_frame, (r.wrench_point if r.m == 6 else None)
+
+
+def _same_convention(r: RecordedRun, robot: Any) -> RecordedRun:
+    """``r`` with its wrench in base axes about the end-effector (the simulator's convention), converted if need be."""
+    from dataclasses import replace
+
+    from ..errors import FrameError
+
+    if _convention(r) == ("base", "end-effector" if r.m == 6 else None):
+        return r
+    if robot is None:
+        raise FrameError(
+            f"{r.source}: the wrench is in frame {r.wrench_frame!r} about {r.wrench_point!r}, the simulated one in the base "
+            "frame about the end-effector; give the robot (compare-trace with a scenario does) to convert it"
+        )
+    return replace(r, wrench=recorded_wrench_in_base(r, robot), wrench_frame="base", wrench_point="end-effector")
+
+
 def compare_traces(
     simulated: RecordedRun | SimulationResult,
     recorded: RecordedRun,
@@ -98,6 +119,7 @@ def compare_traces(
     period: float | None = None,
     max_shift: float = 0.1,
     max_gap: float | None = None,
+    robot: Any = None,
 ) -> TraceComparison:
     """Align a recorded trace with a simulated one in time and measure how far apart they are.
 
@@ -110,8 +132,13 @@ def compare_traces(
         A :class:`TraceComparison` (``metrics``: shift [s], RMS and max joint-position error
         [rad] over all joints, RMS and max of the force-error norm [N]).
 
+    The wrenches are compared in one convention: a recorded wrench in another frame or about another point than
+    the simulated one (the library's: base axes, about the end-effector) is converted with ``robot``'s forward
+    kinematics (:func:`~forcecontrol.realarm.replay.recorded_wrench_in_base`).
+
     Raises:
         DimensionError: different numbers of joints or wrench components.
+        FrameError: the wrenches' frames or points differ and no ``robot`` is given to convert them.
         MeasurementError: the traces do not overlap by at least 10 samples after the shift.
     """
     sim = recorded_from_simulation(simulated) if isinstance(simulated, SimulationResult) else simulated
@@ -124,6 +151,8 @@ def compare_traces(
         period = float(np.median(np.diff(sim.t)))
     a = sim.resample(period, max_gap=max_gap)
     b = recorded.resample(period, max_gap=max_gap)
+    if both_wrench:
+        a, b = _same_convention(a, robot), _same_convention(b, robot)
     if both_wrench and recorded.wrench_sense != sim.wrench_sense:
         b = RecordedRun(t=b.t, q=b.q, qd=b.qd, tau=b.tau, wrench=-b.wrench, wrench_frame=b.wrench_frame,
                         wrench_point=b.wrench_point, wrench_sense=sim.wrench_sense, source=b.source)
