@@ -13,10 +13,9 @@ from forcecontrol.scenarios import build_case
 from rosfiles_helpers import write_bag
 
 
-@pytest.fixture(scope="module")
-def example_9_2():
-    """Example 9.2's first case, simulated (1 s), and a builder of fresh parts."""
-    scn = fc.scenario("example-9.2").with_(duration=1.0)
+def _simulate(name: str, duration: float):
+    """A built-in scenario's first case simulated for ``duration`` [s], and a builder of fresh parts."""
+    scn = fc.scenario(name).with_(duration=duration)
 
     def parts():
         return build_case(scn.cases[0])
@@ -25,6 +24,12 @@ def example_9_2():
     res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=p["duration"],
                       sensor=p["sensor"])
     return res, parts
+
+
+@pytest.fixture(scope="module")
+def example_9_2():
+    """Example 9.2's first case, simulated (1 s), and a builder of fresh parts."""
+    return _simulate("example-9.2", 1.0)
 
 
 def test_replaying_a_simulation_log_gives_back_its_torques(tmp_path, example_9_2):
@@ -138,15 +143,7 @@ def test_replay_and_compare_argument_errors(example_9_2):
 @pytest.fixture(scope="module")
 def panda_run():
     """panda-table-line's first case for 0.3 s (its log in the model's joint order), and a builder of fresh parts."""
-    scn = fc.scenario("panda-table-line").with_(duration=0.3)
-
-    def parts():
-        return build_case(scn.cases[0])
-
-    p = parts()
-    res = fc.simulate(p["robot"], p["environment"], p["controller"], p["reference"], q0=p["q0"], duration=p["duration"],
-                      sensor=p["sensor"])
-    return res, parts
+    return _simulate("panda-table-line", 0.3)
 
 
 def _about_base_origin(res, robot) -> np.ndarray:
