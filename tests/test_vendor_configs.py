@@ -201,7 +201,7 @@ def test_franka_gains_are_read_where_franka_ros_reads_them_and_clamped_to_the_cf
      r"key 'gravity_compensation.CoG.force' must be a number; got 'heavy'"),
     ("m:\n  ros__parameters:\n    type: x/CartesianMotionController\n    pd_gains: {}\n", None, "cartesian_motion_controller"),
     ("a: 1\n", None, "no controller configuration found"),
-    ("force_mode(tool_pose(), [0,0,1,0,0,0], w, 2, l)\n", None, "expected 25 literal numbers"),
+    ("force_mode(tool_pose(), [0,0,1,0,0,0], w, 2, l)\n", None, r"task_frame must be written p\[x, x, x, x, x, x\]; got 'tool_pose\(\)'"),
     (ROS2_FLOW, "abb-egm", "kind must be one of"),
 ])
 def test_bad_configurations_are_refused_with_the_key_named(text, kind, match):
@@ -393,3 +393,33 @@ def test_fzi_hand_frame_default_and_velocity_interface_are_said():
     c = read_config("ros1.yaml", text=ros1)
     assert c.kind == "fzi-force" and any("velocity-interface variant" in n for n in c.notes)
     assert not any(n.startswith("hand_frame_control not set") for n in c.notes)
+
+
+_UR_CALL = "force_mode(p[{tf}], [{sel}], [{w}], {ty}, [.1,.1,.1,.785,.785,.785])\n"
+
+
+@pytest.mark.parametrize("tf, sel, w, ty, match", [
+    ("x1, y1, z1, 0, 0, 0", "0,0,1,0,0,0", "0,0,-10,0,0,0", "2", r"task_frame\[0\]: 'x1' is not a literal number"),
+    ("0,0,0,0,0,0", "0,0,True,0,0,0", "0,0,-10,0,0,0,7", "2", r"selection_vector\[2\]: 'True' is not a literal number"),
+    ("0,0,0,0,0,0", "0,0,1,0,0", "0,0,-10,0,0,0", "2", r"selection_vector must have 6 numbers; got 5"),
+    ("0,0,0,0,0,0", "0,0,1,0,0,0", "0,0,-10,0,0,0", "2.7", r"type must be 1, 2 or 3; got '2.7'"),
+])
+def test_ur_force_mode_is_read_argument_by_argument(tf, sel, w, ty, match):
+    """Each argument of force_mode holds its own literal numbers: digits inside variable names (x1 read as 1 m),
+    a boolean, a short vector (the next argument's numbers shifted in) or a fractional type (2.7 read as 2) are
+    refused, naming the argument and the entry; before, the call's 25 first digit runs were taken in order."""
+    with pytest.raises(ParameterError, match=match):
+        read_config("prog.script", text=_UR_CALL.format(tf=tf, sel=sel, w=w, ty=ty))
+
+
+def test_ur_force_mode_sign_apart_from_its_digits_and_a_second_call_are_read_as_urscript_does():
+    """``- 10`` is −10 (it was read as +10: the tool pushed the other way), and it is written back in place; of two
+    force_mode calls the last is read and a note names both lines."""
+    text = _UR_CALL.format(tf="0,0,0,0,0,0", sel="0,0,1,0,0,0", w="0,0,- 10,0,0,0", ty="2")
+    cfg = read_config("prog.script", text=text)
+    assert cfg.parameters["wrench"] == [0.0, 0.0, -10.0, 0.0, 0.0, 0.0]
+    assert cfg.write(wrench=[0, 0, -12, 0, 0, 0]) == text.replace("- 10", "-12")
+    two = text + _UR_CALL.format(tf="0,0,0,0,0,0", sel="0,0,1,0,0,0", w="0,0,-40,0,0,0", ty="2")
+    cfg = read_config("prog.script", text=two)
+    assert cfg.parameters["wrench"][2] == -40.0
+    assert any("force_mode is called on lines 1, 2: the last one (line 2) is read" in n for n in cfg.notes)

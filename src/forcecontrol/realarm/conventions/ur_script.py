@@ -6,8 +6,9 @@ The format is a few URScript lines (others are kept untouched and named as not r
     force_mode_set_damping(0.025)
     force_mode_set_gain_scaling(0.5)
 
-``force_mode(task_frame, selection_vector, wrench, type, limits)`` with literal numbers (25 of
-them); the damping and gain scaling default to URScript's 0.005 and 1 when their calls are absent.
+``force_mode(task_frame, selection_vector, wrench, type, limits)`` with literal numbers, read argument by
+argument (``p[6]``, ``[6]``, ``[6]``, an integer type, ``[6]``); the damping and gain scaling default to URScript's
+0.005 and 1 when their calls are absent.
 """
 
 from __future__ import annotations
@@ -20,32 +21,67 @@ from .config_text import Edit, apply_edits, format_number
 
 __all__ = ["read_ur_script", "write_ur_script", "UR_DEFAULTS"]
 
-_NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+#: one literal number, its sign possibly apart from its digits (URScript reads "- 10" as −10)
+_NUM = re.compile(r"\s*([-+]?\s*(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*")
 _CALL = re.compile(r"^(\s*)(force_mode|force_mode_set_damping|force_mode_set_gain_scaling)\s*\((.*?)\)\s*(#.*)?$")
 #: URScript's defaults (e-Series Script Directory §14.13–14.14).
 UR_DEFAULTS = {"damping": 0.005, "gain_scaling": 1.0}
-_ARGS = (("task_frame", 6), ("selection_vector", 6), ("wrench", 6), ("frame_type", 1), ("limits", 6))
+#: force_mode's arguments: name, the brackets it is written in ("p[", "[" or none) and its count of numbers
+_ARGS = (("task_frame", "p[", 6), ("selection_vector", "[", 6), ("wrench", "[", 6), ("frame_type", "", 1), ("limits", "[", 6))
 
 
-def _numbers(where: str, body: str, offset: int, count: int) -> list[tuple[float, int, int, str]]:
-    found = [(float(m.group()), offset + m.start(), offset + m.end(), m.group()) for m in _NUM.finditer(body)]
-    if len(found) != count:
-        raise ParameterError(
-            f"{where}: expected {count} literal numbers in the call; got {len(found)} in {body.strip()!r} "
-            "(variables and expressions are not read: write the numbers)"
-        )
-    return found
+def _split_top(body: str, offset: int) -> list[tuple[str, int]]:
+    """The comma-separated arguments of a call at bracket depth 0, each with its offset in the line."""
+    out, depth, start = [], 0, 0
+    for j, c in enumerate(body):
+        if c in "[(":
+            depth += 1
+        elif c in "])":
+            depth -= 1
+        elif c == "," and depth == 0:
+            out.append((body[start:j], offset + start))
+            start = j + 1
+    out.append((body[start:], offset + start))
+    return out
+
+
+def _literal(where: str, text: str, offset: int) -> tuple[float, int, int, str]:
+    """One literal number filling ``text`` (value, start, end, token), else a ParameterError naming what is there."""
+    m = _NUM.fullmatch(text)
+    if m is None:
+        raise ParameterError(f"{where}: {text.strip()!r} is not a literal number (variables, expressions and booleans "
+                             "are not read: write the number)")
+    token = m.group(1)
+    return float(token.replace(" ", "").replace("\t", "")), offset + m.start(1), offset + m.end(1), token
+
+
+def _argument(where: str, name: str, bracket: str, count: int, text: str, offset: int) -> list[tuple[float, int, int, str]]:
+    """The numbers of one force_mode argument, written as ``p[...]``, ``[...]`` or a bare number."""
+    if not bracket:
+        return [_literal(f"{where}: {name}", text, offset)]
+    m = re.fullmatch(r"\s*" + re.escape(bracket) + r"(.*)\]\s*", text, flags=re.S)
+    if m is None:
+        raise ParameterError(f"{where}: {name} must be written {bracket}{', '.join(['x'] * count)}]; got {text.strip()!r}")
+    items = _split_top(m.group(1), offset + m.start(1))
+    if len(items) != count:
+        raise ParameterError(f"{where}: {name} must have {count} numbers; got {len(items)} in {text.strip()!r}")
+    return [_literal(f"{where}: {name}[{k}]", t, o) for k, (t, o) in enumerate(items)]
 
 
 def read_ur_script(text: str, where: str = "<ur script>") -> tuple[dict[str, Any], list[str], dict[str, Any]]:
     """(parameters, notes, spans) of a force-mode script; ``spans`` locate each number for :func:`write_ur_script`.
 
+    ``force_mode(p[6], [6], [6], type, [6])`` is read argument by argument: each holds literal numbers (a sign may
+    stand apart from its digits), ``type`` an integer 1, 2 or 3. When the script calls force_mode more than once, the
+    last call is read (the others are named in a note).
+
     Raises:
-        ParameterError: no ``force_mode(...)`` call, or a call without the expected literal numbers.
+        ParameterError: no ``force_mode(...)`` call, or a call whose arguments are not the expected literal numbers.
     """
     params: dict[str, Any] = {}
     spans: dict[str, Any] = {}
     notes: list[str] = []
+    calls: list[int] = []
     for i, line in enumerate(text.splitlines()):
         m = _CALL.match(line)
         if not m:
@@ -54,22 +90,33 @@ def read_ur_script(text: str, where: str = "<ur script>") -> tuple[dict[str, Any
                              f"force_mode_set_gain_scaling are): {line.strip()[:80]!r}")
             continue
         name, body, off = m.group(2), m.group(3), m.start(3)
+        at = f"{where}: line {i + 1}: {name}"
         if name == "force_mode":
-            nums = _numbers(f"{where}: line {i + 1}: force_mode", body, off, 25)
-            k = 0
-            for arg, n in _ARGS:
-                vals = nums[k : k + n]
-                params[arg] = int(vals[0][0]) if arg == "frame_type" else [v[0] for v in vals]
+            args = _split_top(body, off)
+            if len(args) != len(_ARGS):
+                raise ParameterError(f"{at}: expected {len(_ARGS)} arguments (task_frame, selection_vector, wrench, type, "
+                                     f"limits); got {len(args)} in {body.strip()!r}")
+            for (arg, bracket, n), (t, o) in zip(_ARGS, args):
+                vals = _argument(at, arg, bracket, n, t, o)
+                if arg == "frame_type":
+                    v = vals[0][0]
+                    if v not in (1.0, 2.0, 3.0):
+                        raise ParameterError(f"{at}: type must be 1, 2 or 3; got {vals[0][3]!r}")
+                    params[arg] = int(v)
+                else:
+                    params[arg] = [v[0] for v in vals]
                 spans[arg] = [(i, v[1], v[2], v[3]) for v in vals]
-                k += n
             spans["_indent"] = (i, m.group(1))
+            calls.append(i + 1)
         else:
             key = "damping" if name.endswith("damping") else "gain_scaling"
-            (v, a, b, tok), = _numbers(f"{where}: line {i + 1}: {name}", body, off, 1)
+            v, a, b, tok = _literal(at, body, off)
             params[key] = v
             spans[key] = [(i, a, b, tok)]
     if "task_frame" not in params:
         raise ParameterError(f"{where}: no force_mode(task_frame, selection_vector, wrench, type, limits) call found")
+    if len(calls) > 1:
+        notes.append(f"force_mode is called on lines {', '.join(map(str, calls))}: the last one (line {calls[-1]}) is read")
     for key, default in UR_DEFAULTS.items():
         if key not in params:
             params[key] = default
