@@ -201,7 +201,8 @@ def test_franka_gains_are_read_where_franka_ros_reads_them_and_clamped_to_the_cf
      r"key 'gravity_compensation.CoG.force' must be a number; got 'heavy'"),
     ("m:\n  ros__parameters:\n    type: x/CartesianMotionController\n    pd_gains: {}\n", None, "cartesian_motion_controller"),
     ("a: 1\n", None, "no controller configuration found"),
-    ("force_mode(tool_pose(), [0,0,1,0,0,0], w, 2, l)\n", None, r"task_frame must be written p\[x, x, x, x, x, x\]; got 'tool_pose\(\)'"),
+    ("force_mode(tool_pose(), [0,0,1,0,0,0], w, 2, l)\n", None,
+     r"task_frame must be written p\[x, x, x, x, x, x\]; got 'tool_pose\(\)'"),
     (ROS2_FLOW, "abb-egm", "kind must be one of"),
 ])
 def test_bad_configurations_are_refused_with_the_key_named(text, kind, match):
