@@ -424,3 +424,17 @@ def test_ur_force_mode_sign_apart_from_its_digits_and_a_second_call_are_read_as_
     cfg = read_config("prog.script", text=two)
     assert cfg.parameters["wrench"][2] == -40.0
     assert any("force_mode is called on lines 1, 2: the last one (line 2) is read" in n for n in cfg.notes)
+
+
+@pytest.mark.parametrize("value", ['"fast"', "[100]", ".nan", ".inf", "true", "0", "-100", "1e9"])
+def test_an_update_rate_that_is_no_rate_is_refused_naming_the_key(value):
+    """controller_manager's update_rate must be a finite positive number of Hz: a string, a list, NaN, inf, a boolean,
+    zero, a negative or an absurd rate is a ParameterError naming the key (they were a traceback, or true read as
+    1 Hz); the shipped file's 100 Hz reads."""
+    text = (CONFIGS / "fzi_compliance.yaml").read_text(encoding="utf-8")
+    assert read_config("fzi.yaml", text=text).parameters is not None
+    bad = text.replace("update_rate: 100  # Hz", f"update_rate: {value}", 1)
+    assert bad != text
+    with pytest.raises(ParameterError, match=r"key 'controller_manager\.ros__parameters\.update_rate' must be a positive "
+                                             r"number of Hz"):
+        read_config("fzi.yaml", text=bad)

@@ -252,6 +252,19 @@ def read_config(
     return _read_yaml(where, text, kind, section)
 
 
+#: the fastest controller update rate a file may give [Hz] (ros2_control loops run at up to a few kHz)
+MAX_UPDATE_RATE = 1e6
+
+
+def _rate(where: str, key: str, value: Any) -> float:
+    """A file's update rate [Hz]: a finite number in (0, MAX_UPDATE_RATE], else a ParameterError naming the key (true,
+    a string, a list, NaN and inf were a traceback or read as 1 Hz)."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (0.0 < float(value) <= MAX_UPDATE_RATE):
+        raise ParameterError(f"{where}: key '{key}' must be a positive number of Hz, at most {MAX_UPDATE_RATE:g}; "
+                             f"got {value!r}")
+    return float(value)
+
+
 def _load_yaml(where: str, text: str) -> Any:
     try:
         from ruamel.yaml import YAML
@@ -274,7 +287,7 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
     types: dict[str, str] = {}  # ROS 2: each controller's plugin type, declared in the controller_manager block
     if isinstance(cm_params, dict):
         if "update_rate" in cm_params:
-            rate = float(cm_params["update_rate"])
+            rate = _rate(where, "controller_manager.ros__parameters.update_rate", cm_params["update_rate"])
         types = {str(n): str(v["type"]) for n, v in cm_params.items() if isinstance(v, dict) and v.get("type")}
     found: list[tuple[str, str, Any, str]] = []
     skipped: list[str] = []
@@ -340,8 +353,7 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
     grouped: dict[str, list[str]] = {}
     own_rate = _get(params, ("update_rate",))
     if own_rate is not _MISSING:  # ros2_control: a controller's own update_rate comes before the controller manager's
-        if isinstance(own_rate, bool) or not isinstance(own_rate, int | float) or not own_rate > 0:
-            raise ParameterError(f"{where}: key 'update_rate' must be a positive number [Hz]; got {own_rate!r}")
+        own_rate = _rate(where, "update_rate", own_rate)
         if rate is not None and float(own_rate) != rate:
             notes.append(f"update_rate {float(own_rate):g} Hz of the controller's own parameters is used (the "
                          f"controller_manager's is {rate:g} Hz)")
