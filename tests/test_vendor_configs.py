@@ -438,3 +438,16 @@ def test_an_update_rate_that_is_no_rate_is_refused_naming_the_key(value):
     with pytest.raises(ParameterError, match=r"key 'controller_manager\.ros__parameters\.update_rate' must be a positive "
                                              r"number of Hz"):
         read_config("fzi.yaml", text=bad)
+
+
+def test_a_yaml_alias_bomb_is_refused_at_once():
+    """Twelve lines whose aliases expand to 9⁷ values (they ran past 2 minutes and 1.7 GB, then read) are refused,
+    naming the limit (the walk stops there); the shipped files, with hundreds of values, read."""
+    lines = ["ctl:", "  ros__parameters:", "    pd_gains: {trans_x: {p: 0.05}}", "    stiffness: {trans_x: 500}",
+             "    a: &a {" + ", ".join(f"x{i}: 1" for i in range(1, 10)) + "}"]
+    for prev, name, key in zip("abcdef", "bcdefg", "yzwvut"):
+        lines.append(f"    {name}: &{name} {{" + ", ".join(f"{key}{i}: *{prev}" for i in range(1, 10)) + "}")
+    with pytest.raises(ParameterError, match=r"bomb.yaml: the file expands to more than 100,000 values"):
+        read_config("bomb.yaml", text="\n".join(lines) + "\n")
+    for f in sorted(CONFIGS.glob("*.yaml")):
+        assert read_config(f).parameters

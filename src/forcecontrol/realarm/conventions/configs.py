@@ -272,9 +272,31 @@ def _load_yaml(where: str, text: str) -> Any:
     except ImportError as exc:  # pragma: no cover - the extra is installed in the tests
         raise ParameterError("reading ROS parameter files needs ruamel.yaml: pip install 'forcecontrol[ros]'") from exc
     try:
-        return YAML(typ="rt").load(text)
+        doc = YAML(typ="rt").load(text)
     except YAMLError as exc:
         raise ParameterError(f"{where}: not valid YAML: {exc}") from exc
+    _check_size(where, doc)
+    return doc
+
+
+#: the most values a parameter file may hold once its aliases are expanded (a controller's file has hundreds)
+MAX_YAML_VALUES = 100_000
+
+
+def _check_size(where: str, doc: Any) -> None:
+    """Refuse a document that expands to more than :data:`MAX_YAML_VALUES` values (a YAML alias bomb of 12 lines ran
+    past 2 minutes and 1.7 GB); the walk stops at the limit."""
+    count, stack = 0, [doc]
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > MAX_YAML_VALUES:
+            raise ParameterError(f"{where}: the file expands to more than {MAX_YAML_VALUES:,} values (YAML aliases "
+                                 "repeat what they name); a controller's parameters are far fewer")
+        if isinstance(node, dict):
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
 
 
 def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> VendorConfig:
