@@ -110,3 +110,35 @@ def test_analyze_says_its_verdict_leaves_out_a_payload_after_the_sensor(tmp_path
         assert note.startswith("the verdict leaves out the 10.94 kg payload after the sensor") and "forcecontrol run" in note
     doc = json.loads(forcecontrol(tmp_path, "analyze", CONFIGS / "fzi_issue_21.toml", "--json").stdout)
     assert all("vendor_loop_note" not in c["analysis"] for c in doc["cases"])
+
+
+def test_fzi_pd_gains_are_taken_along_the_base_frame_normal_with_a_tilted_tool():
+    """FZI applies pd_gains per base axis and only the stiffness in compliance_ref_link: with the tool's x axis along
+    the table's normal (base −z) and p = 0.01 on base x, 0.05 on base z, the analysis' loop has p = 0.05 and its
+    stability limit is that of FdccLoop(p = 0.05) (about 98 kN/m: a 200 kN/m table bounces), not p = 0.01's (474 kN/m,
+    "settles", while the run bounced: 6 contact losses)."""
+    import numpy as np
+
+    from forcecontrol.scenarios import build_case, load_scenario
+    from forcecontrol.scenarios.core import case_analysis
+    from forcecontrol.scenarios.parts_vendor_analysis import loop_limit, vendor_loop
+
+    doc = {
+        "name": "fzi-tilted", "duration": 0.2, "sample_time": 0.0005,
+        "robot": {"model": "ur5", "q0": [0.0, -1.57, 1.57, -1.57, 0.0, 0.0],
+                  "servo": {"preset": "ur-e-series", "rate": 500.0}},
+        "environment": {"type": "table", "offset": [0.0, 0.0, -0.005], "stiffness": 200000.0},
+        "controller": {"type": "fzi-compliance", "stiffness": [500.0, 500.0, 500.0, 20.0, 20.0, 20.0],
+                       "p": [0.01, 0.01, 0.05, 1.5, 1.5, 1.5], "error_scale": 0.5, "compliance_frame": "tool"},
+        "reference": {"type": "pose-setpoint", "offset": [0.0, 0.0, -0.02]},
+    }
+    parts = build_case(load_scenario(doc).cases[0])
+    R = np.asarray(parts["robot"].frame_pose(parts["q0"])[0])
+    assert abs(abs((R.T @ [0.0, 0.0, 1.0])[0]) - 1.0) < 1e-3  # the tool's x axis is along the normal
+    a = case_analysis(parts)
+    s = parts["robot"].servo
+    servo = (float(s.rate), float(np.min(s.bandwidth)), float(np.asarray(s.damping).flat[0]), int(s.delay))
+    base_z = loop_limit(vendor_loop("fzi-compliance", {"p": 0.05, "d": 0.0, "error_scale": 0.5, "stiffness": 500.0}, servo))
+    base_x = loop_limit(vendor_loop("fzi-compliance", {"p": 0.01, "d": 0.0, "error_scale": 0.5, "stiffness": 500.0}, servo))
+    assert a["vendor_loop_stability_limit"] == pytest.approx(base_z, rel=1e-3) and base_x > 4 * base_z
+    assert a["vendor_loop_verdict"] == "bounces"

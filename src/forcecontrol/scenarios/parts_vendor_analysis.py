@@ -37,23 +37,29 @@ def _servo_of(robot: Any) -> tuple[float, float, float, int]:
     return float(s.rate), float(w[j]), float(z[j]), int(s.delay)
 
 
-def vendor_loop(kind: str, params: dict[str, Any], servo: tuple[float, float, float, int], direction: Any = None) -> Any:
+def vendor_loop(kind: str, params: dict[str, Any], servo: tuple[float, float, float, int], direction: Any = None,
+                pd_direction: Any = None) -> Any:
     """The 1-DOF sampled loop of a controller's parameters (library names, per-axis vectors or numbers) with the servo
-    ``(rate [Hz], ω [rad/s], ζ, delay [cycles])``, along ``direction`` (a unit 3-vector in the gains' frame; default z)."""
+    ``(rate [Hz], ω [rad/s], ζ, delay [cycles])``, along ``direction`` (a unit 3-vector in the gains' frame; default z).
+
+    FZI's controllers apply their PD gains ``p``, ``d`` per axis of the base frame (their ``SpatialPDController`` on the
+    base-frame error) and only the stiffness in ``compliance_ref_link``: ``pd_direction`` is the direction in the base
+    frame for p and d (default: ``direction``, the same when the compliance frame is the base)."""
     from ..analysis.vendor_fzi import FdccLoop
     from ..analysis.vendor_loops import Ros2AdmittanceLoop, UrForceModeLoop
 
     nu = np.array([0.0, 0.0, 1.0]) if direction is None else np.asarray(direction, dtype=float)
+    nu_pd = nu if pd_direction is None else np.asarray(pd_direction, dtype=float)
 
-    def along(value: Any, default: float) -> float:
+    def along(value: Any, default: float, d: np.ndarray = nu) -> float:
         v = np.asarray(default if value is None else value, dtype=float)
         if v.ndim == 0:
             return float(v)
-        return float(nu @ (v[:3] * nu))
+        return float(d @ (v[:3] * d))
 
     rate, w, z, nd = servo
     if kind in ("fzi-compliance", "fzi-force"):
-        return FdccLoop(p=along(params.get("p"), 0.0), d=along(params.get("d"), 0.0),
+        return FdccLoop(p=along(params.get("p"), 0.0, nu_pd), d=along(params.get("d"), 0.0, nu_pd),
                         error_scale=float(params.get("error_scale", 1.0)),
                         stiffness=along(params.get("stiffness"), 500.0) if kind == "fzi-compliance" else 0.0,
                         iterations=int(params.get("iterations", 1)) if kind == "fzi-compliance" else 1,
@@ -158,7 +164,7 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
     params = {k: getattr(ctl, k) for k in ("p", "d", "error_scale", "stiffness", "iterations", "solver", "virtual_mass",
                                            "internal_period", "mass", "damping_ratio", "joint_damping", "filter_coefficient",
                                            "kinematics_alpha", "gain", "gain_scaling", "damping") if hasattr(ctl, k)}
-    loop = vendor_loop(kind, params, _servo_of(robot), direction)
+    loop = vendor_loop(kind, params, _servo_of(robot), direction, pd_direction=nu)  # FZI's p, d: per base axis
     out: dict[str, Any] = {"vendor_loop": loop_summary(kind, loop), **loop_quantities(loop, k_e)}
     payload = getattr(getattr(robot, "torque_robot", robot), "payload", None)
     if payload is not None:  # what this verdict does not cover (said next to it, on the table and in --json)
