@@ -142,3 +142,28 @@ def test_fzi_pd_gains_are_taken_along_the_base_frame_normal_with_a_tilted_tool()
     base_x = loop_limit(vendor_loop("fzi-compliance", {"p": 0.01, "d": 0.0, "error_scale": 0.5, "stiffness": 500.0}, servo))
     assert a["vendor_loop_stability_limit"] == pytest.approx(base_z, rel=1e-3) and base_x > 4 * base_z
     assert a["vendor_loop_verdict"] == "bounces"
+
+
+def test_a_config_found_only_among_the_shipped_examples_is_said(tmp_path):
+    """A scenario naming config = "fzi_compliance.yaml" with no such file beside it nor in the working folder runs the
+    library's shipped example of that name: said in a note (it was silent: the user's values were replaced by the
+    example's); with the user's file beside the scenario, no such note and the user's error_scale is read."""
+    text = (
+        'name = "press"\nduration = 0.05\nsample_time = 0.0005\nallow_contact_loss = true\n[robot]\nmodel = "ur5"\n'
+        "q0 = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]\n[robot.servo]\npreset = \"ur-e-series\"\nrate = 100.0\n"
+        '[environment]\ntype = "table"\noffset = [0.0, 0.0, -0.005]\nstiffness = 5000.0\n'
+        '[controller]\ntype = "fzi-compliance"\nconfig = "fzi_compliance.yaml"\n'
+        '[reference]\ntype = "pose-setpoint"\noffset = [0.0, 0.0, -0.02]\n'
+    )
+    (tmp_path / "proj").mkdir()
+    (tmp_path / "proj" / "press.toml").write_text(text, encoding="utf-8")
+    out = forcecontrol(tmp_path, "analyze", "proj/press.toml")
+    assert "'fzi_compliance.yaml' is neither next to the scenario nor in the working folder: the library's shipped " \
+           "example" in " ".join(out.stderr.split())
+    shipped = resources.files("forcecontrol.scenarios").joinpath("configs", "fzi_compliance.yaml").read_text(encoding="utf-8")
+    assert "error_scale: 0.5" in shipped
+    (tmp_path / "proj" / "fzi_compliance.yaml").write_text(shipped.replace("error_scale: 0.5", "error_scale: 0.123"),
+                                                           encoding="utf-8")
+    out = forcecontrol(tmp_path, "analyze", "proj/press.toml", "--json")
+    assert "shipped example" not in out.stderr
+    assert "error_scale 0.123" in json.loads(out.stdout)["cases"][0]["analysis"]["vendor_loop"]

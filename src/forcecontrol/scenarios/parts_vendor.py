@@ -118,6 +118,12 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
             raise ScenarioError(f"{where}: [controller]: {path} is a {cfg.kind} configuration; the table's type is {kind!r}")
         params.update(cfg.parameters)
         notes = list(cfg.notes)
+        shipped = Path(str(resources.files("forcecontrol.scenarios")))
+        scenario_dir = Path(where.split(": [[case]]")[0].removesuffix(" (edited)")).parent
+        own = scenario_dir.resolve() in (shipped.resolve(), (shipped / "configs").resolve())  # a built-in or shipped example
+        if path.parent == shipped / "configs" and not Path(p["config"]).is_absolute() and not own:
+            notes.insert(0, f"config {p['config']!r} is neither next to the scenario nor in the working folder: the "
+                            f"library's shipped example {path} is used")
         rate = rate if rate is not None else cfg.rate
         source = str(path)
     given = {k: v for k, v in p.items() if k not in _NOT_PARAMS and v is not None}
