@@ -226,3 +226,41 @@ def test_epoch_nanosecond_stamps_keep_their_spacing_exactly(tmp_path, stamps):
     assert run.t[-1] - run.t[-2] == pytest.approx(1e-7, rel=1e-6)
     grid = run.resample(0.001, end=0.39)
     assert grid.t.shape == (391,)
+
+
+def test_a_bag_reader_says_what_it_leaves_out(tmp_path):
+    """One JointState without efforts drops the recorded torques (said: 1 of 20), an empty frame_id is taken as the
+    base frame (said), and a wrench topic without messages gives no wrench (said, naming the topic); they were silent."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from rosfiles_helpers import _typestore
+
+    ts = _typestore()
+    T = ts.types
+    Time, Header, JS, WS = (T[n] for n in ("builtin_interfaces/msg/Time", "std_msgs/msg/Header",
+                                           "sensor_msgs/msg/JointState", "geometry_msgs/msg/WrenchStamped"))
+    V, W = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Wrench"]
+
+    def write(path, with_wrench):
+        with Writer(path, version=8, storage_plugin=StoragePlugin.SQLITE3) as w:
+            js = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=ts)
+            ws = w.add_connection("/force_torque_sensor_broadcaster/wrench", "geometry_msgs/msg/WrenchStamped",
+                                  typestore=ts)
+            for k in range(20):
+                n = 10**9 + 10**6 * k
+                h = Header(stamp=Time(sec=n // 10**9, nanosec=n % 10**9), frame_id="")
+                eff = np.zeros(0) if k == 7 else np.array([1.0, 2.0])
+                w.write(js, n, bytes(ts.serialize_cdr(JS(header=h, name=["j1", "j2"], position=np.array([0.1, 0.2]),
+                                                         velocity=np.zeros(2), effort=eff), "sensor_msgs/msg/JointState")))
+                if with_wrench:
+                    msg = WS(header=h, wrench=W(force=V(x=1.0, y=0.0, z=0.0), torque=V(x=0.0, y=0.0, z=0.0)))
+                    w.write(ws, n, bytes(ts.serialize_cdr(msg, "geometry_msgs/msg/WrenchStamped")))
+        return path
+
+    run = read_bag(write(tmp_path / "a", True), wrench_components=2)
+    notes = run.metadata["notes"]
+    assert run.tau is None and any("1 of 20 JointState messages carry no efforts" in n for n in notes)
+    assert run.wrench_frame == "base" and any("header.frame_id is empty" in n for n in notes)
+    run = read_bag(write(tmp_path / "b", False), wrench_components=2)
+    assert run.wrench is None
+    assert any("the wrench topic '/force_torque_sensor_broadcaster/wrench' has no messages" in n for n in run.metadata["notes"])

@@ -76,8 +76,10 @@ def _assemble(
     wrench_point: str | None,
     stamps: str,
     skipped: Sequence[str] = (),
+    wrench_topic: str | None = None,
 ) -> RecordedRun:
-    """Stack decoded messages ((receive time [ns], message) pairs) into a RecordedRun."""
+    """Stack decoded messages ((receive time [ns], message) pairs) into a RecordedRun; what it leaves out or assumes
+    is said in ``metadata["notes"]``."""
     if stamps not in ("header", "receive"):
         raise ParameterError(f"stamps must be 'header' (message header stamps) or 'receive' (log times); got {stamps!r}")
     if wrench_components not in (1, 2, 3, 6):
@@ -129,12 +131,24 @@ def _assemble(
         worder = np.argsort(tw_arr, kind="stable")
         wrench, t_wrench = np.asarray(h)[worder], tw_arr[worder]
     frame = frames.pop() if frames else "base"
+    notes = []
+    missing_effort = sum(x is None for x in tau)
+    if 0 < missing_effort < len(tau):
+        notes.append(f"{missing_effort} of {len(tau)} JointState messages carry no efforts: the recorded torques are "
+                     "left out (every message must have them)")
+    if wrench_topic is not None and not tw:
+        notes.append(f"the wrench topic {wrench_topic!r} has no messages: the log has no wrench")
+    if tw and not frame:
+        notes.append("the wrench messages' header.frame_id is empty: the wrench is taken as in the base frame, about "
+                     "its origin")
+    meta: dict[str, Any] = {"skipped_corrupt": len(skipped)} if skipped else {}
+    if notes:
+        meta["notes"] = notes
     return RecordedRun(
         t=t_arr[order], q=np.asarray(q)[order], qd=np.asarray(qd)[order],
         tau=np.asarray(tau)[order] if has_tau else None, wrench=wrench, t_wrench=t_wrench,
         wrench_frame=frame or "base", wrench_point=wrench_point or frame or "base", wrench_sense=wrench_sense,
-        joint_names=tuple(names or ()), time_origin=origin / 1e9, source=source,
-        metadata={"skipped_corrupt": len(skipped)} if skipped else {},
+        joint_names=tuple(names or ()), time_origin=origin / 1e9, source=source, metadata=meta,
     )
 
 
@@ -209,7 +223,7 @@ def read_bag(
         reader.close()
     return _assemble(
         str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
-        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped,
+        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped, wrench_topic=wrench_topic,
     )
 
 
@@ -263,5 +277,5 @@ def read_mcap(
                                                                 skip_corrupt, skipped)
     return _assemble(
         str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
-        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped,
+        wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped, wrench_topic=wrench_topic,
     )
