@@ -264,3 +264,40 @@ def test_a_bag_reader_says_what_it_leaves_out(tmp_path):
     run = read_bag(write(tmp_path / "b", False), wrench_components=2)
     assert run.wrench is None
     assert any("the wrench topic '/force_torque_sensor_broadcaster/wrench' has no messages" in n for n in run.metadata["notes"])
+
+
+def test_an_mcap_file_without_a_summary_section_is_read_from_its_messages(tmp_path):
+    """The summary section of an MCAP file is optional (a streaming writer, `mcap recover`): such a file, written by the
+    mcap library without summary, chunks or repeated channels, reads as the same run as the file with them (it was
+    reported as having no topics)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    from rosfiles_helpers import _messages, _typestore
+
+    t = np.arange(30) * 0.01
+    q = np.column_stack([0.1 * t, -0.2 * t])
+    qd = np.tile([0.1, -0.2], (30, 1))
+    ts = _typestore()
+    msgs = _messages(ts, t, q, qd, None, t, np.column_stack([t, 2 * t]), ("j1", "j2"), "base")
+    path = tmp_path / "nosummary.mcap"
+    with path.open("wb") as f:
+        w = Writer(f, use_chunking=False, use_statistics=False, use_summary_offsets=False, repeat_channels=False,
+                   repeat_schemas=False)
+        w.start(profile="ros2", library="forcecontrol-tests")
+        channels = {}
+        for topic, msgtype, ns, msg in msgs:
+            if topic not in channels:
+                sid = w.register_schema(name=msgtype, encoding="ros2msg",
+                                        data=ts.generate_msgdef(msgtype, ros_version=2)[0].encode())
+                channels[topic] = w.register_channel(topic=topic, message_encoding="cdr", schema_id=sid)
+            w.add_message(channels[topic], log_time=ns, data=bytes(ts.serialize_cdr(msg, msgtype)), publish_time=ns)
+        w.finish()
+    with path.open("rb") as f:
+        assert make_reader(f).get_summary() is None
+    run = read_mcap(path, wrench_components=2)
+    ref = read_mcap(write_mcap(tmp_path / "full.mcap", t, q, qd, t_w=t, wrench=np.column_stack([t, 2 * t])),
+                    wrench_components=2)
+    np.testing.assert_array_equal(run.t, ref.t)
+    np.testing.assert_array_equal(run.q, ref.q)
+    np.testing.assert_array_equal(run.wrench, ref.wrench)

@@ -258,8 +258,19 @@ def read_mcap(
             summary = reader.get_summary()
         except Exception as exc:  # the mcap library raises its own error types
             raise ParameterError(f"{path}: cannot be read as an MCAP file ({type(exc).__name__})") from None
-        channels = summary.channels if summary is not None else {}
-        schemas = summary.schemas if summary is not None else {}
+        if summary is not None:
+            channels, schemas = summary.channels, summary.schemas
+        else:  # the summary section is optional (a streaming writer, `mcap recover`): the channels from one pass
+            channels, schemas = {}, {}
+            try:
+                for schema, channel, _ in reader.iter_messages():
+                    channels.setdefault(channel.id, channel)
+                    if schema is not None:
+                        schemas.setdefault(schema.id, schema)
+            except Exception as exc:  # the mcap library raises its own error types
+                raise MeasurementError(f"{path}: the MCAP file is corrupt or truncated ({type(exc).__name__})") from None
+            f.seek(0)
+            reader = make_reader(f)
         present = {ch.topic: (schemas[ch.schema_id].name if ch.schema_id in schemas else "?") for ch in channels.values()}
         _check_topics(str(path), present, {"joint-state": (joint_topic, JOINT_STATE), "wrench": (wrench_topic, WRENCH_STAMPED)})
         for ch in channels.values():
