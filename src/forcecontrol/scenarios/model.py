@@ -81,9 +81,9 @@ def unused_key_notes(cases: Any, source: str) -> list[tuple[str, str, list[int]]
 
     A key one case uses and another does not (a ``[[case]]`` switching the law) is used: no note.
     """
-    from .schema import CONTROLLERS, ENVIRONMENTS, REFERENCES
+    from .schema import part_registries
 
-    registries = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}
+    registries = part_registries()
     setting: dict[tuple[str, str], list[int]] = {}
     unused: dict[tuple[str, str], dict[int, str]] = {}
     for i, case in enumerate(cases):

@@ -81,18 +81,29 @@ _NOT_PARAMS = ("type", "config", "section")
 
 def resolve_config_path(value: str, where: str) -> Path:
     """A configuration path: absolute, or relative to the scenario file's folder, the working folder,
-    or the shipped examples (``scenarios/configs``), the first that exists."""
+    or the shipped examples (``scenarios/configs``), the first that exists (:func:`from_shipped_examples` tells
+    the last)."""
     p = Path(value)
     if p.is_absolute():
         return p
     scenario_file = Path(where.split(": [[case]]")[0])
-    candidates = ([scenario_file.parent / p] if scenario_file.is_file() else []) + [
-        Path.cwd() / p, Path(str(resources.files("forcecontrol.scenarios"))) / "configs" / p]
+    candidates = ([scenario_file.parent / p] if scenario_file.is_file() else []) + [Path.cwd() / p, _SHIPPED / "configs" / p]
     for c in candidates:
         if c.is_file():
             return c
     raise ScenarioError(f"{where}: [controller]: key 'config' names no file: {value!r} (looked in: "
                         f"{', '.join(str(c.parent) for c in candidates)})")
+
+
+_SHIPPED = Path(str(resources.files("forcecontrol.scenarios")))
+
+
+def from_shipped_examples(path: Path, value: str, where: str) -> bool:
+    """Whether :func:`resolve_config_path` found ``value`` only among the shipped examples, for a scenario that is
+    not itself one of the library's (a built-in or a shipped example)."""
+    scenario_dir = Path(where.split(": [[case]]")[0].removesuffix(" (edited)")).parent.resolve()
+    own = scenario_dir in (_SHIPPED.resolve(), (_SHIPPED / "configs").resolve())
+    return path.parent == _SHIPPED / "configs" and not Path(value).is_absolute() and not own
 
 
 def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
@@ -118,10 +129,7 @@ def vendor_controller(kind: str, p: dict[str, Any], ctx: dict[str, Any]) -> Any:
             raise ScenarioError(f"{where}: [controller]: {path} is a {cfg.kind} configuration; the table's type is {kind!r}")
         params.update(cfg.parameters)
         notes = list(cfg.notes)
-        shipped = Path(str(resources.files("forcecontrol.scenarios")))
-        scenario_dir = Path(where.split(": [[case]]")[0].removesuffix(" (edited)")).parent
-        own = scenario_dir.resolve() in (shipped.resolve(), (shipped / "configs").resolve())  # a built-in or shipped example
-        if path.parent == shipped / "configs" and not Path(p["config"]).is_absolute() and not own:
+        if from_shipped_examples(path, p["config"], where):
             notes.insert(0, f"config {p['config']!r} is neither next to the scenario nor in the working folder: the "
                             f"library's shipped example {path} is used")
         rate = rate if rate is not None else cfg.rate

@@ -35,6 +35,8 @@ __all__ = [
     "REFERENCES",
     "check_table",
     "unused_keys",
+    "unused_reason",
+    "part_registries",
 ]
 
 
@@ -464,20 +466,29 @@ def _toml_value(v: Any) -> str:
     return json.dumps(v) if isinstance(v, (bool, str)) else repr(v)
 
 
+def unused_reason(fields: dict[str, Field], key: str, table: dict[str, Any]) -> str | None:
+    """Why the part of ``table`` (its fields ``fields``) does not use ``key`` (its :attr:`Field.used_when` does not
+    hold: ``'it applies only when schedule = "directional"; schedule is "constant"'``), or None when it does; the
+    condition's key as given in ``table`` or defaulted."""
+    f = fields.get(key)
+    if f is None or f.used_when is None:
+        return None
+    cond, values = f.used_when
+    value = table.get(cond)
+    if value is None:
+        value = fields[cond].default
+    if value in values:
+        return None
+    return f"it applies only when {cond} = {' or '.join(_toml_value(v) for v in values)}; {cond} is {_toml_value(value)}"
+
+
 def unused_keys(fields: dict[str, Field], table: dict[str, Any]) -> list[tuple[str, str]]:
-    """The keys ``table`` sets that its part does not use (their :attr:`Field.used_when` does not hold), each
-    with the reason in words: ``[("stiffness_high", "it applies only when schedule = \"directional\"; schedule is
-    \"constant\"")]``. ``table`` as written (a key absent or ``None`` is not set); the condition's key as given
-    or defaulted."""
-    out = []
-    for key, f in fields.items():
-        if f.used_when is None or table.get(key) is None:
-            continue
-        cond, values = f.used_when
-        value = table.get(cond)
-        if value is None:
-            value = fields[cond].default
-        if value not in values:
-            allowed = " or ".join(_toml_value(v) for v in values)
-            out.append((key, f"it applies only when {cond} = {allowed}; {cond} is {_toml_value(value)}"))
-    return out
+    """The keys ``table`` sets (as written: a key absent or ``None`` is not set) that its part does not use, each with
+    :func:`unused_reason`."""
+    reasons = ((key, unused_reason(fields, key, table)) for key in fields if table.get(key) is not None)
+    return [(key, why) for key, why in reasons if why is not None]
+
+
+def part_registries() -> dict[str, dict[str, PartSpec]]:
+    """The registered part types of the tables that have a ``type``: environment, controller, reference."""
+    return {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}

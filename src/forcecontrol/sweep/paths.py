@@ -52,16 +52,16 @@ def check_only_note(p: SweepParameter, cfg: dict[str, Any], label: str, swept: f
 
 
 def _unused_note(p: SweepParameter, cfg: dict[str, Any], label: str, swept: frozenset[str]) -> str | None:
-    from ..scenarios.schema import CONTROLLERS, ENVIRONMENTS, REFERENCES, unused_keys
+    from ..scenarios.schema import part_registries, unused_reason
 
     keys = p.keys
-    registry = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}.get(keys[0])
+    registry = part_registries().get(keys[0])
     table = cfg.get(keys[0]) if registry is not None and len(keys) == 2 else None
     spec = registry.get(table.get("type")) if isinstance(table, dict) and registry is not None else None
     f = spec.fields.get(keys[1]) if spec is not None else None
     if f is None or f.used_when is None or f"{keys[0]}.{f.used_when[0]}" in swept:
         return None
-    why = dict(unused_keys({keys[1]: f, f.used_when[0]: spec.fields[f.used_when[0]]}, {**table, keys[1]: 0.0})).get(keys[1])
+    why = unused_reason(spec.fields, keys[1], table)
     if why is None:
         return None
     return (f"parameter '{p.path}' (case '{label}'): [{keys[0]}] of type '{table['type']}' does not use '{keys[1]}' ({why}): "
@@ -72,11 +72,11 @@ def _check_path(p: SweepParameter, cfg: dict[str, Any], label: str) -> None:
     """Reject a path the scenario schema does not know, naming the valid choices."""
     from ..robots import PlanarTwoLinkParameters
     from ..scenarios.core import ROBOT_FIELDS, SENSOR_FIELDS
-    from ..scenarios.schema import CONTROLLERS, ENVIRONMENTS, REFERENCES
+    from ..scenarios.schema import part_registries
 
     keys = p.keys
     top = keys[0]
-    tables = {"environment": ENVIRONMENTS, "controller": CONTROLLERS, "reference": REFERENCES}
+    tables = part_registries()
     where = f"unknown parameter path '{p.path}'"
     if len(keys) == 1:
         choices = _sweepable_top()
