@@ -41,15 +41,19 @@ def test_franka_worked_example():
 
 def test_ur_tcp_force_worked_example():
     """actual_TCP_force about the flange: a tool 0.1 m long pointing down (TCP 0.1 m below the flange), pushed by +5 N
-    along base x at the TCP: reading (5, 0, 0, 0, −0.5, 0); h_e about the TCP = (−5, 0, 0, 0, 0, 0).
-    The flange in the end-effector (TCP) frame, whose z points down: (0, 0, −0.1)."""
+    along the controller's base x at the TCP: reading (5, 0, 0, 0, −0.5, 0). That x is base_link's −x (ur_description: the
+    controller's base is Rz(180°) from base_link, the models' root): the push on the tool is (−5, 0, 0) in the library's
+    base, so h_e about the TCP = (5, 0, 0, 0, 0, 0). The flange in the end-effector (TCP) frame, whose z points down:
+    (0, 0, −0.1)."""
     reading = np.array([[5.0, 0.0, 0.0, 0.0, -0.5, 0.0]])
     p = [0.0, 0.0, -0.1]
     h = convert_wrenches(reading, "ur-tcp", "library", rotations=FLIP_X, flange_offset=p)
-    np.testing.assert_allclose(h, [[-5, 0, 0, 0, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(h, [[5, 0, 0, 0, 0, 0]], atol=1e-12)
     np.testing.assert_allclose(convert_wrenches(h, "library", "ur-tcp", rotations=FLIP_X, flange_offset=p), reading, atol=1e-12)
     # CB3 (the moment about the TCP): no offset, no rotation needed
-    np.testing.assert_array_equal(convert_wrenches([[5.0, 0, 0, 0, 0, 0]], "ur-tcp", "library"), [[-5, 0, 0, 0, 0, 0]])
+    np.testing.assert_array_equal(convert_wrenches([[5.0, 0, 0, 0, 0, 0]], "ur-tcp", "library"), [[5, 0, 0, 0, 0, 0]])
+    np.testing.assert_array_equal(convert_wrenches([[0, 5.0, 1.0, 2.0, 3.0, 4.0]], "ur-tcp", "library"),
+                                  [[0, 5, -1, 2, 3, -4]])  # y, m_x, m_y turned, z and m_z kept, all of it flipped in sense
 
 
 def test_mujoco_sensor_worked_example():
@@ -82,11 +86,13 @@ def test_every_pair_agrees_with_sensed_wrench_and_round_trips():
     for name, c in CONVENTIONS.items():
         got = convert_wrenches(h, name, "library", rotations=R, flange_offset=p)
         for k in range(N):
-            frame = "base" if c.axes == "base" else "ee"
+            frame = {"base": "base", "ur-base": "ur", "end-effector": "ee"}[c.axes]
             point = "flange" if c.point == "flange" else "ee"
             w = SensedWrench.from_vector(h[k], frame=frame, point=point, sense=c.sense)
             if c.axes == "end-effector":
                 w = w.rotated(Transform(R[k], [0, 0, 0], parent="base", child="ee"))
+            elif c.axes == "ur-base":  # ur_description: base_link → base, rpy (0, 0, π)
+                w = w.rotated(Transform(Rotation.from_euler("z", np.pi).as_matrix(), [0, 0, 0], parent="base", child="ur"))
             if c.point == "flange":
                 w = w.about("ee", -(R[k] @ p))
             np.testing.assert_allclose(got[k], w.h_e("base", "ee"), atol=1e-12, err_msg=name)
@@ -111,6 +117,11 @@ def test_conversion_errors_name_the_problem():
     h = np.zeros((2, 6))
     with pytest.raises(ParameterError, match="unknown wrench convention 'franka'; known: library, franka-O"):
         convert_wrenches(h, "franka", "library")
+    from forcecontrol.realarm.conventions import WrenchConvention
+
+    with pytest.raises(ParameterError, match=r"WrenchConvention axes must be one of \('base', 'ur-base', 'end-effector'\); "
+                                             r"got 'world'"):
+        WrenchConvention("mine", "world", "end-effector", BY_END_EFFECTOR, "a frame convert_wrenches would take as the base")
     with pytest.raises(ParameterError, match="needs the end-effector's orientation"):
         convert_wrenches(h, "franka-K", "library")
     with pytest.raises(ParameterError, match="orthonormal"):
@@ -174,7 +185,21 @@ def test_cli_converts_ur_tcp_force_about_the_flange(tmp_path):
     n = 12
     src = _table(tmp_path, np.tile([5.0, 0.0, 0.0, 0.0, -0.5, 0.0], (n, 1)), quat=[1.0, 0.0, 0.0, 0.0], n=n)
     _convert(src, "--from", "ur-tcp", "--to", "library", "--flange-offset", "0,0,-0.1", "--out", tmp_path / "o.csv")
-    np.testing.assert_allclose(read_recording(tmp_path / "o.csv").wrench, np.tile([-5, 0, 0, 0, 0, 0], (n, 1)), atol=1e-12)
+    np.testing.assert_allclose(read_recording(tmp_path / "o.csv").wrench, np.tile([5, 0, 0, 0, 0, 0], (n, 1)), atol=1e-12)
+
+
+def test_cli_converts_an_rtde_recording_from_ur_tcp_once(tmp_path):
+    """An RTDE CSV (UR's column names) read by the RTDE reader, which already brings actual_TCP_force into base_link:
+    `convert --from ur-tcp --to library` rotates it once, not twice, and says so. Reading (5, 0, 0, 0, 0, 0), a push along
+    the controller's base x (base_link's −x) on the tool: h_e = (5, 0, 0, 0, 0, 0), the worked example's CB3 case."""
+    names = (["timestamp"] + [f"actual_q_{i}" for i in range(6)] + [f"actual_qd_{i}" for i in range(6)]
+             + [f"actual_TCP_force_{i}" for i in range(6)])
+    rows = [[0.002 * k, *np.zeros(12), 5.0, 0.0, 0.0, 0.0, 0.0, 0.0] for k in range(5)]
+    src = tmp_path / "robot_data.csv"
+    src.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")
+    rep = _convert(src, "--from", "ur-tcp", "--to", "library", "--out", tmp_path / "o.csv")
+    np.testing.assert_allclose(read_recording(tmp_path / "o.csv").wrench, np.tile([5, 0, 0, 0, 0, 0], (5, 1)), atol=1e-12)
+    assert any("rotated actual_TCP_force from the controller's base into base_link already" in n for n in rep["notes"])
 
 
 def _planar_log(n=40):

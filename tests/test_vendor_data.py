@@ -38,7 +38,8 @@ def _write(path, names, rows, sep):
 @pytest.mark.parametrize("sep", [" ", ","])
 def test_ur_rtde_csv_by_field_names(tmp_path, sep):
     """UR's csv_writer (space) and ur_rtde (comma) layouts: t, q, q̇ copied; actual_TCP_pose's rotation vector (0, 0, π/2) is
-    Rz(90°) and (π, 0, 0) is diag(1, −1, −1); the wrench keeps RTDE's numbers tagged base axes, flange, on the robot."""
+    Rz(90°) and (π, 0, 0) is diag(1, −1, −1) in the controller's base, which is Rz(180°) in base_link (the models' root):
+    the pose and the wrench come rotated into base_link (x, y, m_x, m_y negated), tagged base axes, flange, on the robot."""
     names, rows = _ur_rows()
     path = _write(tmp_path / "robot_data.csv", names, rows, sep)
     run = read_recording(path)
@@ -46,14 +47,46 @@ def test_ur_rtde_csv_by_field_names(tmp_path, sep):
     np.testing.assert_allclose(run.t, rows[:, 0])
     np.testing.assert_allclose(run.q, rows[:, 1:7])
     np.testing.assert_allclose(run.qd, 0.5)
-    np.testing.assert_allclose(run.pose[0, :3, :3], RZ90, atol=1e-12)
-    np.testing.assert_allclose(run.pose[1, :3, :3], FLIP_X, atol=1e-12)
-    np.testing.assert_allclose(run.pose[2, :3, 3], [0.4, -0.1, 0.32])
-    np.testing.assert_allclose(run.wrench, rows[:, 19:25])
+    rz180 = np.diag([-1.0, -1.0, 1.0])
+    np.testing.assert_allclose(run.pose[0, :3, :3], rz180 @ RZ90, atol=1e-12)
+    np.testing.assert_allclose(run.pose[1, :3, :3], rz180 @ FLIP_X, atol=1e-12)
+    np.testing.assert_allclose(run.pose[2, :3, 3], [-0.4, 0.1, 0.32])
+    np.testing.assert_allclose(run.wrench, rows[:, 19:25] * [-1, -1, 1, -1, -1, 1])
     assert (run.wrench_frame, run.wrench_point, run.wrench_sense) == ("base", "flange", ON_END_EFFECTOR)
     assert any("flange" in note for note in run.metadata["notes"])
+    assert any("rotated into base_link" in note for note in run.metadata["notes"])
     X = run.pose_at(0)
     assert (X.parent, X.child) == ("base", "tcp")
+
+
+def test_ur_rtde_pose_and_wrench_in_the_controllers_base_arrive_in_the_models_root(tmp_path):
+    """A UR5 recording as its controller writes it: actual_TCP_pose is tool0 in the URDF's own frame 'base' (the controller's
+    Base feature, ur_description's fixed joint from base_link), actual_TCP_force a known world force and moment in 'base'
+    axes. Read back: the pose equals the model's forward kinematics of tool0 in its root, the wrench the world one (the
+    reference is the URDF's 'base' frame through Pinocchio, not the reader's rotation)."""
+    import pinocchio as pin
+
+    from forcecontrol.robots.pinocchio import ur5
+
+    arm = ur5()
+    model, data = arm.model, arm.data
+    qs = np.array([[0.3, -1.2, 1.5, -0.9, 1.4, 0.2], [-0.8, -1.9, 2.1, -1.6, -1.3, 0.7]])
+    h_world = np.array([4.0, -7.0, 12.0, 0.3, -0.5, 0.9])
+    rows = []
+    for k, q in enumerate(qs):
+        pin.framesForwardKinematics(model, data, q)
+        o_base = data.oMf[model.getFrameId("base")]
+        tcp = o_base.inverse() * data.oMf[model.getFrameId("tool0")]
+        R_b = o_base.rotation
+        h_base = np.concatenate([R_b.T @ h_world[:3], R_b.T @ h_world[3:]])
+        rows.append([10.0 + 0.002 * k, *q, *np.zeros(6), *tcp.translation, *pin.log3(tcp.rotation), *h_base])
+    names, _ = _ur_rows()
+    run = read_recording(_write(tmp_path / "ur5.csv", names, np.array(rows), ","))
+    for k, q in enumerate(qs):
+        R, p = arm.frame_pose(q)
+        np.testing.assert_allclose(run.pose[k, :3, :3], R, atol=1e-9)
+        np.testing.assert_allclose(run.pose[k, :3, 3], p, atol=1e-12)
+        np.testing.assert_allclose(run.wrench[k], h_world, atol=1e-12)
 
 
 def test_franka_json_states_as_operator_prints_them(tmp_path):
@@ -157,7 +190,8 @@ def test_mixed_and_malformed_recordings_are_refused(tmp_path):
 
 
 def test_resampled_pose_interpolates_the_rotation_on_the_sphere(tmp_path):
-    """Between Rz(0) and Rz(90°) the resampled pose half-way is Rz(45°) (slerp), the position the mean."""
+    """Between Rz(0) and Rz(90°) (in the controller's base) the resampled pose half-way is Rz(45°) (slerp), the position
+    the mean (both then in base_link)."""
     import pandas as pd
 
     n = 2
@@ -171,8 +205,9 @@ def test_resampled_pose_interpolates_the_rotation_on_the_sphere(tmp_path):
     pd.DataFrame(cols).to_csv(path, index=False)
     run = read_recording(path).resample(0.5)
     c = math.cos(math.pi / 4)
-    np.testing.assert_allclose(run.pose[1, :3, :3], [[c, -c, 0], [c, c, 0], [0, 0, 1]], atol=1e-12)
-    np.testing.assert_allclose(run.pose[1, :3, 3], [0.5, 0, 0], atol=1e-12)
+    rz180 = np.diag([-1.0, -1.0, 1.0])  # the controller's base in base_link
+    np.testing.assert_allclose(run.pose[1, :3, :3], rz180 @ [[c, -c, 0], [c, c, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(run.pose[1, :3, 3], [-0.5, 0, 0], atol=1e-12)
     assert run.pose.shape == (3, 4, 4) and n == 2
 
 

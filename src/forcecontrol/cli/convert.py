@@ -13,6 +13,7 @@ base frame, ROS order x, y, z, w).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
@@ -130,8 +131,12 @@ def convert_report(
     if is_ros:
         kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic)
     else:
-        kwargs.update(wrench_frame=base_frame if src.axes == "base" else end_effector_frame)
+        kwargs.update(wrench_frame=end_effector_frame if src.axes == "end-effector" else base_frame)
     rec = read_recording(data, format_, **kwargs)
+    if src.axes == "ur-base" and rec.metadata.get("format") == "ur-rtde":
+        src = replace(src, axes="base")
+        notes.append(f"{data}: the RTDE reader has rotated actual_TCP_force from the controller's base into base_link "
+                     f"already; --from {src.name} is taken in base_link axes")
     file_frame = rec.wrench_frame
     if is_ros and src.axes == "base" and file_frame != base_frame:
         raise ParameterError(
@@ -168,13 +173,12 @@ def convert_report(
             rotations, quat = found
             extra = {c: quat[:, i] for i, c in enumerate(QUATERNION_COLUMNS)}
             orientation = "the table's qx qy qz qw columns"
-    converted = convert_recording(rec, src.name, dst.name, rotations=rotations, flange_offset=offset,
+    converted = convert_recording(rec, src, dst, rotations=rotations, flange_offset=offset,
                                   base_frame=base_frame, end_effector_frame=end_effector_frame)
     if extra is None and not is_ros:
         found = _table_orientation(data, rec.t.size)
         if found is not None:
             extra = {c: found[1][:, i] for i, c in enumerate(QUATERNION_COLUMNS)}
-    from dataclasses import replace
 
     converted = replace(converted, metadata={**converted.metadata, "orientation": orientation, "file_wrench_frame": file_frame})
     table, meta = write_recording(converted, out, extra=extra)

@@ -1,9 +1,10 @@
 """Named wrench conventions (the library's and the vendors') and the conversion of recorded arrays between them.
 
 A :class:`WrenchConvention` says three things about recorded wrench samples: the axes they are
-expressed in (the robot's ``"base"`` frame or the ``"end-effector"``/sensor frame, which rotates
-with the arm), the point the moment is about (the end-effector origin, or a point fixed in the
-end-effector frame such as UR's tool flange) and the sense. :data:`CONVENTIONS` names the ones
+expressed in (the robot's ``"base"`` frame, UR's controller base ``"ur-base"`` (Rz(180°) from the
+``base_link`` of the UR models) or the ``"end-effector"``/sensor frame, which rotates with the
+arm), the point the moment is about (the end-effector origin, or a point fixed in the end-effector
+frame such as UR's tool flange) and the sense. :data:`CONVENTIONS` names the ones
 the adapters of :mod:`.vendors` and :mod:`.ros` document; :func:`convert_wrenches` converts
 (N, m) samples from one to another, given the end-effector's orientation at every sample when
 either side uses end-effector axes or an offset point.
@@ -19,7 +20,12 @@ import numpy as np
 from ...errors import DimensionError, MeasurementError, ParameterError
 from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR
 
-__all__ = ["WrenchConvention", "CONVENTIONS", "convention", "convert_wrenches"]
+__all__ = ["WrenchConvention", "CONVENTIONS", "AXES", "convention", "convert_wrenches"]
+
+#: the axes a convention may use (:attr:`WrenchConvention.axes`)
+AXES = ("base", "ur-base", "end-effector")
+#: UR's controller base in base_link (Rz(180°)), on f and on μ
+_UR_BASE = np.array([-1.0, -1.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -28,7 +34,9 @@ class WrenchConvention:
 
     Attributes:
         name: the key in :data:`CONVENTIONS`.
-        axes: ``"base"`` or ``"end-effector"`` (the end-effector / sensor / K / site frame).
+        axes: ``"base"``, ``"ur-base"`` (a UR controller's base frame: ur_description's ``base``, rotated 180°
+            about z from ``base_link``, the UR models' root and so the library's base) or ``"end-effector"``
+            (the end-effector / sensor / K / site frame).
         point: ``"end-effector"`` (its origin) or ``"flange"`` (a point at ``flange_offset`` in the
             end-effector frame, see :func:`convert_wrenches`).
         sense: :data:`~forcecontrol.realarm.conventions.BY_END_EFFECTOR` or ``ON_END_EFFECTOR``.
@@ -40,6 +48,12 @@ class WrenchConvention:
     point: str
     sense: str
     doc: str
+
+    def __post_init__(self) -> None:
+        for field, value, allowed in (("axes", self.axes, AXES), ("point", self.point, ("end-effector", "flange")),
+                                      ("sense", self.sense, (BY_END_EFFECTOR, ON_END_EFFECTOR))):
+            if value not in allowed:
+                raise ParameterError(f"WrenchConvention {field} must be one of {allowed}; got {value!r}")
 
     @property
     def needs_orientation(self) -> bool:
@@ -63,8 +77,9 @@ CONVENTIONS: dict[str, WrenchConvention] = {
         WrenchConvention("franka-K", "end-effector", "end-effector", BY_END_EFFECTOR,
                          "libfranka K_F_ext_hat_K: external wrench at the K frame, positive as the robot applies it, "
                          "K axes, about K"),
-        WrenchConvention("ur-tcp", "base", "flange", ON_END_EFFECTOR,
-                         "UR RTDE actual_TCP_force: external force on the tool, base axes, about the flange (e-Series)"),
+        WrenchConvention("ur-tcp", "ur-base", "flange", ON_END_EFFECTOR,
+                         "UR RTDE actual_TCP_force: external force on the tool, the controller's base axes (Rz(180°) from "
+                         "base_link), about the flange (e-Series)"),
         WrenchConvention("mujoco", "end-effector", "end-effector", BY_END_EFFECTOR,
                          "MuJoCo force/torque sensors at a site on the tool: parent on child, site axes, about the site"),
         WrenchConvention("ros-on", "end-effector", "end-effector", ON_END_EFFECTOR,
@@ -115,7 +130,8 @@ def convert_wrenches(
     """Convert recorded wrench samples from one convention to another.
 
     Via the library's convention: the sense is flipped when it differs (``h → −h``); end-effector
-    axes are rotated into the base with ``R_e`` (``f = R_e f_e``, ``μ = R_e μ_e``); a moment about
+    axes are rotated into the base with ``R_e`` (``f = R_e f_e``, ``μ = R_e μ_e``), UR's controller
+    base by Rz(180°) (x, y and their moments negated); a moment about
     the flange (at ``p`` in the end-effector frame) moves to the end-effector origin with
     ``μ_e = μ_p − r × f``, ``r = −R_e p`` (from the flange to the end-effector origin); then the
     inverse steps towards the target.
@@ -162,6 +178,8 @@ def convert_wrenches(
         f, mu = -f, -mu
     if src.axes == "end-effector":
         f, mu = np.einsum("kij,kj->ki", R, f), np.einsum("kij,kj->ki", R, mu)
+    elif src.axes == "ur-base":
+        f, mu = f * _UR_BASE, mu * _UR_BASE
     if moves and src.point == "flange":
         r = -np.einsum("kij,j->ki", R, p)  # flange → end-effector origin, base axes
         mu = mu - np.cross(r, f)
@@ -171,6 +189,8 @@ def convert_wrenches(
         mu = mu - np.cross(r, f)
     if dst.axes == "end-effector":
         f, mu = np.einsum("kji,kj->ki", R, f), np.einsum("kji,kj->ki", R, mu)
+    elif dst.axes == "ur-base":
+        f, mu = f * _UR_BASE, mu * _UR_BASE
     if dst.sense != BY_END_EFFECTOR:
         f, mu = -f, -mu
     return np.hstack([f, mu]) if m == 6 else f[:, :m]

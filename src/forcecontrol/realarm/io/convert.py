@@ -9,7 +9,7 @@ from typing import Any
 
 from ...core.jsonsafe import json_safe
 from ...errors import ParameterError
-from ..conventions import convention, convert_wrenches
+from ..conventions import WrenchConvention, convention, convert_wrenches
 from .recorded import RecordedRun
 
 __all__ = ["convert_recording", "write_recording"]
@@ -17,8 +17,8 @@ __all__ = ["convert_recording", "write_recording"]
 
 def convert_recording(
     run: RecordedRun,
-    source: str,
-    target: str,
+    source: str | WrenchConvention,
+    target: str | WrenchConvention,
     *,
     rotations: Any = None,
     flange_offset: Any = None,
@@ -49,7 +49,7 @@ def convert_recording(
     if run.wrench is None:
         raise ParameterError(f"{run.source}: has no wrench to convert")
     h = convert_wrenches(run.wrench, src, dst, rotations=rotations, flange_offset=flange_offset)
-    frame = base_frame if dst.axes == "base" else end_effector_frame
+    frame = {"base": base_frame, "ur-base": "ur-base"}.get(dst.axes, end_effector_frame)
     point = "flange" if dst.point == "flange" else end_effector_frame
     meta = {**run.metadata, "wrench_convention": dst.describe(), "converted_from": src.describe()}
     if flange_offset is not None:

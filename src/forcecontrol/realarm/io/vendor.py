@@ -5,7 +5,12 @@ https://docs.universal-robots.com/tutorials/communication-protocol-tutorials/rtd
 ``timestamp`` [s] (time since the controller started), ``actual_q`` [rad], ``actual_qd`` [rad/s],
 ``actual_TCP_pose`` = ``[x, y, z, rx, ry, rz]`` (the TCP's position [m] and orientation as a
 rotation vector [rad], in the base frame), ``actual_TCP_force`` = ``[Fx, Fy, Fz, Tx, Ty, Tz]``
-("Generalized forces in the TCP", base axes; sense and point: :func:`~forcecontrol.realarm.conventions.from_ur_tcp_force`:
+("Generalized forces in the TCP", base axes). The controller's base frame (its *Base* feature) is
+ur_description's frame ``base``, "the same position as base_link but rotated by 180 degrees around
+the Z-axis" (ur_description, doc/robot_frames.rst); ``base_link`` is the root of the UR URDFs (the
+library's :func:`~forcecontrol.robots.pinocchio.ur5` and ``ur10`` included), so the reader rotates
+both into ``base_link`` (x, y and the moments about them negated) and says so in the run's notes.
+Sense and point: :func:`~forcecontrol.realarm.conventions.from_ur_tcp_force`:
 the moment is about the tool flange on e-Series and about the TCP on CB3, Universal_Robots_ROS2_Driver
 PRs #1287 and #1615; an external sensor through a URCap reports it at the TCP, issue #1849. The
 reader does not move it: the series is not in the file).
@@ -22,7 +27,7 @@ numbers), ``EE_T_K`` (the stiffness frame in the end-effector frame, column-majo
 one object per line, or a list of objects) or from a table with the same names flattened as
 ``<name>_<i>`` (``O_T_EE_0 … O_T_EE_15`` in libfranka's column-major order).
 
-The readers return a :class:`RecordedRun` whose wrench keeps the vendor's numbers, tagged with the
+The readers return a :class:`RecordedRun` whose wrench keeps the vendor's numbers (UR's in base_link axes, above), tagged with the
 vendor's frame, point and sense (a ``K_F_ext_hat_K``-only recording is rotated into the base
 frame with ``O_T_EE · EE_T_K``), and whose ``pose`` holds the measured TCP / end-effector pose.
 ``sense`` overrides the documented sense (``"on-robot"``, ``"by-robot"``) for an arm found to
@@ -53,6 +58,11 @@ __all__ = [
 
 #: the library's own table options (read_table's defaults): a vendor's recording carries its own
 _LIBRARY_DEFAULTS = {"wrench_frame": "base", "wrench_point": "end-effector", "wrench_sense": BY_END_EFFECTOR}
+
+#: RTDE's base (the controller's Base feature, ur_description's ``base``) in ``base_link``: Rz(180°)
+_UR_BASE_LINK_FROM_BASE = np.diag([-1.0, -1.0, 1.0, 1.0])
+#: the same rotation on ``[F; M]``
+_UR_FLIP = np.array([-1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
 
 #: the vendors' recording layouts :func:`read_vendor` knows
 VENDOR_FORMATS = ("ur-rtde", "franka")
@@ -181,11 +191,18 @@ def vendor_run(columns: Mapping[str, Any], format: str, *, sense: str | None = N
         qd = _block(cols, "actual_qd", q.shape[1], source)
         tcp = _block(cols, "actual_TCP_pose", 6, source, required=False)
         force = _block(cols, "actual_TCP_force", 6, source, required=False)
-        pose = None if tcp is None else ur_pose(tcp)
+        # RTDE's base is the controller's Base feature: ur_description's frame ``base``, Rz(180°) from ``base_link``,
+        # the root of every UR URDF (the library's ur5/ur10 models included); both vectors are rotated into base_link
+        pose = None if tcp is None else _UR_BASE_LINK_FROM_BASE @ ur_pose(tcp)
         wsense = _sense(sense, ON_END_EFFECTOR)
         if force is not None:
+            force = force * _UR_FLIP
             notes.append("actual_TCP_force: base axes, the moment about the tool flange (e-Series; about the TCP on CB3): "
                          "the moment is not moved to the TCP")
+        if force is not None or tcp is not None:
+            notes.append("actual_TCP_force/actual_TCP_pose are in the controller's base frame (ur_description's 'base', "
+                         "rotated 180° about z from 'base_link', the root of the UR models): rotated into base_link "
+                         "(x, y and their moments negated)")
         meta = {"format": "ur-rtde", "wrench_columns": [] if force is None else [f"actual_TCP_force_{i}" for i in range(6)],
                 "pose_columns": [] if tcp is None else [f"actual_TCP_pose_{i}" for i in range(6)]}
         run = dict(t=t, q=q, qd=qd, tau=None, wrench=force, wrench_frame="base", wrench_point="flange", pose=pose,
