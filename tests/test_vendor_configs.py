@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import re
 from importlib import resources
 from pathlib import Path
 
@@ -197,6 +198,10 @@ def test_franka_gains_are_read_where_franka_ros_reads_them_and_clamped_to_the_cf
 @pytest.mark.parametrize("text, kind, match", [
     ("c:\n  ros__parameters:\n    admittance: {stiffness: [1, 2, 3, 4, 5, 6]}\n    kinematics: {}\n", None,
      r"key 'admittance.mass' is required \(6 values\); not found"),
+    # an array with a seventh value (was cut to six), a scalar for an array (was reported as not found)
+    (ROS2_FLOW.replace("mass: [", "mass: [1.0, ", 1), None,
+     r"key 'admittance.mass' must have 6 values \(one per axis\); got 7: \[1\.0, "),
+    (ROS2_FLOW, "scalar-mass", r"key 'admittance.mass' must be a list of 6 values \(one per axis\); got 5\.0"),
     (ROS2_FLOW.replace("force: 23.0", "force: heavy"), None,
      r"key 'gravity_compensation.CoG.force' must be a number; got 'heavy'"),
     ("m:\n  ros__parameters:\n    type: x/CartesianMotionController\n    pd_gains: {}\n", None, "cartesian_motion_controller"),
@@ -207,6 +212,8 @@ def test_franka_gains_are_read_where_franka_ros_reads_them_and_clamped_to_the_cf
 ])
 def test_bad_configurations_are_refused_with_the_key_named(text, kind, match):
     """A missing required key, a non-number, an unmodelled controller, no controller, a script with variables, an unknown kind."""
+    if kind == "scalar-mass":
+        text, kind = re.sub(r"mass: \[[^\]]*\]", "mass: 5.0", text, count=1), None
     with pytest.raises(ParameterError, match=match):
         read_config("bad.yaml", kind, text=text)
 

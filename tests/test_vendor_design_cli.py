@@ -140,3 +140,23 @@ def test_design_names_every_scheme_and_its_own_options_when_refusing(tmp_path):
             "fzi-compliance, fzi-force, ros2-admittance, ur-force-mode; got 'inner-velocty'") in proc.stderr
     proc = forcecontrol(tmp_path, "design", "impedance", "--k-min", "1e5", "--k-max", "1e3", ok=False)
     assert proc.returncode == 2 and "--k-min and --k-max must satisfy 0 < k_min <= k_max < inf; got 100000, 1000" in proc.stderr
+
+
+def test_design_refuses_what_the_controller_refuses_and_says_what_reading_the_file_did(tmp_path):
+    """A ros2_controllers YAML with mass 0 on x: `design --config` stops before any loop is designed (exit 2, the key, the
+    bound and the value named), as `import-config` does; a ROS 1 FZI file whose stiffness the dynamic_reconfigure server
+    clamps: the design goes on and says the clamp on stderr and in --json's notes (it was silent)."""
+    text = (CONFIGS / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    assert "\n        - 5.5\n" in text
+    (tmp_path / "zero.yaml").write_text(text.replace("\n        - 5.5\n", "\n        - 0.0\n", 1), encoding="utf-8")
+    bad = forcecontrol(tmp_path, "design", "ros2-admittance", "--config", "zero.yaml", "--k-min", "1e3", "--k-max", "1e5",
+                       ok=False)
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr, bad.stderr
+    assert re.search(r"mass must be >= 0\.0001 kg on every axis; got 0 on axis x", bad.stderr), bad.stderr
+    text = (CONFIGS / "fzi_issue_21.yaml").read_text(encoding="utf-8")
+    assert "trans_z: 140\n" in text
+    (tmp_path / "soft.yaml").write_text(text.replace("trans_z: 140\n", "trans_z: -140\n", 1), encoding="utf-8")
+    args = ("design", "fzi-compliance", "--config", "soft.yaml", "--k-min", "1e3", "--k-max", "1e5")
+    said = "stiffness.trans_z = -140.0 is outside its ROS 1 dynamic_reconfigure range [100, 5000]"
+    assert said in forcecontrol(tmp_path, *args).stderr
+    assert any(said in n for n in json.loads(forcecontrol(tmp_path, *args, "--json").stdout)["notes"])

@@ -95,6 +95,7 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
     """The ``design`` command for a vendor scheme (see the module); the range k_min, k_max is checked by the command."""
     from ..errors import ForceControlError, OutputError, ParameterError
     from ..realarm.conventions.configs import read_config
+    from ..scenarios.parts_vendor import check_vendor_parameters
     from ..scenarios.parts_vendor_analysis import loop_limit, loop_quantities, loop_summary, vendor_loop
     from .app import _fail, print_json, say_note
     from .owned import claim_output, mark_output
@@ -107,6 +108,8 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
         cfg = read_config(config, None if scheme.startswith("fzi") else scheme)
         if cfg.kind != scheme:
             raise ParameterError(f"--config {config}: is a {cfg.kind} configuration; the scheme is {scheme!r}")
+        check_vendor_parameters(cfg)  # values the controller refuses: an error, not a loop designed around them
+        notes += cfg.notes  # what reading the file did (values clamped as the parameter server does, defaults used)
         params = dict(cfg.parameters)
         if solver is not None:
             if not scheme.startswith("fzi"):

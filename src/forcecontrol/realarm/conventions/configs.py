@@ -494,6 +494,7 @@ def _get(node: Any, path: tuple[Any, ...]) -> Any:
 def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], notes: list[str]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name, entries in slots.items():
+        _check_array(where, params, entries)
         vals = []
         missing = []
         for path, default in entries:
@@ -516,6 +517,29 @@ def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, 
             notes.append(f"{keys} not set: the project's default {' / '.join(map(repr, defaults))} is used")
         out[name] = vals[0] if len(entries) == 1 else vals
     return out
+
+
+def _check_array(where: str, params: Any, entries: list[tuple[tuple[Any, ...], Any]]) -> None:
+    """A slot read element by element from one array (``admittance.mass[0]`` ... ``[5]``, ROS 2's double arrays): the
+    array, when given, must be a list of exactly that many values (a longer one was cut, a scalar reported as missing).
+
+    Raises:
+        ParameterError: naming the key, the length expected and what was given.
+    """
+    parents = {path[:-1] for path, _ in entries}
+    if len(parents) != 1 or not all(isinstance(path[-1], int) for path, _ in entries):
+        return
+    parent = next(iter(parents))
+    value = _get(params, parent)
+    if value is _MISSING:
+        return
+    dotted = ".".join(str(x) for x in parent if not isinstance(x, int))
+    n = len(entries)
+    if not isinstance(value, list):
+        raise ParameterError(f"{where}: key {dotted!r} must be a list of {n} values (one per axis); got {_short(value)}")
+    if len(value) != n:
+        raise ParameterError(f"{where}: key {dotted!r} must have {n} values (one per axis); got {len(value)}: "
+                             f"{_short(value)}")
 
 
 def _leaves(node: Any, prefix: str = "") -> list[str]:
