@@ -75,19 +75,33 @@ def test_config_notes_are_clean_note_lines(tmp_path):
 
 
 def test_analyze_covers_ros2_admittance_and_ur_force_mode(tmp_path):
-    """The ros2 admittance example and an imported UR force-mode scenario are analysed (no 'no analysis applies'):
-    the loop named, a verdict, a positive limit."""
+    """The ros2 admittance example and an imported UR force-mode scenario compliant along the table's normal are analysed
+    (no 'no analysis applies'): the loop named, a verdict, a positive limit. The shipped force-mode example is compliant
+    along its task frame's x only, the imported table's normal is z: that loop is not the controller's, and analyze says
+    so (on stderr and in --json) instead of giving a verdict and a steady force for it."""
     doc = json.loads(forcecontrol(tmp_path, "analyze", CONFIGS / "ros2_admittance_example.toml", "--json").stdout)
     for c in doc["cases"]:
         a = c["analysis"]
         assert a["vendor_loop_verdict"] in ("bounces", "settles") and "admittance" in a["vendor_loop"]
     a = doc["cases"][-1]["analysis"]
     assert a["vendor_loop_stability_limit"] > 0
-    scn = forcecontrol(tmp_path, "import-config", CONFIGS / "ur_force_mode.script").stdout
+    script = (CONFIGS / "ur_force_mode.script").read_text(encoding="utf-8")
+    assert "[1,0,0,0,0,0], [20,0,40,0,0,0]" in script
+    (tmp_path / "z.script").write_text(script.replace("[1,0,0,0,0,0], [20,0,40,0,0,0]", "[0,0,1,0,0,0], [0,0,-10,0,0,0]"),
+                                       encoding="utf-8")
+    scn = forcecontrol(tmp_path, "import-config", "z.script").stdout
     (tmp_path / "ur.toml").write_text(scn, encoding="utf-8")
     doc = json.loads(forcecontrol(tmp_path, "analyze", "ur.toml", "--json").stdout)
     a = doc["cases"][0]["analysis"]
     assert "force mode" in a["vendor_loop"] and a["vendor_loop_stability_limit"] > 0
+    scn = forcecontrol(tmp_path, "import-config", CONFIGS / "ur_force_mode.script").stdout
+    (tmp_path / "urx.toml").write_text(scn, encoding="utf-8")
+    proc = forcecontrol(tmp_path, "analyze", "urx.toml", "--json")
+    case = json.loads(proc.stdout)["cases"][0]
+    assert case["analysis"]["vendor_loop"] == "not analysed" and "vendor_loop_verdict" not in case["analysis"]
+    assert not any(k.startswith("steady_") for k in case["analysis"])
+    said = "is on axes selection_vector leaves out (z): along them the arm holds the reference pose"
+    assert said in case["analysis"]["vendor_loop_skipped"] and said in case["sampled_loop_skipped"] and said in proc.stderr
 
 
 def test_analyze_covers_the_fzi_force_controller(tmp_path):
@@ -167,3 +181,29 @@ def test_a_config_found_only_among_the_shipped_examples_is_said(tmp_path):
     out = forcecontrol(tmp_path, "analyze", "proj/press.toml", "--json")
     assert "shipped example" not in out.stderr
     assert "error_scale 0.123" in json.loads(out.stdout)["cases"][0]["analysis"]["vendor_loop"]
+
+
+def test_a_ros2_admittance_without_z_in_selected_axes_is_not_analysed_along_z_nor_designed(tmp_path):
+    """ros2_controllers' admittance with selected_axes z = false on the example's table: the arm holds z (the run never
+    touches the table, 1 cm below), so analyze gives no verdict and no steady force along it (it gave -7.53 N) and says
+    why; `design` refuses to tune a loop along z the controller does not close; the force mode's example (compliant along
+    x only) is designed along x, said."""
+    text = (CONFIGS / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    assert "        - true # z\n" in text
+    (tmp_path / "zoff.yaml").write_text(text.replace("        - true # z\n", "        - false # z\n", 1), encoding="utf-8")
+    toml = (CONFIGS / "ros2_admittance_example.toml").read_text(encoding="utf-8")
+    (tmp_path / "zoff.toml").write_text(toml.replace('config = "ros2_admittance.yaml"', 'config = "zoff.yaml"'),
+                                        encoding="utf-8")
+    proc = forcecontrol(tmp_path, "analyze", "zoff.toml", "--json")
+    for case in json.loads(proc.stdout)["cases"]:
+        assert case["analysis"]["vendor_loop"] == "not analysed" and "steady_fz" not in case["analysis"]
+        assert "is on axes selected_axes leaves out (z)" in case["sampled_loop_skipped"]
+    assert "selected_axes leaves out (z)" in proc.stderr
+    run = json.loads(forcecontrol(tmp_path, "run", "zoff.toml", "--json").stdout)
+    assert all(c["peak_contact_force_norm"] == 0.0 for c in run["cases"])  # what the analysis no longer contradicts
+    bad = forcecontrol(tmp_path, "design", "ros2-admittance", "--config", "zoff.yaml", "--k-min", "1e3", "--k-max", "1e4",
+                       ok=False)
+    assert bad.returncode == 2 and "selected_axes leaves out (z)" in bad.stderr and "Traceback" not in bad.stderr
+    ur = forcecontrol(tmp_path, "design", "ur-force-mode", "--config", CONFIGS / "ur_force_mode.script", "--k-min", "1e3",
+                      "--k-max", "1e5")
+    assert "selection_vector makes x compliant, not z: the loop designed is the force mode's along x" in ur.stderr

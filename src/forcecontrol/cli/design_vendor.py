@@ -93,10 +93,12 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
                   servo_damping: float, delay: int | None, gain_margin: float, solver: str | None, out: Path | None,
                   force: bool, json_out: bool) -> None:
     """The ``design`` command for a vendor scheme (see the module); the range k_min, k_max is checked by the command."""
+    import numpy as np
+
     from ..errors import ForceControlError, OutputError, ParameterError
     from ..realarm.conventions.configs import read_config
     from ..scenarios.parts_vendor import check_vendor_parameters
-    from ..scenarios.parts_vendor_analysis import loop_limit, loop_quantities, loop_summary, vendor_loop
+    from ..scenarios.parts_vendor_analysis import loop_limit, loop_quantities, loop_summary, unselected_reason, vendor_loop
     from .app import _fail, print_json, say_note
     from .owned import claim_output, mark_output
 
@@ -122,6 +124,16 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
                 notes.append("no update_rate in the file: the loop is analysed at 500 Hz (--rate sets another)")
         elif cfg.rate is not None and abs(cfg.rate - rate) > 1e-9 * rate:
             notes.append(f"the file's update_rate {cfg.rate:g} Hz differs from --rate {rate:g} Hz: the loop runs at --rate")
+        # the axis designed for: z; a force mode's loop is the same on each compliant axis (its gains are not per axis)
+        sel = params.get("selection_vector") if scheme == "ur-force-mode" else None
+        axis = next((i for i in (2, 0, 1) if sel is not None and sel[i]), 2)
+        skipped = unselected_reason(scheme, params, np.eye(3)[axis])
+        if skipped is not None:
+            raise ParameterError(f"--config {config}: design tunes the contact loop along a compliant axis (z), but "
+                                 f"{skipped}; make the contact's axis compliant in the file to design that loop")
+        if axis != 2:
+            notes.append(f"selection_vector makes {'xyz'[axis]} compliant, not z: the loop designed is the force mode's "
+                         f"along {'xyz'[axis]} (its gains are the same on every compliant axis)")
         servo = (rate, servo_bandwidth, servo_damping, 1 if delay is None else int(delay))
         margin = 10.0 ** (gain_margin / 20.0)
         target = margin * k_max

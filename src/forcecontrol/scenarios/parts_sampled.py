@@ -317,6 +317,8 @@ def sampled_loop_skip_reason(parts: dict[str, Any], analysis: dict[str, Any]) ->
     from ..controllers.spatial import SpatialImpedanceController
 
     ctl = parts["controller"]
+    if analysis.get("vendor_loop_skipped"):  # a vendor loop the controller does not close along the contact normal
+        return f"the vendor controller's contact loop is not analysed: {analysis['vendor_loop_skipped']}"
     if _applies(parts):
         if not any(_RADIUS.match(k) for k in analysis):
             return "the arm's inertia matrix is singular at q0: no mobility J B⁻¹ Jᵀ to take the held force"

@@ -79,6 +79,27 @@ def vendor_loop(kind: str, params: dict[str, Any], servo: tuple[float, float, fl
     raise ValueError(f"no sampled loop for {kind!r}")
 
 
+#: where each vendor controller says which axes it makes compliant (1/true: compliant; the rest hold the reference pose)
+SELECTION_KEYS = {"ros2-admittance": "selected_axes", "ur-force-mode": "selection_vector"}
+
+
+def unselected_reason(kind: str, params: dict[str, Any], direction: Any) -> str | None:
+    """Why the sampled loop along ``direction`` (a unit 3-vector in the gains' frame) is not the controller's: the
+    direction lies, wholly or in part (more than 0.1 % of its weight, 1.8°), on translational axes its selection leaves
+    out (ros2_controllers' ``selected_axes``, UR's ``selection_vector``), along which the arm holds the reference pose;
+    None when it is on selected axes (or the controller has no selection)."""
+    key = SELECTION_KEYS.get(kind)
+    if key is None or params.get(key) is None:
+        return None
+    sel = np.broadcast_to(np.asarray(params[key], dtype=float), (6,))[:3]
+    d = np.asarray(direction, dtype=float)[:3]
+    if float(d @ (sel * d)) >= 1.0 - 1e-3:  # at most 0.1 % of the normal's weight (1.8°) on held axes: the loop is the
+        return None                         # controller's to that accuracy
+    off = ", ".join(n for n, s, di in zip("xyz", sel, d) if not s and di * di > 1e-6)  # the held axes it lies on
+    return (f"the contact normal {np.round(d, 6).tolist()} (in the gains' frame) is on axes {key} leaves out ({off}): "
+            "along them the arm holds the reference pose, a position-controlled contact outside this loop's model")
+
+
 def loop_radius(loop: Any, k_e: float) -> float:
     """The loop's spectral radius at environment stiffness ``k_e`` [N/m]."""
     from ..analysis.vendor_fzi import FdccLoop, fdcc_spectral_radius
@@ -164,6 +185,12 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
     params = {k: getattr(ctl, k) for k in ("p", "d", "error_scale", "stiffness", "iterations", "solver", "virtual_mass",
                                            "internal_period", "mass", "damping_ratio", "joint_damping", "filter_coefficient",
                                            "kinematics_alpha", "gain", "gain_scaling", "damping") if hasattr(ctl, k)}
+    for key in SELECTION_KEYS.values():
+        if hasattr(ctl, key):
+            params[key] = getattr(ctl, key)
+    skipped = unselected_reason(kind, params, direction)
+    if skipped is not None:  # no verdict and no steady force from a loop the controller does not close (said)
+        return {"vendor_loop": "not analysed", "vendor_loop_skipped": skipped}
     loop = vendor_loop(kind, params, _servo_of(robot), direction, pd_direction=nu)  # FZI's p, d: per base axis
     out: dict[str, Any] = {"vendor_loop": loop_summary(kind, loop), **loop_quantities(loop, k_e)}
     payload = getattr(getattr(robot, "torque_robot", robot), "payload", None)
