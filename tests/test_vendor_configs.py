@@ -458,3 +458,22 @@ def test_a_yaml_alias_bomb_is_refused_at_once():
         read_config("bomb.yaml", text="\n".join(lines) + "\n")
     for f in sorted(CONFIGS.glob("*.yaml")):
         assert read_config(f).parameters
+
+
+def test_a_missing_frame_id_or_compliance_ref_link_is_said_with_what_is_assumed():
+    """ros2 admittance without control.frame.id (and without gravity_compensation.frame.id) and an FZI compliance file
+    without compliance_ref_link: each is read as the tool frame, and the notes say so (it was silent)."""
+    configs = resources.files("forcecontrol.scenarios") / "configs"
+    text = (configs / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    control = "    control:\n      frame:\n        id: tool0 # displacements and gains are diagonal in this frame\n"
+    assert control in text
+    c = read_config("a.yaml", text=text.replace(control, "    control:\n      frame:\n"))
+    assert c.parameters["control_frame"] == "tool"
+    assert any(n.startswith("control.frame.id not set: taken as kinematics.tip, the tool") for n in c.notes), c.notes
+    assert not any("not set: taken as kinematics.tip" in n for n in read_config("a.yaml", text=text).notes)
+    fzi = (configs / "fzi_issue_21.yaml").read_text(encoding="utf-8")
+    assert '    compliance_ref_link: "tool0"\n' in fzi
+    c = read_config("f.yaml", text=fzi.replace('    compliance_ref_link: "tool0"\n', ""))
+    assert c.parameters["compliance_frame"] == "tool"
+    assert any(n.startswith("compliance_ref_link not set: the stiffness is taken in the end-effector (tool) frame")
+               for n in c.notes), c.notes

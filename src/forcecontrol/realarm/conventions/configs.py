@@ -359,7 +359,11 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
             raise ParameterError(f"{where}: ik_solver {params['ik_solver']!r} is not modelled (only forward_dynamics)")
         base = params.get("robot_base_link")
         if k == "fzi-compliance":
-            values["compliance_frame"] = "base" if base is not None and params.get("compliance_ref_link") == base else "tool"
+            ref = params.get("compliance_ref_link")
+            values["compliance_frame"] = "base" if base is not None and ref == base else "tool"
+            if ref is None:
+                notes.append("compliance_ref_link not set: the stiffness is taken in the end-effector (tool) frame "
+                             "(set it: the controller applies the stiffness in that frame)")
     if k == "ros2-admittance":
         values["control_frame"] = _admittance_frame(where, params, ("control", "frame", "id"), notes)
         values["payload_frame"] = _admittance_frame(where, params, ("gravity_compensation", "frame", "id"), notes)
@@ -434,8 +438,12 @@ def _admittance_frame(where: str, params: Any, path: tuple[str, ...], notes: lis
     fid = _get(params, path)
     base, tip = _get(params, ("kinematics", "base")), _get(params, ("kinematics", "tip"))
     world = _get(params, ("fixed_world_frame", "frame", "id"))
-    if fid is _MISSING or fid == base:
-        return "base" if fid is not _MISSING else "tool"
+    if fid is _MISSING:
+        notes.append(f"{key} not set: taken as kinematics.tip, the tool (set it: the controller takes its gains and "
+                     "selected axes in that frame)")
+        return "tool"
+    if fid == base:
+        return "base"
     if fid == tip:
         return "tool"
     if fid == world:
