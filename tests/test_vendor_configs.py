@@ -477,3 +477,15 @@ def test_a_missing_frame_id_or_compliance_ref_link_is_said_with_what_is_assumed(
     assert c.parameters["compliance_frame"] == "tool"
     assert any(n.startswith("compliance_ref_link not set: the stiffness is taken in the end-effector (tool) frame")
                for n in c.notes), c.notes
+
+
+def test_integers_for_the_admittance_controllers_doubles_are_said():
+    """ros2_controllers' admittance parameters are doubles: `mass: [5, ...]` does not load on the robot (the shipped
+    example's own comment: write the ".0"); read as numbers here, and the notes name the key (it was silent)."""
+    text = (resources.files("forcecontrol.scenarios") / "configs" / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    assert "        - 5.5\n" in text and "        - 6.6\n" in text
+    ints = text.replace("        - 5.5\n", "        - 5\n", 1).replace("        - 6.6\n", "        - 6\n", 1)
+    c = read_config("a.yaml", text=ints)
+    assert c.parameters["mass"][:2] == [5.0, 6.0]
+    assert any(n.startswith("admittance.mass (2 values): written as integers") for n in c.notes), c.notes
+    assert not any("written as integers" in n for n in read_config("a.yaml", text=text).notes)

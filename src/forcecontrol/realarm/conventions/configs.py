@@ -348,6 +348,8 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
     notes = [f"section {o[0]!r} ({o[1]}) not read (use --section)" for o in found[1:]]
     notes += [f"section {s_!r} is not a controller this reads: not read" for s_ in skipped]
     values = _read_slots(where, params, _SLOTS[k], notes)
+    if k == "ros2-admittance":  # generate_parameter_library's double arrays (FZI's own ROS 2 examples write integers)
+        _say_integral_doubles(params, _SLOTS[k], notes)
     if k == "fzi-compliance" and layout == "ros1" and _get(params, ("solver", "iterations")) is _MISSING:
         values["iterations"] = 10
         notes[:] = [n for n in notes if not n.startswith("solver.iterations not set")]  # not the project's default 1
@@ -525,6 +527,25 @@ def _read_slots(where: str, params: Any, slots: dict[str, list[tuple[tuple[Any, 
             notes.append(f"{keys} not set: the project's default {' / '.join(map(repr, defaults))} is used")
         out[name] = vals[0] if len(entries) == 1 else vals
     return out
+
+
+def _say_integral_doubles(params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], notes: list[str]) -> None:
+    """Note the double parameters a ros2_controllers file writes as integers (``mass: [5, 6, ...]``): a parameter
+    declared as a double (array) does not take an integer when the robot loads the file; read here as the numbers they
+    are."""
+    keys: dict[str, int] = {}
+    for name, entries in slots.items():
+        if name in ("iterations", "selected_axes"):  # an integer and booleans
+            continue
+        for path, _ in entries:
+            v = _get(params, path)
+            if isinstance(v, int) and not isinstance(v, bool):
+                dotted = ".".join(str(x) for x in path if not isinstance(x, int))
+                keys[dotted] = keys.get(dotted, 0) + 1
+    if keys:
+        said = ", ".join(k if n == 1 else f"{k} ({n} values)" for k, n in keys.items())
+        notes.append(f"{said}: written as integers; the controller declares them as doubles, which do not take an "
+                     "integer when the robot loads the file (write 5.0, not 5); read here as numbers")
 
 
 def _check_array(where: str, params: Any, entries: list[tuple[tuple[Any, ...], Any]]) -> None:
