@@ -207,3 +207,27 @@ def test_a_ros2_admittance_without_z_in_selected_axes_is_not_analysed_along_z_no
     ur = forcecontrol(tmp_path, "design", "ur-force-mode", "--config", CONFIGS / "ur_force_mode.script", "--k-min", "1e3",
                       "--k-max", "1e5")
     assert "selection_vector makes x compliant, not z: the loop designed is the force mode's along x" in ur.stderr
+
+
+def test_import_config_inline_keeps_selected_axes_and_a_scenario_can_set_them(tmp_path):
+    """`import-config --inline` wrote no selected_axes (a file with z deselected became an all-axes admittance that
+    presses the table): the inline scenario now carries them and runs as the file does (no contact, no verdict); a
+    scenario sets them itself, and six numbers or five booleans are refused naming the key."""
+    text = (CONFIGS / "ros2_admittance.yaml").read_text(encoding="utf-8")
+    (tmp_path / "zoff.yaml").write_text(text.replace("        - true # z\n", "        - false # z\n", 1), encoding="utf-8")
+    inline = forcecontrol(tmp_path, "import-config", "zoff.yaml", "--inline").stdout
+    assert "selected_axes = [true, true, false, true, true, true]" in inline
+    (tmp_path / "inline.toml").write_text(inline, encoding="utf-8")
+    run = json.loads(forcecontrol(tmp_path, "run", "inline.toml", "--json").stdout)
+    assert all(c["peak_contact_force_norm"] == 0.0 for c in run["cases"])
+    a = json.loads(forcecontrol(tmp_path, "analyze", "inline.toml", "--json").stdout)["cases"][0]["analysis"]
+    assert a["vendor_loop"] == "not analysed"
+    pressing = inline.replace("selected_axes = [true, true, false, true, true, true]",
+                              "selected_axes = [true, true, true, true, true, true]")
+    (tmp_path / "all.toml").write_text(pressing, encoding="utf-8")
+    run = json.loads(forcecontrol(tmp_path, "run", "all.toml", "--json").stdout)
+    assert all(c["peak_contact_force_norm"] > 1.0 for c in run["cases"])  # the same file with z selected touches
+    for bad, said in (("[1, 1, 0, 1, 1, 1]", "selected_axes"), ("[true, true, false, true, true]", "selected_axes")):
+        (tmp_path / "bad.toml").write_text(inline.replace("[true, true, false, true, true, true]", bad), encoding="utf-8")
+        proc = forcecontrol(tmp_path, "run", "bad.toml", ok=False)
+        assert proc.returncode == 2 and said in proc.stderr and "Traceback" not in proc.stderr, proc.stderr

@@ -36,6 +36,8 @@ VENDOR_TYPES: dict[str, tuple[str, dict[str, Field]]] = {
         "mass": Field(_V, doc="admittance.mass per axis [kg, kg m^2]"),
         "damping_ratio": Field(_V, doc="admittance.damping_ratio per axis"),
         "stiffness": Field(_V, doc="admittance.stiffness per axis [N/m, N m/rad]"),
+        "selected_axes": Field("boollist", doc="admittance.selected_axes: six true/false, where the admittance acts "
+                                              "(the other axes hold the reference pose)"),
         "joint_damping": Field("number", low=0.0, doc="admittance.joint_damping [1/s]"),
         "filter_coefficient": Field("number", low=0.0, high=1.0, doc="ft_sensor.filter_coefficient"),
         "kinematics_alpha": Field("number", low=0.0, doc="kinematics.alpha"),

@@ -46,7 +46,7 @@ class Field:
 
     Attributes:
         kind: ``"number"``, ``"int"``, ``"bool"``, ``"str"``, ``"vector"`` (list of numbers),
-            ``"gain"`` (number, list of numbers or list of lists), ``"strlist"``, ``"table"``.
+            ``"gain"`` (number, list of numbers or list of lists), ``"strlist"``, ``"boollist"``, ``"table"``.
         required: the key must be present.
         default: value when absent (ignored when required).
         doc: one line for ``forcecontrol schema`` and error messages.
@@ -184,6 +184,7 @@ _EXPECTED = {
     "vector": "a non-empty list of numbers",
     "gain": "a number, a list of numbers (diagonal) or a list of rows (matrix)",
     "strlist": "a non-empty list of strings",
+    "boollist": "a non-empty list of true/false",
     "table": "a table",
 }
 
@@ -246,6 +247,8 @@ def _annotation(field: Field) -> Any:
         return entry | conlist(entry, min_length=1) | conlist(conlist(entry, min_length=1), min_length=1)
     if kind == "strlist":
         return conlist(StrictStr, min_length=1)
+    if kind == "boollist":
+        return conlist(StrictBool, min_length=1)
     if kind == "table":
         return dict[str, Any]
     raise ValueError(f"unknown field kind {kind!r}")
