@@ -375,8 +375,15 @@ def test_ros2_admittance_frames_are_the_base_the_tip_or_refused():
     c = read_config("a.yaml", text=world)
     assert c.parameters["control_frame"] == "base" and any("assumed to coincide" in n for n in c.notes)
     with pytest.raises(ParameterError, match=r"control\.frame\.id 'base' is neither kinematics\.base 'base_link', "
-                                             r"kinematics\.tip 'tool0'"):
+                                             r"kinematics\.tip 'tool0', ft_sensor\.frame\.id 'link_6'"):
         read_config("a.yaml", text=text.replace(control, "    control:\n      frame:\n        id: base"))
+    # the sensor's frame (link_6 in the example) is where the sensor is simulated: the tool, said (it was refused)
+    gravity = "    gravity_compensation:\n      frame:\n        id: tool0"
+    assert gravity in text
+    c = read_config("a.yaml", text=text.replace(gravity, "    gravity_compensation:\n      frame:\n        id: link_6"))
+    assert c.parameters["payload_frame"] == "tool"
+    assert any(n.startswith("gravity_compensation.frame.id = 'link_6' is ft_sensor.frame.id: taken as the tool")
+               for n in c.notes), c.notes
 
 
 def test_a_controllers_own_update_rate_comes_before_the_controller_managers():

@@ -434,8 +434,8 @@ def _admittance_frame(where: str, params: Any, path: tuple[str, ...], notes: lis
     """The simulated frame ('base' or 'tool') of a ros2 admittance frame id. admittance_rule_impl.hpp rotates K, D, M,
     the selected axes (control.frame.id) and the CoG (gravity_compensation.frame.id) into that frame at the current
     joints: kinematics.base is the base, kinematics.tip the tool; fixed_world_frame.frame.id is taken as the base
-    (said); any other name is refused: a fixed frame turned from the base, or a link between base and tip, is not
-    modelled, and reading it as the tool would turn the gains with the arm."""
+    and ft_sensor.frame.id as the tool (said); any other name is refused: a fixed frame turned from the base, or a
+    link between base and tip, is not modelled, and reading it as the tool would turn the gains with the arm."""
     key = ".".join(path)
     fid = _get(params, path)
     base, tip = _get(params, ("kinematics", "base")), _get(params, ("kinematics", "tip"))
@@ -448,11 +448,17 @@ def _admittance_frame(where: str, params: Any, path: tuple[str, ...], notes: lis
         return "base"
     if fid == tip:
         return "tool"
+    sensor = _get(params, ("ft_sensor", "frame", "id"))
+    if fid == sensor:  # the sensor is simulated at the tool (ft_sensor.frame.id's own note)
+        notes.append(f"{key} = {fid!r} is ft_sensor.frame.id: taken as the tool, where the sensor is simulated (a "
+                     "rotation between the sensor's frame and kinematics.tip is not modelled)")
+        return "tool"
     if fid == world:
         notes.append(f"{key} = {fid!r} is fixed_world_frame.frame.id: taken as the robot's base (kinematics.base "
                      f"{base!r}), i.e. the two are assumed to coincide")
         return "base"
-    raise ParameterError(f"{where}: {key} {fid!r} is neither kinematics.base {base!r}, kinematics.tip {tip!r} nor "
+    raise ParameterError(f"{where}: {key} {fid!r} is neither kinematics.base {base!r}, kinematics.tip {tip!r}, "
+                         f"ft_sensor.frame.id {sensor if sensor is not _MISSING else None!r} nor "
                          f"fixed_world_frame.frame.id {world if world is not _MISSING else None!r}: the simulation does not "
                          "know where that frame is (a fixed frame turned from the base, or a link of the arm); name one "
                          "of those frames")
