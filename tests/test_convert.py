@@ -101,6 +101,17 @@ def test_every_pair_agrees_with_sensed_wrench_and_round_trips():
             np.testing.assert_allclose(convert_wrenches(there, other, name, rotations=R, flange_offset=p), h, atol=1e-12)
 
 
+def test_rotations_printed_to_six_decimals_are_taken_as_the_nearest_rotation():
+    """A CSV of end-effector rotations written with 6 decimals is orthonormal to about 1e-6 only (it was refused at
+    1e-6): converted as with the exact rotations to 1e-5 of the wrench; 1e-2 off is refused."""
+    R = Rotation.random(20, random_state=7).as_matrix()
+    h = np.random.default_rng(8).normal(size=(20, 6))
+    exact = convert_wrenches(h, "franka-K", "library", rotations=R)
+    np.testing.assert_allclose(convert_wrenches(h, "franka-K", "library", rotations=np.round(R, 6)), exact, atol=1e-5)
+    with pytest.raises(ParameterError, match=r"orthonormal \(RᵀR = I within 1e-3\)"):
+        convert_wrenches(h, "franka-K", "library", rotations=R * 1.01)
+
+
 def test_planar_and_force_only_wrenches():
     """Two components (fx, fy): rotated about z as (fx, fy, 0); three: the force only."""
     phi = np.array([0.3, -1.2])
@@ -126,6 +137,8 @@ def test_conversion_errors_name_the_problem():
         convert_wrenches(h, "franka-K", "library")
     with pytest.raises(ParameterError, match="orthonormal"):
         convert_wrenches(h, "franka-K", "library", rotations=2 * np.eye(3))
+    with pytest.raises(ParameterError, match=r"sample 0 is a reflection \(det -1\)"):
+        convert_wrenches(h, "franka-K", "library", rotations=np.diag([1.0, 1.0, -1.0]))
     with pytest.raises(DimensionError, match=r"rotations must have shape \(2, 3, 3\)"):
         convert_wrenches(h, "franka-K", "library", rotations=np.zeros((3, 3, 3)))
     with pytest.raises(DimensionError, match="needs all 6 components"):

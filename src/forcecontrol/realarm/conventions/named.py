@@ -114,8 +114,15 @@ def _rotations(rotations: Any, N: int) -> np.ndarray:
     if not np.all(np.isfinite(R)):
         raise MeasurementError("rotations contain NaN or inf")
     err = np.abs(np.einsum("kji,kjl->kil", R, R) - np.eye(3)).max()
-    if err > 1e-6:
-        raise ParameterError(f"rotations must be orthonormal (RᵀR = I within 1e-6); the worst deviates by {err:.3g}")
+    if err > 1e-3:
+        raise ParameterError(f"rotations must be orthonormal (RᵀR = I within 1e-3); the worst deviates by {err:.3g}")
+    det = np.linalg.det(R)
+    if np.any(det < 0.0):
+        k = int(np.flatnonzero(det < 0.0)[0])
+        raise ParameterError(f"rotations must be rotations (det R = +1); sample {k} is a reflection (det {det[k]:.3g})")
+    if err > 1e-12:  # printed to a few digits (a CSV of 6 decimals is orthonormal to about 1e-6): the nearest rotation
+        U, _, Vt = np.linalg.svd(R)
+        R = U @ Vt
     return R
 
 
@@ -141,6 +148,8 @@ def convert_wrenches(
         source, target: convention names (:data:`CONVENTIONS`) or :class:`WrenchConvention` objects.
         rotations: R_e, the end-effector frame's orientation in the base frame, (N, 3, 3) or
             (3, 3); needed when either convention uses end-effector axes, or a flange offset is given.
+            Orthonormal within 1e-3 (a matrix printed to a few digits) and projected onto the nearest
+            rotation (SVD); a reflection is refused.
         flange_offset: the flange's position in the end-effector frame [m] (3,) for ``"ur-tcp"``
             (e-Series: the TCP's offset, negated); default zero (TCP at the flange, or CB3).
 
