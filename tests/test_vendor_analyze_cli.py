@@ -9,6 +9,7 @@ from importlib import resources
 from pathlib import Path
 
 import pytest
+import tomllib
 
 from journeys_helpers import forcecontrol
 
@@ -77,8 +78,9 @@ def test_config_notes_are_clean_note_lines(tmp_path):
 def test_analyze_covers_ros2_admittance_and_ur_force_mode(tmp_path):
     """The ros2 admittance example and an imported UR force-mode scenario compliant along the table's normal are analysed
     (no 'no analysis applies'): the loop named, a verdict, a positive limit. The shipped force-mode example is compliant
-    along its task frame's x only, the imported table's normal is z: that loop is not the controller's, and analyze says
-    so (on stderr and in --json) instead of giving a verdict and a steady force for it."""
+    along its task frame's x only: import-config puts the table across that push (it put it below the tool, along z,
+    whatever the compliant axis), and its steady force is the 20 N of the file; against a table along z that loop is not
+    the controller's, and analyze says so (on stderr and in --json) instead of a verdict and a steady force for it."""
     doc = json.loads(forcecontrol(tmp_path, "analyze", CONFIGS / "ros2_admittance_example.toml", "--json").stdout)
     for c in doc["cases"]:
         a = c["analysis"]
@@ -96,6 +98,18 @@ def test_analyze_covers_ros2_admittance_and_ur_force_mode(tmp_path):
     assert "force mode" in a["vendor_loop"] and a["vendor_loop_stability_limit"] > 0
     scn = forcecontrol(tmp_path, "import-config", CONFIGS / "ur_force_mode.script").stdout
     (tmp_path / "urx.toml").write_text(scn, encoding="utf-8")
+    # the shipped example pushes 20 N along its task frame's x, Rz(0.785) from the base: its table faces that push
+    c, s = math.cos(0.785), math.sin(0.785)
+    env = tomllib.loads(scn)["environment"]
+    assert env["normal"] == pytest.approx([-c, -s, 0.0], abs=1e-9) and env["offset"] == pytest.approx([0.005 * c, 0.005 * s, 0])
+    a = json.loads(forcecontrol(tmp_path, "analyze", "urx.toml", "--json").stdout)["cases"][0]["analysis"]
+    assert a["vendor_loop_verdict"] == "settles"
+    assert [a["steady_fx"], a["steady_fy"], a["steady_fz"]] == pytest.approx([20 * c, 20 * s, 0.0], abs=1e-9)
+    # the same controller against a table below the tool (along z, which the force mode holds)
+    below = scn.replace(f"offset = {env['offset']!r}".replace("'", ""), "offset = [0.0, 0.0, -0.005]")
+    below = below.replace(f"normal = {env['normal']!r}".replace("'", ""), "normal = [0.0, 0.0, 1.0]")
+    assert "normal = [0.0, 0.0, 1.0]" in below and "offset = [0.0, 0.0, -0.005]" in below
+    (tmp_path / "urx.toml").write_text(below, encoding="utf-8")
     proc = forcecontrol(tmp_path, "analyze", "urx.toml", "--json")
     case = json.loads(proc.stdout)["cases"][0]
     assert case["analysis"]["vendor_loop"] == "not analysed" and "vendor_loop_verdict" not in case["analysis"]

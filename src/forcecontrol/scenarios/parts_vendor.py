@@ -246,8 +246,14 @@ def scenario_toml(cfg: Any, *, inline: bool = False) -> str:
         lines += ["", "[robot.servo]", 'preset = "ur-e-series"']
         if cfg.rate is not None:
             lines.append(f"rate = {float(cfg.rate)!r}")
-    lines += ["", "[environment]", 'type = "table"', "offset = [0.0, 0.0, -0.005]", "stiffness = 5000.0", "",
-              "[controller]", f'type = "{kind}"']
+    push, signals = _force_mode_push(cfg) if kind == "ur-force-mode" else (None, ["z", "fz"])
+    if push is None:
+        lines += ["", "[environment]", 'type = "table"', "offset = [0.0, 0.0, -0.005]", "stiffness = 5000.0"]
+    else:  # the table 5 mm ahead along the force mode's compliant axis, facing the push
+        lines += ["", "[environment]", 'type = "table"', f"offset = {_toml_value([0.005 * v for v in push])}",
+                  f"normal = {_toml_value([-v + 0.0 for v in push])}", "stiffness = 5000.0",
+                  "# the table faces the force mode's push (task frame, selection_vector and wrench of the file)"]
+    lines += ["", "[controller]", f'type = "{kind}"']
     fields = VENDOR_TYPES[kind][1]
     params = {k: v for k, v in cfg.parameters.items() if k in fields}
     if inline:
@@ -266,8 +272,27 @@ def scenario_toml(cfg: Any, *, inline: bool = False) -> str:
         if kind == "ros2-admittance":  # upstream's ~/wrench_reference is in the sensor frame, this is the base frame's
             lines.append("# base frame; on the robot, ~/wrench_reference takes it in the ft_sensor frame: R_sensor^T f "
                          "(at q0 the tool's z points down: about (0, 0, 10) there)")
-    lines += ["", "[figure]", 'signals = ["z", "fz"]', ""]
+    lines += ["", "[figure]", f"signals = {_toml_value(signals)}", ""]
     return "\n".join(lines)
+
+
+def _force_mode_push(cfg: Any) -> tuple[list[float] | None, list[str]]:
+    """The unit direction (base frame) a force mode pushes along (its first compliant translational axis, z first, in
+    the task frame, signed by the wrench the robot applies on it) and the figure's signals; (None, z) when no
+    translational axis is compliant or its wrench is zero (the table stays below the tool)."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    p = cfg.parameters
+    sel, wrench = p.get("selection_vector") or [0.0] * 6, p.get("wrench") or [0.0] * 6
+    axis = next((i for i in (2, 0, 1) if sel[i] and wrench[i] != 0.0), None)
+    if axis is None:
+        return None, ["z", "fz"]
+    R = Rotation.from_rotvec(np.asarray((p.get("task_frame") or [0.0] * 6)[3:6], dtype=float)).as_matrix()
+    d = np.sign(wrench[axis]) * R[:, axis]
+    d = [float(round(v, 12)) + 0.0 for v in d]
+    names = [n for n, v in zip("xyz", d) if abs(v) > 0.1]
+    return d, [*names, *(f"f{n}" for n in names)]
 
 
 def check_vendor_parameters(cfg: Any) -> None:
