@@ -98,7 +98,14 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
     from ..errors import ForceControlError, OutputError, ParameterError
     from ..realarm.conventions.configs import read_config
     from ..scenarios.parts_vendor import check_vendor_parameters
-    from ..scenarios.parts_vendor_analysis import loop_limit, loop_quantities, loop_summary, unselected_reason, vendor_loop
+    from ..scenarios.parts_vendor_analysis import (
+        compliant_axis,
+        loop_limit,
+        loop_quantities,
+        loop_summary,
+        unselected_reason,
+        vendor_loop,
+    )
     from .app import _fail, print_json, say_note
     from .owned import claim_output, mark_output
 
@@ -125,8 +132,8 @@ def design_vendor(scheme: str, config: Path | None, k_min: float, k_max: float, 
         elif cfg.rate is not None and abs(cfg.rate - rate) > 1e-9 * rate:
             notes.append(f"the file's update_rate {cfg.rate:g} Hz differs from --rate {rate:g} Hz: the loop runs at --rate")
         # the axis designed for: z; a force mode's loop is the same on each compliant axis (its gains are not per axis)
-        sel = params.get("selection_vector") if scheme == "ur-force-mode" else None
-        axis = next((i for i in (2, 0, 1) if sel is not None and sel[i]), 2)
+        axis = compliant_axis(params.get("selection_vector") if scheme == "ur-force-mode" else None)
+        axis = 2 if axis is None else axis
         skipped = unselected_reason(scheme, params, np.eye(3)[axis])
         if skipped is not None:
             raise ParameterError(f"--config {config}: design tunes the contact loop along a compliant axis (z), but "

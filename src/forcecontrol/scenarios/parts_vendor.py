@@ -283,9 +283,11 @@ def _force_mode_push(cfg: Any) -> tuple[list[float] | None, list[str]]:
     import numpy as np
     from scipy.spatial.transform import Rotation
 
+    from .parts_vendor_analysis import compliant_axis
+
     p = cfg.parameters
     sel, wrench = p.get("selection_vector") or [0.0] * 6, p.get("wrench") or [0.0] * 6
-    axis = next((i for i in (2, 0, 1) if sel[i] and wrench[i] != 0.0), None)
+    axis = compliant_axis(sel, wrench)
     if axis is None:
         return None, ["z", "fz"]
     R = Rotation.from_rotvec(np.asarray((p.get("task_frame") or [0.0] * 6)[3:6], dtype=float)).as_matrix()

@@ -100,6 +100,14 @@ def unselected_reason(kind: str, params: dict[str, Any], direction: Any) -> str 
             "along them the arm holds the reference pose, a position-controlled contact outside this loop's model")
 
 
+def compliant_axis(selection: Any, wrench: Any = None) -> int | None:
+    """The translational axis (0, 1, 2) a force mode is analysed or placed along: the first compliant one of z, x, y
+    (with a non-zero ``wrench`` on it, when given), or None."""
+    if selection is None:
+        return None
+    return next((i for i in (2, 0, 1) if selection[i] and (wrench is None or wrench[i] != 0.0)), None)
+
+
 def loop_radius(loop: Any, k_e: float) -> float:
     """The loop's spectral radius at environment stiffness ``k_e`` [N/m]."""
     from ..analysis.vendor_fzi import FdccLoop, fdcc_spectral_radius
@@ -184,10 +192,8 @@ def _analysis(parts: dict[str, Any]) -> dict[str, Any]:
     direction = R.T @ nu
     params = {k: getattr(ctl, k) for k in ("p", "d", "error_scale", "stiffness", "iterations", "solver", "virtual_mass",
                                            "internal_period", "mass", "damping_ratio", "joint_damping", "filter_coefficient",
-                                           "kinematics_alpha", "gain", "gain_scaling", "damping") if hasattr(ctl, k)}
-    for key in SELECTION_KEYS.values():
-        if hasattr(ctl, key):
-            params[key] = getattr(ctl, key)
+                                           "kinematics_alpha", "gain", "gain_scaling", "damping",
+                                           *SELECTION_KEYS.values()) if hasattr(ctl, k)}
     skipped = unselected_reason(kind, params, direction)
     if skipped is not None:  # no verdict and no steady force from a loop the controller does not close (said)
         return {"vendor_loop": "not analysed", "vendor_loop_skipped": skipped}

@@ -21,7 +21,7 @@ samples between them (``forcecontrol convert``).
 from __future__ import annotations
 
 from . import ros, vendors
-from .named import CONVENTIONS, WrenchConvention, convention, convert_wrenches
+from .named import CONVENTIONS, UR_BASE_IN_BASE_LINK, WrenchConvention, convention, convert_wrenches
 from .ros import *  # noqa: F403  (the ROS 2 adapters; ros.__all__)
 from .vendors import *  # noqa: F403  (the vendors' adapters; vendors.__all__)
 from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR, SENSES, SensedWrench, twist_about, twist_rotated
@@ -30,6 +30,7 @@ __all__ = [
     "SensedWrench",
     "WrenchConvention",
     "CONVENTIONS",
+    "UR_BASE_IN_BASE_LINK",
     "convention",
     "convert_wrenches",
     "BY_END_EFFECTOR",

@@ -20,12 +20,13 @@ import numpy as np
 from ...errors import DimensionError, MeasurementError, ParameterError
 from .wrench import BY_END_EFFECTOR, ON_END_EFFECTOR
 
-__all__ = ["WrenchConvention", "CONVENTIONS", "AXES", "convention", "convert_wrenches"]
+__all__ = ["WrenchConvention", "CONVENTIONS", "AXES", "UR_BASE_IN_BASE_LINK", "convention", "convert_wrenches"]
 
 #: the axes a convention may use (:attr:`WrenchConvention.axes`)
 AXES = ("base", "ur-base", "end-effector")
-#: UR's controller base in base_link (Rz(180°)), on f and on μ
-_UR_BASE = np.array([-1.0, -1.0, 1.0])
+#: the rotation of UR's controller base (ur_description's ``base``) in ``base_link``: Rz(180°), its own inverse
+UR_BASE_IN_BASE_LINK = np.diag([-1.0, -1.0, 1.0])
+_UR_BASE = np.diag(UR_BASE_IN_BASE_LINK)  # the same, on the rows of f and μ
 
 
 @dataclass(frozen=True)

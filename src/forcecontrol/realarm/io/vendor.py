@@ -48,7 +48,7 @@ from ...core.files import MAX_RECORDING_BYTES, check_regular, read_text_limited
 from ...core.validate import is_number
 from ...errors import MeasurementError, ParameterError
 from ...spatial.rotations import rotvec_to_rotation
-from ..conventions import BY_END_EFFECTOR, ON_END_EFFECTOR
+from ..conventions import BY_END_EFFECTOR, ON_END_EFFECTOR, UR_BASE_IN_BASE_LINK
 from .recorded import RecordedRun
 
 __all__ = [
@@ -58,11 +58,6 @@ __all__ = [
 
 #: the library's own table options (read_table's defaults): a vendor's recording carries its own
 _LIBRARY_DEFAULTS = {"wrench_frame": "base", "wrench_point": "end-effector", "wrench_sense": BY_END_EFFECTOR}
-
-#: RTDE's base (the controller's Base feature, ur_description's ``base``) in ``base_link``: Rz(180°)
-_UR_BASE_LINK_FROM_BASE = np.diag([-1.0, -1.0, 1.0, 1.0])
-#: the same rotation on ``[F; M]``
-_UR_FLIP = np.array([-1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
 
 #: the vendors' recording layouts :func:`read_vendor` knows
 VENDOR_FORMATS = ("ur-rtde", "franka")
@@ -193,10 +188,12 @@ def vendor_run(columns: Mapping[str, Any], format: str, *, sense: str | None = N
         force = _block(cols, "actual_TCP_force", 6, source, required=False)
         # RTDE's base is the controller's Base feature: ur_description's frame ``base``, Rz(180°) from ``base_link``,
         # the root of every UR URDF (the library's ur5/ur10 models included); both vectors are rotated into base_link
-        pose = None if tcp is None else _UR_BASE_LINK_FROM_BASE @ ur_pose(tcp)
+        pose = None if tcp is None else ur_pose(tcp)
+        if pose is not None:
+            pose[:, :3, :] = UR_BASE_IN_BASE_LINK @ pose[:, :3, :]  # R and p of the TCP in base_link
         wsense = _sense(sense, ON_END_EFFECTOR)
         if force is not None:
-            force = force * _UR_FLIP
+            force = np.hstack([force[:, :3] @ UR_BASE_IN_BASE_LINK.T, force[:, 3:] @ UR_BASE_IN_BASE_LINK.T])
             notes.append("actual_TCP_force: base axes, the moment about the tool flange (e-Series; about the TCP on CB3): "
                          "the moment is not moved to the TCP")
         if force is not None or tcp is not None:
