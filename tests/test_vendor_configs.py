@@ -224,6 +224,54 @@ def test_writing_a_parameter_the_file_cannot_hold_is_refused():
         read_config(CONFIGS / "fzi_force.yaml").write(stiffness=[1.0] * 6)
 
 
+
+# ---------------------------------------------------------------------------------------------- YAML anchors, aliases, merges
+_ROS2 = (CONFIGS / "ros2_admittance.yaml").read_text(encoding="utf-8")
+_STIFF = "      stiffness:\n" + "".join(f"        - 214.{i}\n" for i in range(1, 7))
+_NEW = [300.0, 214.2, 214.3, 214.4, 214.5, 214.6]
+
+
+@pytest.mark.parametrize("text, how", [
+    # the controller's list is anchored, another controller aliases it
+    (_ROS2.replace("      stiffness:\n", "      stiffness: &stiff\n", 1)
+     + "other_controller:\n  ros__parameters:\n    admittance:\n      stiffness: *stiff\n", "anchored block '&stiff'"),
+    # the controller's list is an alias of a block defined elsewhere
+    ("defaults:\n  stiffness: &stiff [214.1, 214.2, 214.3, 214.4, 214.5, 214.6]\n"
+     + _ROS2.replace(_STIFF, "      stiffness: *stiff\n"), "anchored block '&stiff'"),
+    # the list comes through a merge key
+    ("gains: &g\n  stiffness: [214.1, 214.2, 214.3, 214.4, 214.5, 214.6]\n" + _ROS2.replace(_STIFF, "      <<: *g\n"),
+     "anchored block '&g' that an alias or a merge key repeats"),
+    # one value carries an anchor that an alias uses
+    (_ROS2.replace("        - 214.1\n", "        - &k 214.1\n", 1) + "other_controller:\n  ros__parameters:\n    k: *k\n",
+     "carries the anchor '&k', which an alias"),
+])
+def test_a_value_the_file_shares_through_an_anchor_is_not_written_in_place(text, how):
+    """Written where it stands, a value held by an anchor changed every alias of it (another controller's gains), and
+    an anchored value lost the anchor its alias needs (the file no longer loaded): refused, naming the key and how the
+    file shares it. The shared values read as before."""
+    cfg = read_config("shared.yaml", text=text)
+    assert cfg.parameters["stiffness"] == [214.1, 214.2, 214.3, 214.4, 214.5, 214.6]
+    refused = rf"cannot write admittance\.stiffness\.0: .*{re.escape(how)}.*edit the file by hand"
+    with pytest.raises(ParameterError, match=refused):
+        cfg.write(stiffness=_NEW)
+    assert cfg.write(stiffness=cfg.parameters["stiffness"]) == text  # nothing changed: written back byte for byte
+
+
+def test_a_merged_scalar_is_refused_and_an_anchor_no_alias_uses_is_kept():
+    """A scalar inherited through a merge key has no place in the controller's section (it raised KeyError from the
+    YAML library); an anchor that no alias uses stays on the value written."""
+    fzi = (CONFIGS / "fzi_compliance.yaml").read_text(encoding="utf-8")
+    merged = "solver_defaults: &s\n  error_scale: 0.5\n" + fzi.replace("        error_scale: 0.5\n", "        <<: *s\n", 1)
+    cfg = read_config("merged.yaml", text=merged)
+    assert cfg.parameters["error_scale"] == 0.5
+    with pytest.raises(ParameterError, match=r"cannot write solver\.error_scale: its value comes from a merge key"):
+        cfg.write(error_scale=0.2)
+    lone = _ROS2.replace("        - 214.1\n", "        - &k 214.1\n", 1)
+    out = read_config("lone.yaml", text=lone).write(stiffness=_NEW)
+    assert out == lone.replace("        - &k 214.1\n", "        - &k 300.0\n", 1)
+    assert read_config("lone.yaml", text=out).parameters["stiffness"] == _NEW
+
+
 # ---------------------------------------------------------------------------------------------- outside review, session 33
 # Inputs written here after the upstream layouts (ros2_controllers, FZI cartesian_controllers ros1/ros2, franka_ros):
 # the values are made up; the structure (where the type is declared, nested or dotted keys) is what the ROS tools read.

@@ -150,6 +150,7 @@ class VendorConfig:
     layout: str = "ros2"
     _node: Any = None
     _spans: Any = None
+    _root: Any = None  # a YAML file's whole document (to see which values its anchors share)
 
     def write(self, **changes: Any) -> str:
         """The file's text with these parameters (library names) changed in place; every other byte kept.
@@ -171,7 +172,7 @@ class VendorConfig:
                 lo, hi = _FRANKA_RANGES[name]
                 if not (isinstance(v, int | float) and lo <= v <= hi):
                     raise ParameterError(f"{name} must be within the .cfg range [{lo:g}, {hi:g}]; got {v!r}")
-        return _write_yaml(self.text, self._node, _SLOTS[self.kind], self.parameters, changes)
+        return _write_yaml(self.text, self._node, _SLOTS[self.kind], self.parameters, changes, self._root)
 
     def writable(self) -> list[str]:
         """The parameters :meth:`write` can change in this file's format."""
@@ -407,7 +408,7 @@ def _read_yaml(where: str, text: str, kind: str | None, section: str | None) -> 
     if rate is None:
         notes.append("no update_rate in the file (controller_manager's or the controller's): the rate comes from the "
                      "scenario")
-    return VendorConfig(k, where, text, name, values, rate, notes, layout, params, None)
+    return VendorConfig(k, where, text, name, values, rate, notes, layout, params, None, doc)
 
 
 _MISSING = object()
@@ -591,8 +592,72 @@ def _short(v: Any) -> str:
     return s if len(s) < 60 else s[:57] + "..."
 
 
+def _paths_to(root: Any) -> tuple[dict[int, int], dict[int, set[str]]]:
+    """How many paths from the document's root reach each mapping or list (by ``id``): more than one when a YAML
+    alias (``*name``) or merge key (``<<``) repeats it; and the anchors (``&name``) of the blocks that hold it, itself
+    included. The walk follows each alias once per path (a recursive alias is cut where it recurs);
+    :func:`_check_size` has bounded the expanded document."""
+    counts: dict[int, int] = {}
+    anchors: dict[int, set[str]] = {}
+    stack: list[tuple[Any, frozenset[int], tuple[str, ...]]] = [(root, frozenset(), ())]
+    while stack:
+        node, above, names = stack.pop()
+        if not isinstance(node, dict | list) or id(node) in above:
+            continue
+        name = _anchor(node)
+        names = (*names, name) if name else names
+        counts[id(node)] = counts.get(id(node), 0) + 1
+        anchors.setdefault(id(node), set()).update(names)
+        children = node.values() if isinstance(node, dict) else node
+        stack += [(c, above | {id(node)}, names) for c in children]
+    return counts, anchors
+
+
+def _anchor(node: Any) -> str | None:
+    a = getattr(node, "anchor", None)
+    return getattr(a, "value", None) if a is not None else None
+
+
+def _shared(text: str, root: Any, params: Any, path: tuple[Any, ...], parent: Any, key: Any) -> str | None:
+    """Why the value at ``path`` (held by ``parent[key]``) cannot be written where it stands, or None: it is inherited
+    through a merge key, it lies in a mapping or list that an alias repeats elsewhere, or it is a scalar with an anchor
+    that an alias uses. Written in place, such a value would change every key that shares it (or, for an anchored
+    scalar, drop the anchor its aliases need)."""
+    present = key in parent if isinstance(parent, dict) else key < len(parent)
+    if present and isinstance(parent, dict):
+        try:
+            parent.lc.value(key)
+        except KeyError:
+            return f"its value comes from a merge key ('<<: *...') in {'.'.join(str(x) for x in path[:-1]) or 'the section'}"
+    counts, anchors = _paths_to(root) if root is not None else ({}, {})
+    chain, node = [params], params
+    for i in range(1, len(path)):
+        held = _locate(chain[0], path[:i])
+        if len(held) != 1:
+            break
+        node = held[0][0][held[0][1]]
+        chain.append(node)
+    chain.append(parent)
+    for node in chain:
+        if counts.get(id(node), 1) > 1:
+            names = sorted(anchors.get(id(node), ()))
+            return ("it lies in " + (f"the anchored block '&{names[-1]}'" if names else "a block")
+                    + " that an alias or a merge key repeats elsewhere in the file")
+    name = _anchor(parent[key]) if present else None
+    if name and re.search(r"\*" + re.escape(name) + r"(?![\w-])", text):
+        return f"its value carries the anchor '&{name}', which an alias ('*{name}') uses elsewhere in the file"
+    return None
+
+
 def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], old: dict[str, Any],
-                new: dict[str, Any]) -> str:
+                new: dict[str, Any], root: Any = None) -> str:
+    """The text with the changed values written where they stand.
+
+    Raises:
+        ParameterError: a value whose parent key is missing, a list too short, or a value the file shares through a
+            YAML anchor, alias or merge key (written in place it would change the keys that share it: the message
+            names the key and says how the file shares it).
+    """
     lines = text.splitlines(keepends=True)
     edits: list[Edit] = []
     for name, value in new.items():
@@ -614,11 +679,21 @@ def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, .
             if parent is _MISSING or parent is None:
                 raise ParameterError(f"cannot write {dotted}: its parent key is not in the file; add it by hand")
             if cur is not _MISSING:
+                why = _shared(text, root, params, path, parent, key)
+                if why:
+                    raise ParameterError(f"cannot write {dotted}: {why}; written there it would change every key that "
+                                         "shares it. Give this controller its own value in its section, or edit the "
+                                         "file by hand")
                 line, col = parent.lc.item(key) if isinstance(key, int) else parent.lc.value(key)
+                anchor = re.match(r"&[^\s,\]}]+\s+", lines[line][col:])  # an anchor no alias uses: kept
+                col += anchor.end() if anchor else 0
                 end = plain_scalar_end(lines[line], col)
                 edits.append((line, col, end, format_number(v, lines[line][col:end])))
             elif isinstance(key, int):
                 raise ParameterError(f"cannot write {dotted}: the list in the file is shorter; fix its length by hand")
+            elif why := _shared(text, root, params, path, parent, key):
+                raise ParameterError(f"cannot add {dotted}: {why}; added there it would reach every key that shares "
+                                     "it. Add it to this controller's section by hand")
             elif parent.fa.flow_style():
                 last = list(parent)[-1]
                 line, col = parent.lc.value(last)
