@@ -90,6 +90,31 @@ def test_csv_and_parquet_tables_read_back(tmp_path):
         read_recording(tmp_path / "a.txt")
 
 
+
+@pytest.mark.parametrize("drop, add, match", [
+    (["q2", "qd2"], {"q3": 0.0, "qd3": 0.0}, r"column q2 is missing between q1 and q3; the file has q1, q3"),  # q3 dropped
+    (["q2", "qd2"], {"q0": 0.0, "qd0": 0.0}, r"column q0: joints are numbered from 1 \(q1 ... qn\); the file has q0, q1"),
+    (["tau2"], {}, r"tau1 ... tau1 for 2 joint\(s\) \(q1 ... q2\): every joint needs its tau column"),  # torques dropped
+    ([], {"qd3": 0.0}, r"qd1 ... qd3 for 2 joint\(s\)"),
+    (["fx", "fy"], {"fz": 1.0}, r"wrench columns fz: fx fy missing; a wrench is fx, fx fy, fx fy fz or fx fy fz mx my mz"),
+    ([], {"fz": 1.0, "mx": 0.0, "mz": 0.0}, r"wrench columns fx fy fz mx mz: my missing"),  # read as the forces only
+    ([], {"fx_measured": 1.0, "fz_measured": 1.0}, r"wrench columns fx_measured fz_measured: fy_measured missing"),
+])
+def test_columns_that_cannot_be_read_whole_are_refused_naming_them(tmp_path, drop, add, match):
+    """A table whose numbered or wrench columns have a gap, start at 0 or cover other joints than q1 ... qn was read
+    without them (q3 of q1 q3, q0 of q0 q1, a torque column short, fz alone or the moments of fx fy fz mx mz: no word);
+    it is refused, naming the columns."""
+    import pandas as pd
+
+    t, q, qd, tau, _, _ = _signals()
+    df = pd.DataFrame({"t": t, "q1": q[:, 0], "q2": q[:, 1], "qd1": qd[:, 0], "qd2": qd[:, 1], "tau1": tau[:, 0],
+                       "tau2": tau[:, 1], "fx": 2 * t, "fy": -t})
+    df = df.drop(columns=drop).assign(**add)
+    df.to_csv(tmp_path / "a.csv", index=False)
+    with pytest.raises(ParameterError, match=match):
+        read_table(tmp_path / "a.csv")
+
+
 def test_bad_time_and_nan_are_refused_naming_the_row():
     """Non-increasing time and NaN measurements are errors with the column and the row."""
     q = np.zeros((4, 2))

@@ -35,6 +35,48 @@ def _numbered(cols: list[str], prefix: str) -> int:
     return n
 
 
+_WRENCH = ("fx", "fy", "fz", "mx", "my", "mz")
+
+
+def _check_columns(path: Path, cols: list[str]) -> None:
+    """Refuse numbered or wrench columns that cannot be read whole: a gap in a joint numbering (q1, q2, q4: q4 was
+    dropped), joints numbered from 0 (q0 was dropped), velocities or torques for other joints than the positions (a
+    short torque block was dropped), and wrench components other than fx, fx fy, fx fy fz or all six (fz alone, or
+    fx fy fz mx mz, was read as no wrench or as the forces only).
+
+    Raises:
+        ParameterError: naming the columns and what is missing or extra.
+    """
+    numbers: dict[str, list[int]] = {}
+    for c in cols:
+        m = re.fullmatch(r"(q|qd|tau|u)(\d+)", c)
+        if m:
+            numbers.setdefault(m.group(1), []).append(int(m.group(2)))
+    n = max(numbers.get("q", [0]))
+    for prefix, got in numbers.items():
+        got = sorted(set(got))
+        have = ", ".join(f"{prefix}{i}" for i in got[:12]) + (" ..." if len(got) > 12 else "")
+        if got[0] == 0:
+            raise ParameterError(f"{path}: column {prefix}0: joints are numbered from 1 (q1 ... qn); the file has {have}")
+        gaps = [i for i in range(1, got[-1] + 1) if i not in got]
+        if gaps:
+            raise ParameterError(f"{path}: column {prefix}{gaps[0]} is missing between {prefix}1 and {prefix}{got[-1]}; the "
+                                 f"file has {have}")
+        if prefix != "q" and n and (got[-1] > n or (got[-1] < n and prefix != "qd")):  # a short qd: named below
+            raise ParameterError(f"{path}: {prefix}1 ... {prefix}{got[-1]} for {n} joint(s) (q1 ... q{n}): every joint "
+                                 f"needs its {prefix} column, and no other joint has one")
+    for suffix in ("", "_measured"):
+        present = [w for w in _WRENCH if w + suffix in cols]
+        if present and present not in ([*_WRENCH[:k]] for k in (1, 2, 3, 6)):
+            want = next(list(_WRENCH[:k]) for k in (1, 2, 3, 6) if set(present) <= set(_WRENCH[:k]))
+            missing = [w + suffix for w in want if w not in present]
+            raise ParameterError(
+                f"{path}: wrench columns {' '.join(w + suffix for w in present)}: {' '.join(missing)} missing; a wrench is "
+                f"fx, fx fy, fx fy fz or fx fy fz mx my mz{' (each with _measured)' if suffix else ''}: give the "
+                "missing components (zeros for an axis not measured)"
+            )
+
+
 def _wrench_names(cols: list[str], measured: bool) -> list[str]:
     suffix = "_measured" if measured else ""
     for names in (["fx", "fy", "fz", "mx", "my", "mz"], ["fx", "fy", "fz"], ["fx", "fy"], ["fx"]):
@@ -69,7 +111,8 @@ def read_table(
 
     Raises:
         ParameterError: an unknown format or option; a special or oversized file; a column
-            missing (named, with those present).
+            missing (named, with those present); numbered columns with a gap, from 0, or for other
+            joints than q1 ... qn; wrench components other than those listed (named).
         MeasurementError: time not increasing, NaN or inf in a column (named, with the row).
     """
     import pandas as pd
@@ -100,6 +143,7 @@ def read_table(
     if sense is not None:
         raise ParameterError(f"{path}: sense={sense!r} applies to a vendor's recording (UR RTDE, libfranka); this table has the "
                              "library's columns: give wrench_sense= (--wrench-sense) instead")
+    _check_columns(path, cols)
     n = _numbered(cols, "q")
     missing = [] if "t" in cols else ["t"]
     if n == 0:
