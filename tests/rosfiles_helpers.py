@@ -13,8 +13,9 @@ def _typestore():
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
-def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame):
-    """(topic, msgtype, log time [ns], message) in time order."""
+def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame, others=()):
+    """(topic, msgtype, log time [ns], message) in time order; ``others``: (time, names, positions) of JointStates of
+    other joints on the same topic (a gripper beside the arm)."""
     Time = ts.types["builtin_interfaces/msg/Time"]
     Header = ts.types["std_msgs/msg/Header"]
     JS = ts.types["sensor_msgs/msg/JointState"]
@@ -32,6 +33,10 @@ def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame):
         msg = JS(header=header(s, ""), name=list(names), position=np.asarray(q[k], float),
                  velocity=np.asarray(qd[k], float), effort=eff)
         out.append(("/joint_states", "sensor_msgs/msg/JointState", int(round(s * 1e9)), msg))
+    for s, other, pos in others:
+        msg = JS(header=header(s, ""), name=list(other), position=np.asarray(pos, float),
+                 velocity=np.zeros(len(other)), effort=np.zeros(len(other)))
+        out.append(("/joint_states", "sensor_msgs/msg/JointState", int(round(s * 1e9)), msg))
     if wrench is not None:
         for k, s in enumerate(t_w):
             h = np.zeros(6)
@@ -42,7 +47,8 @@ def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame):
     return out
 
 
-def write_bag(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1", "j2"), frame="base", storage="sqlite3"):
+def write_bag(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1", "j2"), frame="base", storage="sqlite3",
+              others=()):
     """A rosbag2 folder written by rosbags' Writer (SQLite3 or MCAP storage)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -50,14 +56,14 @@ def write_bag(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1"
     plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
     with Writer(path, version=8, storage_plugin=plugin) as writer:
         conns = {}
-        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame):
+        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame, others):
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, msgtype, typestore=ts)
             writer.write(conns[topic], ns, bytes(ts.serialize_cdr(msg, msgtype)))
     return path
 
 
-def write_mcap(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1", "j2"), frame="base"):
+def write_mcap(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1", "j2"), frame="base", others=()):
     """A standalone .mcap file written by the mcap library's Writer (ros2msg schemas, CDR messages)."""
     from mcap.writer import Writer
 
@@ -66,7 +72,7 @@ def write_mcap(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1
         w = Writer(f)
         w.start(profile="ros2", library="forcecontrol-tests")
         channels = {}
-        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame):
+        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame, others):
             if topic not in channels:
                 text = ts.generate_msgdef(msgtype, ros_version=2)[0]
                 sid = w.register_schema(name=msgtype, encoding="ros2msg", data=text.encode())

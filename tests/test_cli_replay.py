@@ -65,11 +65,39 @@ def test_topics_given_for_a_file_without_topics_are_refused(tmp_path, logs, comm
     out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "a"),
                               "--wrench-topic", "/x", "--joint-topic", "/y"])
     assert out.exit_code == 2, out.output
-    assert "--joint-topic and --wrench-topic select the topics of a ROS bag or MCAP file" in out.stderr
+    assert "--joint-topic and --wrench-topic select what is read from a ROS bag or MCAP file" in out.stderr
     assert not (tmp_path / "a").exists()
+    out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "c"),
+                              "--joint-names", "j1,j2"])
+    assert out.exit_code == 2 and "--joint-names selects what is read from a ROS bag or MCAP file" in out.stderr
     out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "b"),
                               "--joint-topic", "/joint_states"])
     assert out.exit_code == 0, out.output
+
+
+@pytest.mark.parametrize("command", ["replay", "compare-trace"])
+def test_a_gripper_on_the_joint_state_topic_is_passed_over_and_joint_names_choose(tmp_path, logs, command):
+    """A bag whose /joint_states also carries a gripper's messages: the arm's joints are replayed (the records equal the
+    clean bag's) and the passed-over messages are said on stderr; with two sets of two joints the command asks for
+    --joint-names (exit 2), and --joint-names j1,j2 reads the arm."""
+    res, files = logs
+    one = [(s + 0.0005, ["finger"], [0.04]) for s in res.t[:20]]
+    two = [(s + 0.0005, ["finger_l", "finger_r"], [0.04, 0.04]) for s in res.t[:20]]
+    bags = {n: write_bag(tmp_path / n, res.t, res.q, res.qd, res.torque, res.t, res.wrench_measured, others=o)
+            for n, o in (("one", one), ("two", two))}
+    clean = json.loads(runner.invoke(app, [command, "example-9.2", str(files["bag"]), "--out", str(tmp_path / "c"),
+                                           "--json"]).stdout)
+    out = runner.invoke(app, [command, "example-9.2", str(bags["one"]), "--out", str(tmp_path / "a"), "--json"])
+    assert out.exit_code == 0, out.output
+    assert json.loads(out.stdout)["metrics"] == clean["metrics"]
+    said = "20 JointState message(s) of other joints only (finger) passed over: the log reads j1, j2"
+    assert said in out.stderr and any(n.startswith(said) for n in json.loads(out.stdout)["notes"])
+    out = runner.invoke(app, [command, "example-9.2", str(bags["two"]), "--out", str(tmp_path / "b")])
+    assert out.exit_code == 2 and "2 sets of 2 joints (j1, j2; finger_l, finger_r): name the joints" in out.stderr
+    out = runner.invoke(app, [command, "example-9.2", str(bags["two"]), "--out", str(tmp_path / "d"), "--json",
+                              "--joint-names", "j1,j2"])
+    assert out.exit_code == 0, out.output
+    assert json.loads(out.stdout)["metrics"] == clean["metrics"]
 
 def test_compare_trace_command_against_a_scenario(tmp_path, logs):
     """`compare-trace example-9.2 RECORDED`: the scenario's own trace matches (zero shift, tiny errors) and a figure is drawn."""

@@ -291,6 +291,35 @@ def test_a_bag_reader_says_what_it_leaves_out(tmp_path):
     assert any("the wrench topic '/force_torque_sensor_broadcaster/wrench' has no messages" in n for n in run.metadata["notes"])
 
 
+
+@pytest.mark.parametrize("kind", ["bag-sqlite3", "mcap"])
+def test_an_arm_and_a_gripper_on_one_joint_state_topic(tmp_path, kind):
+    """An arm's and a gripper's JointStates on one /joint_states topic (written by rosbags and by mcap): the arm's
+    joints are read (the topic's largest set, or those named) and the gripper's messages are passed over, said in the
+    notes; before, the first gripper message stopped the read ("lacks a joint"), or a gripper message first made the
+    log the gripper's. A joint in no message is refused, naming the topic's joints."""
+    t, q, qd, tau, _, _ = _signals()
+    gripper = [(s + 0.0005, ["finger1"], [0.04]) for s in t[:10]]
+    gripper.insert(0, (t[0] - 0.001, ["finger1"], [0.04]))  # the gripper's message first
+    path = tmp_path / ("log.mcap" if kind == "mcap" else "bag")
+    (write_mcap if kind == "mcap" else write_bag)(path, t, q, qd, tau=tau, others=gripper)
+    read = read_mcap if kind == "mcap" else read_bag
+    for names in (None, ["j2", "j1"]):
+        run = read(path, wrench_topic=None, joint_names=names)
+        cols = [0, 1] if names is None else [1, 0]
+        np.testing.assert_array_equal(run.q, q[:, cols])
+        np.testing.assert_array_equal(run.tau, tau[:, cols])
+        assert run.joint_names == ("j1", "j2") if names is None else ("j2", "j1")
+        assert any(n.startswith("11 JointState message(s) of other joints only (finger1) passed over")
+                   for n in run.metadata["notes"]), run.metadata
+    with pytest.raises(ParameterError, match=r"joint\(s\) \['j3'\] are not in the JointState names \['finger1', 'j1', 'j2'\]"):
+        read(path, wrench_topic=None, joint_names=["j1", "j3"])
+    two = [(s + 0.0005, ["finger1", "finger2"], [0.04, 0.04]) for s in t[:3]]  # as many joints as the arm: which?
+    (write_mcap if kind == "mcap" else write_bag)(tmp_path / ("two.mcap" if kind == "mcap" else "two"), t, q, qd, others=two)
+    with pytest.raises(ParameterError, match=r"JointStates of 2 sets of 2 joints \(j1, j2; finger1, finger2\): name the"):
+        read(tmp_path / ("two.mcap" if kind == "mcap" else "two"), wrench_topic=None)
+
+
 def test_an_mcap_file_without_a_summary_section_is_read_from_its_messages(tmp_path):
     """The summary section of an MCAP file is optional (a streaming writer, `mcap recover`): such a file, written by the
     mcap library without summary, chunks or repeated channels, reads as the same run as the file with them (it was

@@ -13,6 +13,7 @@ from .replay import (
     DEFAULT_JOINT_TOPIC,
     DEFAULT_WRENCH_TOPIC,
     CaseLabel,
+    JointNames,
     JointTopic,
     RecordedLog,
     RecordFormat,
@@ -68,6 +69,7 @@ def compare_trace_command(
     out: OutFolder = None,
     joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,
     wrench_topic: WrenchTopic = DEFAULT_WRENCH_TOPIC,
+    joint_names: JointNames = None,
     wrench_sense: WrenchSense = "by-end-effector",
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
@@ -83,7 +85,7 @@ def compare_trace_command(
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
         sim, name, m, stem, robot = _simulated(simulated, case, format, args)
-        rec = read_log(recorded, format, m, *args)
+        rec = read_log(recorded, format, m, *args, joint_names=joint_names)
         if robot is not None:  # a JointState's order need not be the model's
             rec = rec.in_joint_order(model_joint_names(robot))
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:

@@ -88,14 +88,32 @@ def _assemble(
     def when(ns: int, msg: Any) -> int:  # integer nanoseconds: the origin is subtracted before they become seconds
         return stamp_to_ns(msg.header.stamp) if stamps == "header" else int(ns)
 
-    t, q, qd, tau, names = [], [], [], [], None
+    joints = list(joints)
+    sets: dict[frozenset[str], list[str]] = {}  # the topic's joint sets (an arm and a gripper may share /joint_states)
+    for _, msg in joints:
+        sets.setdefault(frozenset(msg.name), list(msg.name))
+    if joint_names:
+        names = list(joint_names)
+        known = set().union(*sets) if sets else set()
+        missing = [j for j in names if j not in known]
+        if missing:
+            raise ParameterError(f"{source}: joint(s) {missing} are not in the JointState names {sorted(known)}")
+    else:  # the largest set (the arm's, beside a gripper's)
+        names = max(sets.values(), key=len) if sets else []
+        tied = [v for v in sets.values() if len(v) == len(names)]
+        if len(tied) > 1:
+            raise ParameterError(f"{source}: the joint-state topic carries JointStates of {len(tied)} sets of "
+                                 f"{len(names)} joints ({'; '.join(', '.join(v) for v in tied)}): name the joints to "
+                                 "read (joint_names, --joint-names)")
+    wanted = set(names)
+    others: dict[str, int] = {}  # messages of other joints only, passed over: their joints -> count
+    t, q, qd, tau = [], [], [], []
     for k, (ns, msg) in enumerate(joints):
         msg_names = list(msg.name)
-        if names is None:
-            names = list(joint_names) if joint_names else msg_names
-            missing = [j for j in names if j not in msg_names]
-            if missing:
-                raise ParameterError(f"{source}: joint(s) {missing} are not in the JointState names {msg_names}")
+        if not wanted.intersection(msg_names):
+            key = ", ".join(msg_names) or "(no names)"
+            others[key] = others.get(key, 0) + 1
+            continue
         try:
             idx = [msg_names.index(j) for j in names]
         except ValueError as exc:
@@ -112,6 +130,9 @@ def _assemble(
         tau.append(eff[idx] if eff.size == len(msg_names) else None)
     if not t:
         raise MeasurementError(f"{source}: the joint-state topic has no messages")
+    names_note = [f"{n} JointState message(s) of other joints only ({who}) passed over: the log reads {', '.join(names)}"
+                  + ("" if joint_names else " (the topic's largest set of joints; choose others with joint_names)")
+                  for who, n in others.items()]
     tw, h, frames = [], [], set()
     for ns, msg in wrenches:
         f, mu = msg.wrench.force, msg.wrench.torque
@@ -131,7 +152,7 @@ def _assemble(
         worder = np.argsort(tw_arr, kind="stable")
         wrench, t_wrench = np.asarray(h)[worder], tw_arr[worder]
     frame = frames.pop() if frames else "base"
-    notes = []
+    notes = names_note
     missing_effort = sum(x is None for x in tau)
     if 0 < missing_effort < len(tau):
         notes.append(f"{missing_effort} of {len(tau)} JointState messages carry no efforts: the recorded torques are "
