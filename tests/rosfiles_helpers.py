@@ -13,9 +13,10 @@ def _typestore():
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
-def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame, others=()):
+def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame, others=(), stamped=True):
     """(topic, msgtype, log time [ns], message) in time order; ``others``: (time, names, positions) of JointStates of
-    other joints on the same topic (a gripper beside the arm)."""
+    other joints on the same topic (a gripper beside the arm); ``stamped=False``: every header.stamp left 0 (a driver that
+    does not stamp its messages; the log times are the receive times)."""
     Time = ts.types["builtin_interfaces/msg/Time"]
     Header = ts.types["std_msgs/msg/Header"]
     JS = ts.types["sensor_msgs/msg/JointState"]
@@ -24,7 +25,7 @@ def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame, others=()):
     V = ts.types["geometry_msgs/msg/Vector3"]
 
     def header(s, fid):
-        ns = int(round(s * 1e9))
+        ns = int(round(s * 1e9)) if stamped else 0
         return Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=fid)
 
     out = []
@@ -48,7 +49,7 @@ def _messages(ts, t, q, qd, tau, t_w, wrench, names, frame, others=()):
 
 
 def write_bag(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1", "j2"), frame="base", storage="sqlite3",
-              others=()):
+              others=(), stamped=True):
     """A rosbag2 folder written by rosbags' Writer (SQLite3 or MCAP storage)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -56,7 +57,8 @@ def write_bag(path: Path, t, q, qd, tau=None, t_w=None, wrench=None, names=("j1"
     plugin = StoragePlugin.SQLITE3 if storage == "sqlite3" else StoragePlugin.MCAP
     with Writer(path, version=8, storage_plugin=plugin) as writer:
         conns = {}
-        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame, others):
+        for topic, msgtype, ns, msg in _messages(ts, t, q, qd, tau, t_w if t_w is not None else t, wrench, names, frame, others,
+                                                 stamped):
             if topic not in conns:
                 conns[topic] = writer.add_connection(topic, msgtype, typestore=ts)
             writer.write(conns[topic], ns, bytes(ts.serialize_cdr(msg, msgtype)))

@@ -111,3 +111,20 @@ def test_compare_trace_command_against_a_scenario(tmp_path, logs):
     out = runner.invoke(app, ["compare-trace", str(files["csv"]), str(files["bag"]), "--out", str(tmp_path / "b")])
     assert out.exit_code == 0, out.output
     assert "position_error_rms" in out.stdout and "figure:" in out.stdout
+
+
+@pytest.mark.parametrize("command", ["replay", "compare-trace"])
+def test_stamps_receive_reads_a_bag_whose_driver_left_the_header_stamps_empty(tmp_path, logs, command):
+    """A bag whose messages carry header.stamp 0: read by its header stamps it has no time (refused, exit 2, saying
+    so and what to give); --stamps receive reads the recorder's times and gives the stamped bag's metrics."""
+    res, files = logs
+    bag = write_bag(tmp_path / "unstamped", res.t, res.q, res.qd, res.torque, res.t, res.wrench_measured, stamped=False)
+    out = runner.invoke(app, [command, "example-9.2", str(bag), "--out", str(tmp_path / "a")])
+    assert out.exit_code == 2 and "carry no header stamps (all 0" in out.stderr and "--stamps receive" in out.stderr
+    stamped = json.loads(runner.invoke(app, [command, "example-9.2", str(files["bag"]), "--out", str(tmp_path / "c"),
+                                             "--json"]).stdout)
+    out = runner.invoke(app, [command, "example-9.2", str(bag), "--out", str(tmp_path / "b"), "--json", "--stamps", "receive"])
+    assert out.exit_code == 0, out.output
+    assert json.loads(out.stdout)["metrics"] == stamped["metrics"]
+    out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "d"), "--stamps", "receive"])
+    assert out.exit_code == 2 and "--stamps selects what is read from a ROS bag or MCAP file" in out.stderr

@@ -17,6 +17,7 @@ from .replay import (
     JointTopic,
     RecordedLog,
     RecordFormat,
+    Stamps,
     WrenchSense,
     WrenchTopic,
     pick_case,
@@ -70,6 +71,7 @@ def compare_trace_command(
     joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,
     wrench_topic: WrenchTopic = DEFAULT_WRENCH_TOPIC,
     joint_names: JointNames = None,
+    stamps: Stamps = "header",
     wrench_sense: WrenchSense = "by-end-effector",
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
@@ -85,7 +87,7 @@ def compare_trace_command(
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
         sim, name, m, stem, robot = _simulated(simulated, case, format, args)
-        rec = read_log(recorded, format, m, *args, joint_names=joint_names)
+        rec = read_log(recorded, format, m, *args, joint_names=joint_names, stamps=stamps)
         if robot is not None:  # a JointState's order need not be the model's
             rec = rec.in_joint_order(model_joint_names(robot))
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:

@@ -18,6 +18,9 @@ __all__ = ["replay_command", "RecordFormat", "SenseChoice", "read_log", "pick_ca
 #: options shared by the commands that read a recorded log (replay, compare-trace).
 JointTopic = Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")]
 WrenchTopic = Annotated[str, typer.Option(help="bags/MCAP: geometry_msgs/WrenchStamped topic ('' for none)")]
+Stamps = Annotated[str, typer.Option(
+    "--stamps", help="bags/MCAP: time from the messages' header stamps ('header') or the recorder's receive times "
+    "('receive': for drivers that leave header.stamp empty)")]
 JointNames = Annotated[str | None, typer.Option(
     "--joint-names", help="bags/MCAP: the joints to read, comma-separated (default: the topic's largest set of joints; "
     "a gripper's JointStates on the same topic are passed over)")]
@@ -68,7 +71,7 @@ DEFAULT_WRENCH_TOPIC = "/force_torque_sensor_broadcaster/wrench"
 
 def read_log(
     path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str, sense: str | None = None,
-    joint_names: str | None = None,
+    joint_names: str | None = None, stamps: str = "header",
 ) -> Any:
     """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components.
 
@@ -86,17 +89,17 @@ def read_log(
         if sense is not None:
             raise ParameterError("--sense overrides a UR RTDE or libfranka recording's sense; a ROS bag/MCAP wrench's sense is "
                                  "--wrench-sense")
-        kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m)
+        kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m, stamps=stamps)
         if joint_names is not None:
             names = [n.strip() for n in joint_names.split(",")]
             if not all(names) or len(set(names)) != len(names):
                 raise ParameterError(f"--joint-names must be distinct joint names separated by commas; got {joint_names!r}")
             kwargs["joint_names"] = names
     else:
-        if (joint_topic, wrench_topic, joint_names) != (DEFAULT_JOINT_TOPIC, DEFAULT_WRENCH_TOPIC, None):
+        if (joint_topic, wrench_topic, joint_names, stamps) != (DEFAULT_JOINT_TOPIC, DEFAULT_WRENCH_TOPIC, None, "header"):
             given = [o for o, v, d in (("--joint-topic", joint_topic, DEFAULT_JOINT_TOPIC),
                                        ("--wrench-topic", wrench_topic, DEFAULT_WRENCH_TOPIC),
-                                       ("--joint-names", joint_names, None)) if v != d]
+                                       ("--joint-names", joint_names, None), ("--stamps", stamps, "header")) if v != d]
             raise ParameterError(f"{' and '.join(given)} {'select' if len(given) > 1 else 'selects'} what is read from a ROS "
                                  f"bag or MCAP file; {path.name} is not one (it would be ignored)")
         if sense is not None:
@@ -160,6 +163,7 @@ def replay_command(
     joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,
     wrench_topic: WrenchTopic = DEFAULT_WRENCH_TOPIC,
     joint_names: JointNames = None,
+    stamps: Stamps = "header",
     wrench_sense: WrenchSense = "by-end-effector",
     sense: Annotated[
         SenseChoice | None,
@@ -190,7 +194,7 @@ def replay_command(
             robot = parts["robot"]
             step(f"reading {data}")
             rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense,
-                           None if sense is None else sense.value, joint_names)
+                           None if sense is None else sense.value, joint_names, stamps)
             rec = rec.in_joint_order(model_joint_names(robot))  # a JointState's order need not be the model's
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")

@@ -130,6 +130,9 @@ def _assemble(
         tau.append(eff[idx] if eff.size == len(msg_names) else None)
     if not t:
         raise MeasurementError(f"{source}: the joint-state topic has no messages")
+    if stamps == "header" and len(t) > 1 and not any(t):
+        raise MeasurementError(f"{source}: the JointState messages carry no header stamps (all 0, a driver that does not "
+                               "stamp them): read the log by its receive times, stamps='receive' (--stamps receive)")
     names_note = [f"{n} JointState message(s) of other joints only ({who}) passed over: the log reads {', '.join(names)}"
                   + ("" if joint_names else " (the topic's largest set of joints; choose others with joint_names)")
                   for who, n in others.items()]
