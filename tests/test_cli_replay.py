@@ -90,7 +90,7 @@ def test_a_gripper_on_the_joint_state_topic_is_passed_over_and_joint_names_choos
     out = runner.invoke(app, [command, "example-9.2", str(bags["one"]), "--out", str(tmp_path / "a"), "--json"])
     assert out.exit_code == 0, out.output
     assert json.loads(out.stdout)["metrics"] == clean["metrics"]
-    said = "20 JointState message(s) of other joints only (finger) passed over: the log reads j1, j2"
+    said = "20 JointState message(s) of another set of joints (finger) passed over: the log reads j1, j2"
     assert said in out.stderr and any(n.startswith(said) for n in json.loads(out.stdout)["notes"])
     out = runner.invoke(app, [command, "example-9.2", str(bags["two"]), "--out", str(tmp_path / "b")])
     assert out.exit_code == 2 and "2 sets of 2 joints (j1, j2; finger_l, finger_r): name the joints" in out.stderr

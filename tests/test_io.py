@@ -309,8 +309,8 @@ def test_an_arm_and_a_gripper_on_one_joint_state_topic(tmp_path, kind):
         cols = [0, 1] if names is None else [1, 0]
         np.testing.assert_array_equal(run.q, q[:, cols])
         np.testing.assert_array_equal(run.tau, tau[:, cols])
-        assert run.joint_names == ("j1", "j2") if names is None else ("j2", "j1")
-        assert any(n.startswith("11 JointState message(s) of other joints only (finger1) passed over")
+        assert run.joint_names == (("j1", "j2") if names is None else ("j2", "j1"))
+        assert any(n.startswith("11 JointState message(s) of another set of joints (finger1) passed over")
                    for n in run.metadata["notes"]), run.metadata
     with pytest.raises(ParameterError, match=r"joint\(s\) \['j3'\] are not in the JointState names \['finger1', 'j1', 'j2'\]"):
         read(path, wrench_topic=None, joint_names=["j1", "j3"])
@@ -318,6 +318,21 @@ def test_an_arm_and_a_gripper_on_one_joint_state_topic(tmp_path, kind):
     (write_mcap if kind == "mcap" else write_bag)(tmp_path / ("two.mcap" if kind == "mcap" else "two"), t, q, qd, others=two)
     with pytest.raises(ParameterError, match=r"JointStates of 2 sets of 2 joints \(j1, j2; finger1, finger2\): name the"):
         read(tmp_path / ("two.mcap" if kind == "mcap" else "two"), wrench_topic=None)
+    # the arm's own messages beside messages merged with the gripper's (joint_state_publisher): one stream is read,
+    # never the two interleaved; named joints read the smallest set holding them (the arm's own), the largest by default
+    merged = [(s + 0.0005, ["j1", "j2", "finger1"], [9.0, 9.0, 0.04]) for s in t]
+    path = tmp_path / ("merged.mcap" if kind == "mcap" else "merged")
+    (write_mcap if kind == "mcap" else write_bag)(path, t, q, qd, tau=tau, others=merged)
+    run = read(path, wrench_topic=None, joint_names=["j1", "j2"])
+    np.testing.assert_array_equal(run.q, q)
+    assert any(n.startswith(f"{t.size} JointState message(s) of another set of joints (j1, j2, finger1) passed over")
+               for n in run.metadata["notes"])
+    run = read(path, wrench_topic=None)
+    assert run.joint_names == ("j1", "j2", "finger1") and np.all(run.q[:, 0] == 9.0) and run.t.size == t.size
+    run = read(path, wrench_topic=None, prefer_joint_names=["j2", "j1"])  # a model's joints, all on the topic
+    np.testing.assert_array_equal(run.q, q[:, [1, 0]])
+    run = read(path, wrench_topic=None, prefer_joint_names=["a1", "a2"])  # not on the topic: the default
+    assert run.joint_names == ("j1", "j2", "finger1")
 
 
 def test_an_mcap_file_without_a_summary_section_is_read_from_its_messages(tmp_path):

@@ -30,7 +30,8 @@ _DATA_SUFFIXES = (".csv", ".parquet", ".pq", ".mcap", ".db3")
 
 
 def _simulated(
-    source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str]
+    source: str, case: str | None, fmt: RecordFormat, args: tuple[str, str, str], joint_names: str | None = None,
+    stamps: str = "header",
 ) -> tuple[Any, str, int, str, Any]:
     """The simulated trace: a data file as it is, or a scenario's case simulated now; its name, task dimension, the
     stem of its output folder (the file's stem or the scenario's name; a case label such as 'k = 1e4 N/m' is no path)
@@ -40,7 +41,8 @@ def _simulated(
 
     p = Path(source)
     if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
-        rec = read_log(p, fmt, 6, *args)
+        ros = p.suffix.lower() in (".mcap", ".db3") or p.is_dir()  # a table beside a recorded bag takes neither option
+        rec = read_log(p, fmt, 6, *args, **({"joint_names": joint_names, "stamps": stamps} if ros else {}))
         return rec, str(p), rec.m, p.stem, None
     scn = load_scenario(source)
     spec, parts = pick_case(scn, case)
@@ -86,8 +88,9 @@ def compare_trace_command(
     compile_notice()
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
-        sim, name, m, stem, robot = _simulated(simulated, case, format, args)
-        rec = read_log(recorded, format, m, *args, joint_names=joint_names, stamps=stamps)
+        sim, name, m, stem, robot = _simulated(simulated, case, format, args, joint_names, stamps)
+        rec = read_log(recorded, format, m, *args, joint_names=joint_names, stamps=stamps,
+                       prefer_joints=None if robot is None else model_joint_names(robot))
         if robot is not None:  # a JointState's order need not be the model's
             rec = rec.in_joint_order(model_joint_names(robot))
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:

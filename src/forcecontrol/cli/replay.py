@@ -71,9 +71,10 @@ DEFAULT_WRENCH_TOPIC = "/force_torque_sensor_broadcaster/wrench"
 
 def read_log(
     path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str, sense: str | None = None,
-    joint_names: str | None = None, stamps: str = "header",
+    joint_names: str | None = None, stamps: str = "header", prefer_joints: Any = None,
 ) -> Any:
-    """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components.
+    """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components, and read
+    ``prefer_joints`` (the model's joints) when their joint-state topic holds them all and ``joint_names`` is not given.
 
     A UR RTDE or libfranka recording (``--format ur-rtde|franka``, or told from its columns) is read
     with the vendor's documented wrench sense; ``sense`` (``on-robot``/``by-robot``) overrides it.
@@ -89,7 +90,8 @@ def read_log(
         if sense is not None:
             raise ParameterError("--sense overrides a UR RTDE or libfranka recording's sense; a ROS bag/MCAP wrench's sense is "
                                  "--wrench-sense")
-        kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m, stamps=stamps)
+        kwargs.update(joint_topic=joint_topic, wrench_topic=wrench_topic or None, wrench_components=m, stamps=stamps,
+                      prefer_joint_names=prefer_joints)
         if joint_names is not None:
             names = [n.strip() for n in joint_names.split(",")]
             if not all(names) or len(set(names)) != len(names):
@@ -194,7 +196,7 @@ def replay_command(
             robot = parts["robot"]
             step(f"reading {data}")
             rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense,
-                           None if sense is None else sense.value, joint_names, stamps)
+                           None if sense is None else sense.value, joint_names, stamps, model_joint_names(robot))
             rec = rec.in_joint_order(model_joint_names(robot))  # a JointState's order need not be the model's
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")

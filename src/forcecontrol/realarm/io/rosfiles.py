@@ -65,6 +65,14 @@ def _decode_all(
     return out
 
 
+def _check_stamps(source: str, what: str, stamps_ns: list[int], stamps: str) -> None:
+    """Refuse header stamps all left at 0 (a driver that does not stamp its messages). One stamp 0 among others is a
+    clock that starts at 0 (a simulator's), not refused."""
+    if stamps == "header" and len(stamps_ns) > 1 and not any(stamps_ns):
+        raise MeasurementError(f"{source}: the {what} messages carry no header stamps (all 0, a driver that does not "
+                               "stamp them): read the log by its receive times, stamps='receive' (--stamps receive)")
+
+
 def _assemble(
     source: str,
     joints: Iterable[tuple[int, Any]],
@@ -72,6 +80,7 @@ def _assemble(
     *,
     joint_names: Sequence[str] | None,
     wrench_components: int,
+    prefer_joint_names: Sequence[str] | None = None,
     wrench_sense: str,
     wrench_point: str | None,
     stamps: str,
@@ -92,32 +101,37 @@ def _assemble(
     sets: dict[frozenset[str], list[str]] = {}  # the topic's joint sets (an arm and a gripper may share /joint_states)
     for _, msg in joints:
         sets.setdefault(frozenset(msg.name), list(msg.name))
+    if not joint_names and prefer_joint_names and any(set(prefer_joint_names) <= s_ for s_ in sets):
+        joint_names = list(prefer_joint_names)  # a model's joints, all on the topic
     if joint_names:
         names = list(joint_names)
         known = set().union(*sets) if sets else set()
         missing = [j for j in names if j not in known]
         if missing:
             raise ParameterError(f"{source}: joint(s) {missing} are not in the JointState names {sorted(known)}")
+        holding = [s_ for s_ in sets if set(names) <= s_]
+        if not holding:
+            raise ParameterError(f"{source}: no JointState message holds all of {names}; the topic's messages hold: "
+                                 + "; ".join(", ".join(v) for v in sets.values()))
+        chosen = min(holding, key=len)  # the arm's own messages, before those merged with a gripper's
     else:  # the largest set (the arm's, beside a gripper's)
-        names = max(sets.values(), key=len) if sets else []
-        tied = [v for v in sets.values() if len(v) == len(names)]
+        named = [k for k in sets if k]
+        chosen = max(named, key=len) if named else frozenset()
+        tied = [sets[k] for k in named if len(k) == len(chosen)]
         if len(tied) > 1:
             raise ParameterError(f"{source}: the joint-state topic carries JointStates of {len(tied)} sets of "
-                                 f"{len(names)} joints ({'; '.join(', '.join(v) for v in tied)}): name the joints to "
+                                 f"{len(chosen)} joints ({'; '.join(', '.join(v) for v in tied)}): name the joints to "
                                  "read (joint_names, --joint-names)")
-    wanted = set(names)
-    others: dict[str, int] = {}  # messages of other joints only, passed over: their joints -> count
+        names = sets[chosen] if named else []
+    others: dict[str, int] = {}  # messages of another set of joints, passed over: their joints -> count
     t, q, qd, tau = [], [], [], []
     for k, (ns, msg) in enumerate(joints):
         msg_names = list(msg.name)
-        if not wanted.intersection(msg_names):
-            key = ", ".join(msg_names) or "(no names)"
+        if frozenset(msg_names) != chosen:
+            key = ", ".join(msg_names) or "no joint names"
             others[key] = others.get(key, 0) + 1
             continue
-        try:
-            idx = [msg_names.index(j) for j in names]
-        except ValueError as exc:
-            raise MeasurementError(f"{source}: JointState message {k} lacks a joint of {names}: it has {msg_names}") from exc
+        idx = [msg_names.index(j) for j in names]
         pos, vel, eff = (np.asarray(a, dtype=np.float64) for a in (msg.position, msg.velocity, msg.effort))
         if pos.size != len(msg_names) or vel.size != len(msg_names):
             raise MeasurementError(
@@ -129,12 +143,12 @@ def _assemble(
         qd.append(vel[idx])
         tau.append(eff[idx] if eff.size == len(msg_names) else None)
     if not t:
-        raise MeasurementError(f"{source}: the joint-state topic has no messages")
-    if stamps == "header" and len(t) > 1 and not any(t):
-        raise MeasurementError(f"{source}: the JointState messages carry no header stamps (all 0, a driver that does not "
-                               "stamp them): read the log by its receive times, stamps='receive' (--stamps receive)")
-    names_note = [f"{n} JointState message(s) of other joints only ({who}) passed over: the log reads {', '.join(names)}"
-                  + ("" if joint_names else " (the topic's largest set of joints; choose others with joint_names)")
+        raise MeasurementError(f"{source}: the joint-state topic has no messages" if not joints else
+                               f"{source}: none of the topic's {len(joints)} JointState messages names its joints")
+    _check_stamps(source, "JointState", t, stamps)
+    names_note = [f"{n} JointState message(s) of another set of joints ({who}) passed over: the log reads "
+                  f"{', '.join(names)}" + ("" if joint_names else " (the topic's largest set of joints; choose others "
+                                                                   "with joint_names, --joint-names)")
                   for who, n in others.items()]
     tw, h, frames = [], [], set()
     for ns, msg in wrenches:
@@ -142,6 +156,8 @@ def _assemble(
         h.append([f.x, f.y, f.z, mu.x, mu.y, mu.z][:wrench_components])
         tw.append(when(ns, msg))
         frames.add(msg.header.frame_id)
+    if tw:
+        _check_stamps(source, "wrench", tw, stamps)
     if len(frames) > 1:
         raise MeasurementError(f"{source}: the wrench topic changes frame ({sorted(frames)}); one frame per log")
     origin = min(min(t), min(tw) if tw else min(t))
@@ -180,7 +196,7 @@ def read_bag(
     path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
     joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
     wrench_point: str | None = None, stamps: str = "header", skip_corrupt: bool = False,
-    max_bytes: int = MAX_RECORDING_BYTES,
+    max_bytes: int = MAX_RECORDING_BYTES, prefer_joint_names: Sequence[str] | None = None,
 ) -> RecordedRun:
     """Read a ROS 2 bag (a rosbag2 folder; SQLite or MCAP storage) with the rosbags library.
 
@@ -189,7 +205,11 @@ def read_bag(
         joint_topic: a ``sensor_msgs/msg/JointState`` topic (positions and velocities required;
             efforts read as torques when every message has them).
         wrench_topic: a ``geometry_msgs/msg/WrenchStamped`` topic, or None for no wrench.
-        joint_names: the joints to read, in this order (default: the first message's order).
+        joint_names: the joints to read, in this order; the messages of exactly the smallest set of joints holding them
+            are read (an arm's own, not those merged with a gripper's), the others passed over and counted in
+            ``metadata["notes"]``. Default: ``prefer_joint_names`` when the topic holds them all, else the topic's
+            largest set of joints in its first message's order (two sets of that size are refused).
+        prefer_joint_names: a model's joints, read when the topic holds them all (replay passes its robot's).
         wrench_components: keep ``fx fy`` (2), ``fx fy fz`` (3) or all 6 components.
         wrench_sense: what the wrench topic reports (a WrenchStamped does not say; default: the
             library's, by the end-effector on the environment).
@@ -246,7 +266,8 @@ def read_bag(
     finally:
         reader.close()
     return _assemble(
-        str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
+        str(path), joints, wrenches, joint_names=joint_names, prefer_joint_names=prefer_joint_names,
+        wrench_components=wrench_components,
         wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped, wrench_topic=wrench_topic,
     )
 
@@ -255,7 +276,7 @@ def read_mcap(
     path: str | Path, *, joint_topic: str = DEFAULT_JOINT_TOPIC, wrench_topic: str | None = DEFAULT_WRENCH_TOPIC,
     joint_names: Sequence[str] | None = None, wrench_components: int = 6, wrench_sense: str = BY_END_EFFECTOR,
     wrench_point: str | None = None, stamps: str = "header", skip_corrupt: bool = False,
-    max_bytes: int = MAX_RECORDING_BYTES,
+    max_bytes: int = MAX_RECORDING_BYTES, prefer_joint_names: Sequence[str] | None = None,
 ) -> RecordedRun:
     """Read an MCAP file of CDR-encoded ROS 2 messages (mcap library; decoded with rosbags' serde).
 
@@ -311,6 +332,7 @@ def read_mcap(
         wrenches = [] if wrench_topic is None else _decode_all(str(path), wrench_topic, raw[wrench_topic], decode,
                                                                 skip_corrupt, skipped)
     return _assemble(
-        str(path), joints, wrenches, joint_names=joint_names, wrench_components=wrench_components,
+        str(path), joints, wrenches, joint_names=joint_names, prefer_joint_names=prefer_joint_names,
+        wrench_components=wrench_components,
         wrench_sense=wrench_sense, wrench_point=wrench_point, stamps=stamps, skipped=skipped, wrench_topic=wrench_topic,
     )
