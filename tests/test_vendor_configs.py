@@ -272,6 +272,37 @@ def test_a_merged_scalar_is_refused_and_an_anchor_no_alias_uses_is_kept():
     assert read_config("lone.yaml", text=out).parameters["stiffness"] == _NEW
 
 
+
+def test_aliases_inside_the_section_written_alike_and_merged_mappings_added_to_by_hand():
+    """Aliases within the controller's own section (FZI's trans_y: *tr of trans_x: &tr) are written once when this
+    write gives them the same value, refused when it gives them different ones; an anchor named in a comment ('*x')
+    is no alias; a key added to a mapping of merged keys only is refused (it raised TypeError), one added beside own
+    keys of a flow mapping with a merge key is written after them."""
+    fzi = (CONFIGS / "fzi_compliance.yaml").read_text(encoding="utf-8")
+    tr = (fzi.replace("trans_x: {p: 0.05, d: 0.005}", "trans_x: &tr {p: 0.05, d: 0.005}")
+          .replace("trans_y: {p: 0.05, d: 0.005}", "trans_y: *tr").replace("trans_z: {p: 0.05, d: 0.005}", "trans_z: *tr"))
+    cfg = read_config("tr.yaml", text=tr)
+    out = cfg.write(p=[0.1, 0.1, 0.1, 1.5, 1.5, 1.5])
+    assert out == tr.replace("trans_x: &tr {p: 0.05,", "trans_x: &tr {p: 0.1,", 1)
+    assert read_config("tr.yaml", text=out).parameters["p"] == [0.1, 0.1, 0.1, 1.5, 1.5, 1.5]
+    with pytest.raises(ParameterError, match=r"cannot write pd_gains\.trans_x\.p: it lies in the anchored block '&tr'"):
+        cfg.write(p=[0.1, 0.05, 0.05, 1.5, 1.5, 1.5])
+    k = fzi.replace("        trans_x: 500\n", "        trans_x: &k 500\n")
+    k = k.replace("        trans_y: 500\n", "        trans_y: *k\n")
+    assert read_config("k.yaml", text=k).write(stiffness=[600, 600, 500, 20, 20, 20]) == k.replace("&k 500", "&k 600.0")
+    with pytest.raises(ParameterError, match=r"carries the anchor '&k', which an alias \('\*k'\) uses"):
+        read_config("k.yaml", text=k).write(stiffness=[600, 500, 500, 20, 20, 20])
+    comment = fzi.replace("        trans_x: 500\n", "        trans_x: &x 500  # cf. the *x axis\n")
+    assert read_config("c.yaml", text=comment).write(stiffness=[600, 500, 500, 20, 20, 20]) == comment.replace(
+        "&x 500", "&x 600.0")
+    merged = "rot: &rg\n  p: 1.5\n" + fzi.replace("rot_x: {p: 1.5}", "rot_x:\n            <<: *rg")
+    with pytest.raises(ParameterError, match=r"cannot add pd_gains\.rot_x\.d: its mapping holds only keys from a merge key"):
+        read_config("m.yaml", text=merged).write(d=[0.005, 0.005, 0.005, 0.1, 0.0, 0.0])
+    flow = "sd: &sd {error_scale: 0.5}\n" + fzi.replace("    solver:\n        error_scale: 0.5\n        iterations: 1\n",
+                                                        "    solver: {<<: *sd, iterations: 1}\n")
+    assert "    solver: {<<: *sd, iterations: 5}\n" in read_config("f.yaml", text=flow).write(iterations=5)
+
+
 # ---------------------------------------------------------------------------------------------- outside review, session 33
 # Inputs written here after the upstream layouts (ros2_controllers, FZI cartesian_controllers ros1/ros2, franka_ros):
 # the values are made up; the structure (where the type is declared, nested or dotted keys) is what the ROS tools read.

@@ -593,23 +593,25 @@ def _short(v: Any) -> str:
 
 
 def _paths_to(root: Any) -> tuple[dict[int, int], dict[int, set[str]]]:
-    """How many paths from the document's root reach each mapping or list (by ``id``): more than one when a YAML
-    alias (``*name``) or merge key (``<<``) repeats it; and the anchors (``&name``) of the blocks that hold it, itself
-    included. The walk follows each alias once per path (a recursive alias is cut where it recurs);
+    """How many paths from the document's root reach each mapping, list and anchored scalar (by ``id``): more than one
+    when a YAML alias (``*name``) or merge key (``<<``) repeats it; and the anchors (``&name``) of the blocks that hold
+    it, its own included. The walk follows each alias once per path (a recursive alias is cut where it recurs);
     :func:`_check_size` has bounded the expanded document."""
     counts: dict[int, int] = {}
     anchors: dict[int, set[str]] = {}
     stack: list[tuple[Any, frozenset[int], tuple[str, ...]]] = [(root, frozenset(), ())]
     while stack:
         node, above, names = stack.pop()
-        if not isinstance(node, dict | list) or id(node) in above:
-            continue
         name = _anchor(node)
+        container = isinstance(node, dict | list)
+        if (not container and not name) or id(node) in above:
+            continue
         names = (*names, name) if name else names
         counts[id(node)] = counts.get(id(node), 0) + 1
         anchors.setdefault(id(node), set()).update(names)
-        children = node.values() if isinstance(node, dict) else node
-        stack += [(c, above | {id(node)}, names) for c in children]
+        if container:
+            children = node.values() if isinstance(node, dict) else node
+            stack += [(c, above | {id(node)}, names) for c in children]
     return counts, anchors
 
 
@@ -618,35 +620,41 @@ def _anchor(node: Any) -> str | None:
     return getattr(a, "value", None) if a is not None else None
 
 
-def _shared(text: str, root: Any, params: Any, path: tuple[Any, ...], parent: Any, key: Any) -> str | None:
-    """Why the value at ``path`` (held by ``parent[key]``) cannot be written where it stands, or None: it is inherited
-    through a merge key, it lies in a mapping or list that an alias repeats elsewhere, or it is a scalar with an anchor
-    that an alias uses. Written in place, such a value would change every key that shares it (or, for an anchored
-    scalar, drop the anchor its aliases need)."""
-    present = key in parent if isinstance(parent, dict) else key < len(parent)
-    if present and isinstance(parent, dict):
-        try:
-            parent.lc.value(key)
-        except KeyError:
+def _own_keys(mapping: Any) -> list[Any]:
+    """The keys written in this mapping itself (not inherited through a merge key ``<<``)."""
+    data = mapping.lc.data or {}
+    return [k for k in mapping if k in data]
+
+
+def _target(parent: Any, key: Any) -> tuple[int, Any]:
+    """Where a value stands in the file: an anchored scalar by itself (its aliases are the same object), any other
+    value by its mapping or list and key."""
+    value = parent[key]
+    return (id(value), None) if _anchor(value) else (id(parent), key)
+
+
+def _shared(parent: Any, key: Any, path: tuple[Any, ...], counts: dict[int, int], anchors: dict[int, set[str]],
+            writers: dict[tuple[int, Any], list[Any]]) -> str | None:
+    """Why the value at ``path`` (``parent[key]``) cannot be written where it stands, or None.
+
+    Refused: a value inherited through a merge key (it stands in the merged block), and a value that more paths of the
+    document reach (an alias or merge key repeats it, or the block holding it) than this write's own slots, or that
+    this write's slots would set to different values. Allowed: aliases inside the section that this write sets
+    alike (FZI's ``trans_y: *tr`` given the same gains as ``trans_x: &tr``).
+    """
+    if isinstance(parent, dict):
+        if key not in _own_keys(parent):
             return f"its value comes from a merge key ('<<: *...') in {'.'.join(str(x) for x in path[:-1]) or 'the section'}"
-    counts, anchors = _paths_to(root) if root is not None else ({}, {})
-    chain, node = [params], params
-    for i in range(1, len(path)):
-        held = _locate(chain[0], path[:i])
-        if len(held) != 1:
-            break
-        node = held[0][0][held[0][1]]
-        chain.append(node)
-    chain.append(parent)
-    for node in chain:
-        if counts.get(id(node), 1) > 1:
-            names = sorted(anchors.get(id(node), ()))
-            return ("it lies in " + (f"the anchored block '&{names[-1]}'" if names else "a block")
-                    + " that an alias or a merge key repeats elsewhere in the file")
-    name = _anchor(parent[key]) if present else None
-    if name and re.search(r"\*" + re.escape(name) + r"(?![\w-])", text):
-        return f"its value carries the anchor '&{name}', which an alias ('*{name}') uses elsewhere in the file"
-    return None
+    target = _target(parent, key)
+    paths = counts.get(target[0], 1)
+    values = writers.get(target, [])
+    if paths <= 1 or (paths == len(values) and all(v == values[0] for v in values)):
+        return None
+    names = sorted(anchors.get(target[0], ()))
+    if target[1] is None:
+        return f"its value carries the anchor '&{names[-1]}', which an alias ('*{names[-1]}') uses elsewhere"
+    return ("it lies in " + (f"the anchored block '&{names[-1]}'" if names else "a block")
+            + " that an alias or a merge key repeats elsewhere in the file")
 
 
 def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, ...], Any]]], old: dict[str, Any],
@@ -655,11 +663,23 @@ def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, .
 
     Raises:
         ParameterError: a value whose parent key is missing, a list too short, or a value the file shares through a
-            YAML anchor, alias or merge key (written in place it would change the keys that share it: the message
-            names the key and says how the file shares it).
+            YAML anchor, alias or merge key beyond this write (written in place it would change the keys that share it:
+            the message names the key and says how the file shares it).
     """
     lines = text.splitlines(keepends=True)
     edits: list[Edit] = []
+    counts, anchors = _paths_to(root) if root is not None else ({}, {})
+    writers: dict[tuple[int, Any], list[Any]] = {}  # where each slot of the file stands -> the values this write gives
+    for name, entries in slots.items():
+        if name not in old:
+            continue
+        given = new.get(name, old[name])
+        vals = list(given) if isinstance(given, list | tuple) else [given]
+        for (path, _), v in zip(entries, vals):
+            held = _locate(params, path)
+            if len(held) == 1:
+                writers.setdefault(_target(*held[0]), []).append(v)
+    written: set[tuple[int, Any]] = set()
     for name, value in new.items():
         entries = slots[name]
         vals = list(value) if isinstance(value, list | tuple) else [value]
@@ -679,27 +699,33 @@ def _write_yaml(text: str, params: Any, slots: dict[str, list[tuple[tuple[Any, .
             if parent is _MISSING or parent is None:
                 raise ParameterError(f"cannot write {dotted}: its parent key is not in the file; add it by hand")
             if cur is not _MISSING:
-                why = _shared(text, root, params, path, parent, key)
+                why = _shared(parent, key, path, counts, anchors, writers)
                 if why:
                     raise ParameterError(f"cannot write {dotted}: {why}; written there it would change every key that "
-                                         "shares it. Give this controller its own value in its section, or edit the "
-                                         "file by hand")
+                                         "shares it. Give this controller its own value in its section (or, for keys "
+                                         "of this controller that share it, the same value to each), or edit the file "
+                                         "by hand")
+                if _target(parent, key) in written:  # an alias this write sets alike: written once
+                    continue
+                written.add(_target(parent, key))
                 line, col = parent.lc.item(key) if isinstance(key, int) else parent.lc.value(key)
-                anchor = re.match(r"&[^\s,\]}]+\s+", lines[line][col:])  # an anchor no alias uses: kept
+                anchor = re.match(r"&[^\s,\]}]+\s+", lines[line][col:])  # the value's anchor is kept
                 col += anchor.end() if anchor else 0
                 end = plain_scalar_end(lines[line], col)
                 edits.append((line, col, end, format_number(v, lines[line][col:end])))
-            elif isinstance(key, int):
+                continue
+            if isinstance(key, int):
                 raise ParameterError(f"cannot write {dotted}: the list in the file is shorter; fix its length by hand")
-            elif why := _shared(text, root, params, path, parent, key):
-                raise ParameterError(f"cannot add {dotted}: {why}; added there it would reach every key that shares "
-                                     "it. Add it to this controller's section by hand")
-            elif parent.fa.flow_style():
-                last = list(parent)[-1]
-                line, col = parent.lc.value(last)
+            own = _own_keys(parent)
+            if counts.get(id(parent), 1) > 1 or not own:
+                how = ("its mapping holds only keys from a merge key ('<<: *...')" if not own else
+                       "its mapping is one that an alias or a merge key repeats elsewhere in the file")
+                raise ParameterError(f"cannot add {dotted}: {how}; add it to this controller's section by hand")
+            if parent.fa.flow_style():
+                line, col = parent.lc.value(own[-1])
                 edits.append((line, plain_scalar_end(lines[line], col), None, f", {key}: {format_number(v)}"))
             else:
-                line, col = parent.lc.key(next(iter(parent)))
+                line, col = parent.lc.key(own[0])
                 edits.append((line, -1, None, f"{' ' * col}{key}: {format_number(v)}\n"))
     return apply_edits(text, edits)
 
