@@ -101,8 +101,9 @@ def _assemble(
     sets: dict[frozenset[str], list[str]] = {}  # the topic's joint sets (an arm and a gripper may share /joint_states)
     for _, msg in joints:
         sets.setdefault(frozenset(msg.name), list(msg.name))
-    if not joint_names and prefer_joint_names and any(set(prefer_joint_names) <= s_ for s_ in sets):
-        joint_names = list(prefer_joint_names)  # a model's joints, all on the topic
+    preferred = bool(not joint_names and prefer_joint_names and any(set(prefer_joint_names) <= s_ for s_ in sets))
+    if preferred:
+        joint_names = list(prefer_joint_names or ())  # a model's joints, all on the topic
     if joint_names:
         names = list(joint_names)
         known = set().union(*sets) if sets else set()
@@ -150,6 +151,8 @@ def _assemble(
                   f"{', '.join(names)}" + ("" if joint_names else " (the topic's largest set of joints; choose others "
                                                                    "with joint_names, --joint-names)")
                   for who, n in others.items()]
+    if preferred and sets[chosen] != names:
+        names_note.append(f"the log's joints {sets[chosen]} reordered to the model's order {names}")
     tw, h, frames = [], [], set()
     for ns, msg in wrenches:
         f, mu = msg.wrench.force, msg.wrench.torque
