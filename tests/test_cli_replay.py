@@ -128,3 +128,16 @@ def test_stamps_receive_reads_a_bag_whose_driver_left_the_header_stamps_empty(tm
     assert json.loads(out.stdout)["metrics"] == stamped["metrics"]
     out = runner.invoke(app, [command, "example-9.2", str(files["csv"]), "--out", str(tmp_path / "d"), "--stamps", "receive"])
     assert out.exit_code == 2 and "--stamps selects what is read from a ROS bag or MCAP file" in out.stderr
+
+
+def test_a_larger_hand_taken_for_the_arm_is_refused_naming_the_arms_messages(tmp_path, logs):
+    """The chapter's arm names no joints, so a 3-joint hand on its topic is the largest set and is read: the joint count
+    is refused, naming the arm's messages that were passed over and the option that chooses them."""
+    res, _ = logs
+    hand = [(s + 0.0005, ["f1", "f2", "f3"], [0.0, 0.0, 0.0]) for s in res.t]
+    bag = write_bag(tmp_path / "hand", res.t, res.q, res.qd, res.torque, res.t, res.wrench_measured, others=hand)
+    out = runner.invoke(app, ["replay", "example-9.2", str(bag), "--out", str(tmp_path / "a")])
+    assert out.exit_code == 2
+    said = " ".join(out.stderr.split())
+    assert (f"the log {bag} has 3 (f1, f2, f3); {res.t.size} JointState message(s) of (j1, j2) passed over: choose the "
+            "joints with joint_names (--joint-names)") in said, said

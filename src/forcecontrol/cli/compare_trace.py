@@ -20,6 +20,7 @@ from .replay import (
     Stamps,
     WrenchSense,
     WrenchTopic,
+    is_ros_log,
     pick_case,
     read_log,
 )
@@ -41,7 +42,7 @@ def _simulated(
 
     p = Path(source)
     if p.suffix.lower() in _DATA_SUFFIXES or (p.is_dir() and (p / "metadata.yaml").exists()):
-        ros = p.suffix.lower() in (".mcap", ".db3") or p.is_dir()  # a table beside a recorded bag takes neither option
+        ros = is_ros_log(p, fmt)  # a table beside a recorded bag takes neither option
         rec = read_log(p, fmt, 6, *args, **({"joint_names": joint_names, "stamps": stamps} if ros else {}))
         return rec, str(p), rec.m, p.stem, None
     scn = load_scenario(source)
@@ -89,10 +90,10 @@ def compare_trace_command(
     args = (joint_topic, wrench_topic, wrench_sense)
     try:
         sim, name, m, stem, robot = _simulated(simulated, case, format, args, joint_names, stamps)
-        rec = read_log(recorded, format, m, *args, joint_names=joint_names, stamps=stamps,
-                       prefer_joints=None if robot is None else model_joint_names(robot))
+        joints = None if robot is None else model_joint_names(robot)
+        rec = read_log(recorded, format, m, *args, joint_names=joint_names, stamps=stamps, prefer_joints=joints)
         if robot is not None:  # a JointState's order need not be the model's
-            rec = rec.in_joint_order(model_joint_names(robot))
+            rec = rec.in_joint_order(joints)
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:
             rec = rec.in_joint_order(sim.joint_names)
         cmp = compare_traces(sim, rec, max_shift=max_shift, robot=robot)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
@@ -13,7 +14,7 @@ from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 from .safe import terminal_safe
 
-__all__ = ["replay_command", "RecordFormat", "SenseChoice", "read_log", "pick_case", "sensor_pose_option"]
+__all__ = ["replay_command", "RecordFormat", "SenseChoice", "read_log", "is_ros_log", "pick_case", "sensor_pose_option"]
 
 #: options shared by the commands that read a recorded log (replay, compare-trace).
 JointTopic = Annotated[str, typer.Option(help="bags/MCAP: sensor_msgs/JointState topic")]
@@ -69,9 +70,16 @@ DEFAULT_JOINT_TOPIC = "/joint_states"
 DEFAULT_WRENCH_TOPIC = "/force_torque_sensor_broadcaster/wrench"
 
 
+def is_ros_log(path: Path, fmt: RecordFormat) -> bool:
+    """A ROS 2 bag or an MCAP file (by --format, else by the path): what the topic, joint and stamp options read."""
+    if fmt is not RecordFormat.auto:
+        return fmt.value in ("bag", "mcap")
+    return path.suffix.lower() in (".mcap", ".db3") or path.is_dir()
+
+
 def read_log(
     path: Path, fmt: RecordFormat, m: int, joint_topic: str, wrench_topic: str, wrench_sense: str, sense: str | None = None,
-    joint_names: str | None = None, stamps: str = "header", prefer_joints: Any = None,
+    joint_names: str | None = None, stamps: str = "header", prefer_joints: Sequence[str] | None = None,
 ) -> Any:
     """Read a recorded log in any format; bags and MCAP keep the task space's m wrench components, and read
     ``prefer_joints`` (the model's joints) when their joint-state topic holds them all and ``joint_names`` is not given.
@@ -84,9 +92,7 @@ def read_log(
 
     format_ = None if fmt is RecordFormat.auto else fmt.value
     kwargs: dict[str, Any] = {"wrench_sense": wrench_sense}
-    suffix = path.suffix.lower()
-    is_ros = format_ in ("bag", "mcap") or (format_ is None and (suffix in (".mcap", ".db3") or path.is_dir()))
-    if is_ros:
+    if is_ros_log(path, fmt):
         if sense is not None:
             raise ParameterError("--sense overrides a UR RTDE or libfranka recording's sense; a ROS bag/MCAP wrench's sense is "
                                  "--wrench-sense")
@@ -195,9 +201,10 @@ def replay_command(
             spec, parts = pick_case(scn, case)
             robot = parts["robot"]
             step(f"reading {data}")
+            joints = model_joint_names(robot)
             rec = read_log(data, format, int(robot.task_dim), joint_topic, wrench_topic, wrench_sense,
-                           None if sense is None else sense.value, joint_names, stamps, model_joint_names(robot))
-            rec = rec.in_joint_order(model_joint_names(robot))  # a JointState's order need not be the model's
+                           None if sense is None else sense.value, joint_names, stamps, joints)
+            rec = rec.in_joint_order(joints)  # a JointState's order need not be the model's
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
             result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X)

@@ -141,10 +141,12 @@ def _check_dimensions(controller: Controller, recorded: RecordedRun, robot: Robo
     model = robot if robot is not None else controller.robot
     n, m = int(model.nq), int(model.task_dim)
     if recorded.n != n:
-        passed = [x for x in recorded.metadata.get("notes", []) if "passed over" in x and "JointState" in x]
+        passed = recorded.metadata.get("joint_states_passed_over", {})
         raise DimensionError(
             f"the controller's robot has {n} joints; the log {recorded.source} has {recorded.n} "
-            f"({', '.join(recorded.joint_names)})" + (f"; {'; '.join(passed)}" if passed else "")
+            f"({', '.join(recorded.joint_names)})" + "".join(
+                f"; {k} JointState message(s) of ({who}) passed over: choose the joints with joint_names (--joint-names)"
+                for who, k in passed.items())
         )
     if recorded.wrench is not None and recorded.m != m:
         raise DimensionError(

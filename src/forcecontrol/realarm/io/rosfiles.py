@@ -185,6 +185,8 @@ def _assemble(
         notes.append("the wrench messages' header.frame_id is empty: the wrench is taken as in the base frame, about "
                      "its origin")
     meta: dict[str, Any] = {"skipped_corrupt": len(skipped)} if skipped else {}
+    if others:
+        meta["joint_states_passed_over"] = others  # their joints -> how many
     if notes:
         meta["notes"] = notes
     return RecordedRun(

@@ -35,7 +35,9 @@ def _numbered(cols: list[str], prefix: str) -> int:
     return n
 
 
+#: a wrench's columns, in order, and how many of them a table may give (a prefix of them)
 _WRENCH = ("fx", "fy", "fz", "mx", "my", "mz")
+_WRENCH_SIZES = (6, 3, 2, 1)
 
 
 def _check_columns(path: Path, cols: list[str]) -> None:
@@ -67,8 +69,8 @@ def _check_columns(path: Path, cols: list[str]) -> None:
                                  f"needs its {prefix} column, and no other joint has one")
     for suffix in ("", "_measured"):
         present = [w for w in _WRENCH if w + suffix in cols]
-        if present and present not in ([*_WRENCH[:k]] for k in (1, 2, 3, 6)):
-            want = next(list(_WRENCH[:k]) for k in (1, 2, 3, 6) if set(present) <= set(_WRENCH[:k]))
+        if present and present not in ([*_WRENCH[:k]] for k in _WRENCH_SIZES):
+            want = next(list(_WRENCH[:k]) for k in reversed(_WRENCH_SIZES) if set(present) <= set(_WRENCH[:k]))
             missing = [w + suffix for w in want if w not in present]
             raise ParameterError(
                 f"{path}: wrench columns {' '.join(w + suffix for w in present)}: {' '.join(missing)} missing; a wrench is "
@@ -79,7 +81,7 @@ def _check_columns(path: Path, cols: list[str]) -> None:
 
 def _wrench_names(cols: list[str], measured: bool) -> list[str]:
     suffix = "_measured" if measured else ""
-    for names in (["fx", "fy", "fz", "mx", "my", "mz"], ["fx", "fy", "fz"], ["fx", "fy"], ["fx"]):
+    for names in (_WRENCH[:k] for k in _WRENCH_SIZES):
         if all(n + suffix in cols for n in names):
             return [n + suffix for n in names]
     return []
