@@ -370,3 +370,15 @@ def test_an_mcap_file_without_a_summary_section_is_read_from_its_messages(tmp_pa
     np.testing.assert_array_equal(run.t, ref.t)
     np.testing.assert_array_equal(run.q, ref.q)
     np.testing.assert_array_equal(run.wrench, ref.wrench)
+
+
+@pytest.mark.parametrize("read", [read_bag, read_mcap])
+def test_a_joint_named_twice_is_refused_by_the_reader(tmp_path, read):
+    """joint_names with a repeated joint is a ParameterError naming the list (it read that joint's column twice, and the
+    check was only in the command line's --joint-names)."""
+    t = np.arange(20) * 0.01
+    q = np.column_stack([0.1 * t, -0.2 * t])
+    path = tmp_path / ("log" if read is read_bag else "log.mcap")
+    write_bag(path, t, q, q) if read is read_bag else write_mcap(path, t, q, q)
+    with pytest.raises(ParameterError, match=r"joint_names must name each joint once; got \['j1', 'j1'\]"):
+        read(path, wrench_topic=None, joint_names=["j1", "j1"])

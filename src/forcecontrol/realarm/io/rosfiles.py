@@ -106,6 +106,8 @@ def _assemble(
         joint_names = list(prefer_joint_names or ())  # a model's joints, all on the topic
     if joint_names:
         names = list(joint_names)
+        if len(set(names)) != len(names):
+            raise ParameterError(f"{source}: joint_names must name each joint once; got {names}")
         known = set().union(*sets) if sets else set()
         missing = [j for j in names if j not in known]
         if missing:
