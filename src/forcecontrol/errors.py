@@ -23,6 +23,7 @@ __all__ = [
     "BandwidthWarning",
     "SampledLoopWarning",
     "ContactModelWarning",
+    "CalibrationMisfitWarning",
 ]
 
 
@@ -119,3 +120,9 @@ class ContactModelWarning(UserWarning):
     its radius of curvature, where the closest surface point (and so the contact normal) stops being unique
     (:meth:`forcecontrol.environments.surfaces.ElasticSurface.take_projection_note`; the run's
     ``contact-projection`` event)."""
+
+
+class CalibrationMisfitWarning(UserWarning):
+    """Static F/T readings that do not follow the gravity model in the orientations they were given with
+    (:func:`forcecontrol.realarm.calibration.calibrate`'s frame check): the orientations are most often another frame's
+    than the sensor's (a sensor mounted turned on the flange); the message gives the rotation that fits them best."""

@@ -25,13 +25,46 @@ from .app import _fail, print_json
 __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
 
+def sensor_rpy_option(text: str | None) -> Any:
+    """``--sensor-rpy roll,pitch,yaw`` [rad] (URDF's rpy: R = Rz(yaw) Ry(pitch) Rx(roll)) → the (3, 3) rotation, or None."""
+    import numpy as np
+
+    from ..errors import ParameterError
+
+    if text is None:
+        return None
+    try:
+        v = np.array([float(x) for x in text.replace(";", ",").split(",") if x.strip()], dtype=np.float64)
+    except ValueError:
+        raise ParameterError(f"--sensor-rpy must be 3 numbers roll,pitch,yaw [rad] separated by commas; got {text!r}") from None
+    if v.size != 3 or not np.all(np.isfinite(v)):
+        raise ParameterError(f"--sensor-rpy must be 3 finite numbers roll,pitch,yaw [rad]; got {v.size}: {text!r}")
+    from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]
+
+    return Rotation.from_euler("xyz", v).as_matrix()
+
+
+def _planar(Res: Any, text: str | None) -> Any:
+    """A sensor rotation for planar data: about the plane's normal only (roll = pitch = 0), as its 2x2 block."""
+    import numpy as np
+
+    from ..errors import ParameterError
+
+    if abs(Res[2, 2] - 1.0) > 1e-12:
+        raise ParameterError(f"--sensor-rpy {text}: a planar sensor turns only about the plane's normal; give 0,0,yaw")
+    return np.array(Res[:2, :2])
+
+
 def calibration_report(
-    path: Path, gravity: float = 9.81, max_condition: float | None = None, degrees: bool = False, robot: str | None = None
+    path: Path, gravity: float = 9.81, max_condition: float | None = None, degrees: bool = False, robot: str | None = None,
+    sensor_rpy: str | None = None,
 ) -> dict[str, Any]:
     """The calibration of a data file as plain data (the ``--json`` output).
 
     With ``robot``, the sensor orientations come from the joint columns through the robot's
     forward kinematics (:func:`forcecontrol.realarm.calibration.read_joint_calibration_data`).
+    With ``sensor_rpy`` (``"roll,pitch,yaw"`` [rad]), the sensor frame is turned by that rotation from the frame the
+    orientations are of (the robot's controlled frame, or the file's orientation columns): ``R_S = R R_es``.
     """
     from ..realarm.calibration import (
         MAX_CONDITION,
@@ -42,8 +75,11 @@ def calibration_report(
     )
 
     orientation = "from the file's orientation columns"
+    Res = sensor_rpy_option(sensor_rpy)
     if robot is None:
         R, F, T = read_calibration_data(path, degrees=degrees)
+        if Res is not None:
+            R = R @ (_planar(Res, sensor_rpy) if R.shape[1] == 2 else Res)
     else:
         if degrees:
             from ..errors import ParameterError
@@ -51,11 +87,16 @@ def calibration_report(
             raise ParameterError("--degrees applies to a planar 'angle' column; with --robot the orientations come from the "
                                  "joint positions [rad]")
         model = calibration_robot(robot)
-        R, F, T, _, layout = read_joint_calibration_data(path, model)
+        if Res is not None and int(getattr(model, "task_dim", 3)) == 2:
+            Res = _planar(Res, sensor_rpy)
+        R, F, T, _, layout = read_joint_calibration_data(path, model, sensor_rotation=Res)
         orientation = f"from the joint positions ({layout}) through {robot}'s forward kinematics (frame {_frame(model)})"
+    if Res is not None:
+        orientation += f", the sensor turned by rpy = {sensor_rpy} rad on that frame"
     limit = MAX_CONDITION if max_condition is None else max_condition
     res = calibrate(R, F, T, gravity=gravity, max_condition=limit)
-    return {"file": str(path), "robot": robot, "orientation": orientation, "max_condition": limit, **res.as_dict()}
+    return {"file": str(path), "robot": robot, "orientation": orientation, "max_condition": limit,
+            "sensor_rotation": None if Res is None else Res.tolist(), **res.as_dict()}
 
 
 def _frame(model: Any) -> str:
@@ -89,15 +130,23 @@ def calibrate_command(
         RobotChoice | None,
         typer.Option("--robot", help="orientations from joint columns q1..qn (calibrate-plan --out) through this robot's FK"),
     ] = None,
+    sensor_rpy: Annotated[
+        str | None,
+        typer.Option("--sensor-rpy", help="the sensor's rotation roll,pitch,yaw [rad] (URDF rpy) on the frame the "
+                     "orientations are of (--robot's frame, or the file's columns)"),
+    ] = None,
 ) -> None:
-    """Identify a tool's mass, centre of mass and the F/T sensor's biases, with their uncertainty."""
+    """Identify a tool's mass, centre of mass and the F/T sensor's biases, with their uncertainty.
+
+    The force readings are also checked against the model in the orientations given: when they fit a turned sensor
+    frame much better (a sensor mounted turned on the flange), a warning gives that rotation for --sensor-rpy."""
     from rich.console import Console
     from rich.table import Table
 
     from ..errors import ForceControlError
 
     try:
-        report = calibration_report(data, gravity, max_condition, degrees, None if robot is None else robot.value)
+        report = calibration_report(data, gravity, max_condition, degrees, None if robot is None else robot.value, sensor_rpy)
     except (ForceControlError, ImportError) as exc:
         _fail(exc)
     if json_out:

@@ -23,6 +23,12 @@ poses. :func:`plan_calibration_poses` picks joint configurations that keep it sm
 Readings at joint positions (``calibrate-plan --out`` fed back): :func:`read_joint_calibration_data`
 computes the sensor orientations through the robot's forward kinematics (:mod:`.robot`).
 
+Whether the orientations are the sensor's: :func:`frame_check` (run by :func:`calibrate`) tests the
+force model against any linear map of gravity, ``f = A u + b`` (an F-test of nested least squares),
+and gives the turned sensor frame that fits best (the rotation nearest to ``−A/m``, orthogonal
+Procrustes): a sensor mounted turned on the flange is found, with the ``sensor_rotation`` to
+calibrate it with (:class:`~forcecontrol.errors.CalibrationMisfitWarning`).
+
 On the arm: :meth:`CalibrationResult.compensate` turns a raw reading into the contact wrench in
 any orientation, :func:`tare` re-estimates the biases from readings at one known pose (the
 payload kept), and :class:`DriftDetector` compares free-space readings with the model online
@@ -31,7 +37,7 @@ and flags a bias change larger than the noise allows.
 
 from __future__ import annotations
 
-from .core import MAX_CONDITION, CalibrationResult, calibrate, regressor_condition, tare
+from .core import MAX_CONDITION, MISFIT_P, CalibrationResult, FrameCheck, calibrate, frame_check, regressor_condition, tare
 from .data import calibration_data_from_columns, read_calibration_data, read_columns
 from .drift import DriftCheck, DriftDetector
 from .plan import CalibrationPlan, plan_calibration_poses, sensor_orientation
@@ -45,11 +51,14 @@ from .robot import (
 
 __all__ = [
     "MAX_CONDITION",
+    "MISFIT_P",
     "CalibrationPlan",
     "CalibrationResult",
     "DriftCheck",
     "DriftDetector",
     "calibrate",
+    "FrameCheck",
+    "frame_check",
     "plan_calibration_poses",
     "regressor_condition",
     "sensor_orientation",

@@ -10,14 +10,19 @@ from typing import Any
 import numpy as np
 
 from ...core.validate import positive_scalar
-from ...errors import DimensionError, MeasurementError, ParameterError
+from ...errors import CalibrationMisfitWarning, DimensionError, MeasurementError, ParameterError
 from ...sensors.gravity import ToolGravity, _force_regressor, _gravity_vector, _torque_regressor
 from ..io.recorded import MAX_RECORDED_MAGNITUDE
 
-__all__ = ["CalibrationResult", "calibrate", "regressor_condition", "tare", "MAX_CONDITION"]
+__all__ = ["CalibrationResult", "FrameCheck", "calibrate", "frame_check", "regressor_condition", "tare", "MAX_CONDITION",
+           "MISFIT_P"]
 
 #: default largest condition number of the normalised gravity regressor :func:`calibrate` accepts.
 MAX_CONDITION = 100.0
+
+#: p-value of :func:`frame_check`'s F-test below which :func:`calibrate` says the force readings do not follow the model
+#: in the orientations given (a correct model reaches it by chance once in a thousand calibrations).
+MISFIT_P = 1e-3
 
 
 # ----------------------------------------------------------------------------- checks and regressors
@@ -128,6 +133,10 @@ class CalibrationResult:
         torque_covariance: covariance of (p, b_τ), (d + nt, d + nt).
         condition_number: of the normalised gravity regressor (see :func:`regressor_condition`).
         n_readings: number of readings used.
+        frame_check: whether the force readings follow the model in the orientations given or in a turned
+            sensor frame (:class:`FrameCheck`); None when the readings cannot tell (too few, or gravity
+            directions that do not span the sensor's axes).
+        notes: what the calibration found or decided that a user must know (the same texts are warned).
     """
 
     dim: int
@@ -150,6 +159,7 @@ class CalibrationResult:
     torque_residual_rms: float | None = None
     torque_covariance: np.ndarray | None = None
     notes: tuple[str, ...] = field(default=())
+    frame_check: FrameCheck | None = None
 
     def __post_init__(self) -> None:
         for name in ("force_bias", "force_bias_std", "force_covariance", "com", "com_std", "first_moment", "torque_bias",
@@ -259,7 +269,151 @@ class CalibrationResult:
             "force_noise_std": self.force_noise_std, "torque_noise_std": self.torque_noise_std,
             "force_residual_rms": self.force_residual_rms, "torque_residual_rms": self.torque_residual_rms,
             "parameters": self.parameters(), "notes": list(self.notes),
+            "frame_check": None if self.frame_check is None else self.frame_check.as_dict(),
         }
+
+
+@dataclass(frozen=True, eq=False)
+class FrameCheck:
+    """Do the force readings follow ``f = −m u + b`` in the orientations given, or in turned ones?
+
+    Three nested fits of the force readings (k readings, d components, ``u_i = R_iᵀ g``):
+
+    * *given*: the model, ``f_i = −m u_i + b`` (1 + d unknowns);
+    * *turned*: the model in a sensor frame turned by ``R_es`` from the given one, ``f_i = −m R_esᵀ u_i + b``
+      (``R_es`` the nearest rotation to the linear fit's map, orthogonal Procrustes; 3 more unknowns in 3-D, 1 planar);
+    * *linear*: any linear map of gravity, ``f_i = A u_i + b`` (d² + d unknowns).
+
+    ``statistic`` and ``p_value`` are the F-test of *given* against *linear* (``dof`` its degrees of
+    freedom): a small p-value says the readings do not follow the model in the given orientations.
+    ``turned_p_value`` is the same test of *turned* against *linear*: large when a turned sensor frame
+    explains the readings (then ``rotation`` is how the sensor frame is turned), small when no rotation does (gains,
+    cross-talk, a tool that moves, readings of another sense). The tests assume white noise of equal variance on the
+    force components, as the uncertainties of :func:`calibrate` do.
+
+    Attributes:
+        statistic, p_value, dof: the F-test of the model in the given orientations.
+        turned_p_value: the F-test of the model in the turned sensor frame.
+        rotation: ``R_es`` (d, d): the sensor frame's orientation in the given frame that fits best.
+        angle_deg: its angle [deg]; axis: its unit axis (3,) (planar: (0, 0, ±1)).
+        rpy: ``R_es`` as fixed-axis roll, pitch, yaw [rad] (URDF's ``rpy``; planar: (0, 0, θ)).
+        rms_given, rms_turned, rms_linear: residual RMS of the three fits [N].
+        significant: ``p_value < MISFIT_P``.
+    """
+
+    statistic: float
+    p_value: float
+    dof: tuple[int, int]
+    turned_p_value: float
+    rotation: np.ndarray
+    angle_deg: float
+    axis: np.ndarray
+    rpy: np.ndarray
+    rms_given: float
+    rms_turned: float
+    rms_linear: float
+
+    @property
+    def significant(self) -> bool:
+        return self.p_value < MISFIT_P
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"statistic": self.statistic, "p_value": self.p_value, "dof": list(self.dof),
+                "turned_p_value": self.turned_p_value, "significant": self.significant,
+                "rotation": self.rotation.tolist(), "angle_deg": self.angle_deg, "axis": self.axis.tolist(),
+                "rpy": self.rpy.tolist(), "rms_given": self.rms_given, "rms_turned": self.rms_turned,
+                "rms_linear": self.rms_linear}
+
+    def note(self) -> str:
+        """What the check found, in words (the text :func:`calibrate` warns with when it is significant)."""
+        r = ",".join(f"{v:.4g}" for v in self.rpy)
+        a = ", ".join(f"{v:.3g}" for v in self.axis)
+        head = (f"the force readings do not follow the gravity model in the given orientations (F-test p = "
+                f"{self.p_value:.2g}; residual RMS {self.rms_given:.3g} N, {self.rms_linear:.3g} N with any linear map "
+                "of gravity)")
+        if self.turned_p_value >= MISFIT_P:
+            return (f"{head}: they fit a sensor frame turned by {self.angle_deg:.3g} deg about ({a}) from the given one "
+                    f"(rpy = {r} rad; residual RMS {self.rms_turned:.3g} N). The orientations are likely another frame's "
+                    f"than the sensor's: give the sensor's rotation on that frame (calibrate --robot ... --sensor-rpy={r}; "
+                    "sensor_rotation= in Python) and calibrate again")
+        return (f"{head}; no turned sensor frame explains them (the best, {self.angle_deg:.3g} deg about ({a}), leaves "
+                f"{self.rms_turned:.3g} N, F-test p = {self.turned_p_value:.2g}): check the sensor's gains and units, the "
+                "sense of the readings and that the tool was at rest")
+
+
+def _rss(A: np.ndarray, y: np.ndarray) -> float:
+    theta, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ theta
+    return float(r @ r)
+
+
+def _f_test(rss_small: float, rss_big: float, df1: int, df2: int, scale: float) -> tuple[float, float]:
+    """(F, p) of a nested least-squares fit with df1 fewer unknowns; ``scale`` is the data's sum of squares."""
+    from scipy.stats import f as fisher  # type: ignore[import-untyped]
+
+    floor = 1e-26 * max(scale, 1e-300)  # round-off: a perfect fit of exact data
+    if rss_big <= floor:
+        return (math.inf, 0.0) if rss_small > 1e-20 * max(scale, 1e-300) else (0.0, 1.0)
+    stat = max(rss_small - rss_big, 0.0) / df1 / (rss_big / df2)
+    return float(stat), float(fisher.sf(stat, df1, df2))
+
+
+def frame_check(rotations: Any, forces: Any, *, gravity: float = 9.81) -> FrameCheck | None:
+    """The F-tests of :class:`FrameCheck` on static force readings at sensor orientations.
+
+    Args:
+        rotations: sensor orientations R_i in the base frame, (k, d, d); forces: readings in the sensor frame (k, d) [N].
+        gravity: |g| [m/s²].
+
+    Returns:
+        The check, or None when the readings cannot tell: fewer readings than the linear fit has unknowns plus one,
+        or gravity directions in the sensor frame that do not span its d axes.
+
+    Raises:
+        DimensionError, MeasurementError, ParameterError: as :func:`calibrate`.
+    """
+    from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]
+
+    g = positive_scalar("gravity", gravity, "m/s^2")
+    R = _rotations(rotations)
+    k, d = R.shape[0], R.shape[1]
+    F = _readings("forces", forces, k, d)
+    u = _gravity_in_sensor(R, g)
+    X = np.column_stack([u, np.ones(k)])
+    df2 = k * d - (d * d + d)
+    if df2 < 1 or np.linalg.matrix_rank(X, tol=1e-9 * max(1.0, float(np.abs(X).max()))) < d + 1:
+        return None
+    coef, *_ = np.linalg.lstsq(X, F, rcond=None)
+    res = F - X @ coef
+    rss_lin = float(np.sum(res * res))
+    y = F.reshape(-1)
+    rss_given = _rss(_force_regressor(u), y)
+    # A = −m R_esᵀ: the nearest rotation to −A (orthogonal Procrustes) is R_esᵀ
+    U, _s, Vt = np.linalg.svd(-coef[:d].T)
+    D = np.eye(d)
+    D[-1, -1] = np.sign(np.linalg.det(U @ Vt)) or 1.0
+    Qt = U @ D @ Vt
+    Res = Qt.T
+    rss_turned = _rss(_force_regressor(u @ Qt.T), y)
+    scale = float(y @ y)
+    stat, p = _f_test(rss_given, rss_lin, d * d - 1, df2, scale)
+    _, p_turned = _f_test(rss_turned, rss_lin, d * d - 1 - (3 if d == 3 else 1), df2, scale)
+    if d == 3:
+        rot = Rotation.from_matrix(Res)
+        rv = rot.as_rotvec()
+        angle = float(np.linalg.norm(rv))
+        axis = rv / angle if angle > 0.0 else np.array([0.0, 0.0, 1.0])
+        rpy = rot.as_euler("xyz")  # lower case: fixed axes, URDF's roll, pitch, yaw
+    else:
+        theta = math.atan2(Res[1, 0], Res[0, 0])
+        angle = abs(theta)
+        axis = np.array([0.0, 0.0, 1.0 if theta >= 0.0 else -1.0])
+        rpy = np.array([0.0, 0.0, theta])
+    n = k * d
+    return FrameCheck(statistic=stat, p_value=p, dof=(d * d - 1, df2), turned_p_value=p_turned, rotation=Res,
+                      angle_deg=math.degrees(angle), axis=axis, rpy=np.asarray(rpy, dtype=np.float64),
+                      rms_given=math.sqrt(rss_given / n), rms_turned=math.sqrt(rss_turned / n),
+                      rms_linear=math.sqrt(rss_lin / n))
 
 
 def _fit(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -379,10 +533,18 @@ def calibrate(
                "torque_noise_std": st, "torque_residual_rms": rms_t, "torque_covariance": cov_t}
     if clamp_note is not None:
         notes.append(clamp_note)
+    check = frame_check(R, F, gravity=g)
+    if check is None:
+        notes.append(f"the orientations were not checked against the force readings (is the sensor frame turned from "
+                     f"the given one?): that needs at least {d + 2} readings whose gravity directions span the sensor's "
+                     f"{d} axes; got {k}")
+    elif check.significant:
+        notes.append(check.note())
+        warnings.warn(check.note(), CalibrationMisfitWarning, stacklevel=2)
     return CalibrationResult(
         dim=d, gravity=g, mass=mass, mass_std=float(std_f[0]), force_bias=b_f, force_bias_std=std_f[1:],
         force_noise_std=sf, force_residual_rms=rms_f, force_covariance=cov_f, condition_number=cond,
-        n_readings=k, notes=tuple(notes), **out,
+        n_readings=k, notes=tuple(notes), frame_check=check, **out,
     )
 
 

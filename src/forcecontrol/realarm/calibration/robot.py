@@ -57,7 +57,8 @@ def rotations_from_joints(robot: Any, joint_positions: Any, *, sensor_rotation: 
 
     Raises:
         DimensionError: joint positions that are not (k, nq), a sensor rotation of the wrong size.
-        MeasurementError: NaN or inf in the joint positions.
+        MeasurementError: NaN or inf in the joint positions or the sensor rotation.
+        ParameterError: a sensor rotation that is not a proper rotation matrix.
     """
     Q = np.asarray(joint_positions, dtype=np.float64)
     nq = int(robot.nq)
@@ -71,6 +72,12 @@ def rotations_from_joints(robot: Any, joint_positions: Any, *, sensor_rotation: 
         Res = np.asarray(sensor_rotation, dtype=np.float64)
         if Res.shape != R.shape[1:]:
             raise DimensionError(f"sensor_rotation must be {R.shape[1:]} for this robot; got shape {Res.shape}")
+        if not np.all(np.isfinite(Res)):
+            raise MeasurementError(f"sensor_rotation must be finite; got {Res.tolist()}")
+        err = float(np.abs(Res.T @ Res - np.eye(Res.shape[0])).max())
+        if err > 1e-6 or np.linalg.det(Res) < 0.0:
+            raise ParameterError(f"sensor_rotation must be a proper rotation matrix (RᵀR = I, det R = +1); got |RᵀR − I| = "
+                                 f"{err:.3g} and det R = {np.linalg.det(Res):.6g}")
         R = R @ Res
     return R
 
