@@ -141,3 +141,80 @@ def test_a_larger_hand_taken_for_the_arm_is_refused_naming_the_arms_messages(tmp
     said = " ".join(out.stderr.split())
     assert (f"the log {bag} has 3 (f1, f2, f3); {res.t.size} JointState message(s) of (j1, j2) passed over: choose the "
             "joints with joint_names (--joint-names)") in said, said
+
+
+def test_replay_window_start_end_gives_the_recorded_torques_of_that_window(tmp_path, logs):
+    """`replay --start 0.1 --end 0.3`: 201 samples from t = 0.1 s of the log, the window in --json and in the table, the
+    replayed torques equal the recorded ones of those samples (example 9.2's law holds no state)."""
+    res, files = logs
+    out = runner.invoke(app, ["replay", "example-9.2", str(files["bag"]), "--start", "0.1", "--end", "0.3", "--out",
+                              str(tmp_path), "--json"])
+    assert out.exit_code == 0, out.output
+    rep = json.loads(out.stdout)
+    assert rep["samples"] == 201 and rep["window"] == pytest.approx([0.1, 0.3], abs=1e-9)
+    assert rep["max_gap"] == pytest.approx(0.01) and rep["units"]["window"] == "s"
+    table = np.genfromtxt(rep["files"]["table"], delimiter=",", names=True)
+    np.testing.assert_allclose(table["u1"], res.torque[100:301, 0], atol=1e-6 * np.abs(res.torque).max())
+    text = runner.invoke(app, ["replay", "example-9.2", str(files["csv"]), "--start", "0.1", "--out", str(tmp_path / "t")])
+    assert text.exit_code == 0, text.output
+    assert "window" in text.stdout and "0.1 to 0.5" in text.stdout
+
+
+@pytest.fixture(scope="module")
+def gapped(logs, tmp_path_factory):
+    """The CSV log with its samples between 0.2 s and 0.25 s dropped: a 0.05 s gap (5 periods over the default 10 ms)."""
+    import pandas as pd
+
+    _, files = logs
+    df = pd.read_csv(files["csv"])
+    df = df[(df["t"] <= 0.2 + 1e-9) | (df["t"] >= 0.25 - 1e-9)]
+    path = tmp_path_factory.mktemp("gap") / "gapped.csv"
+    df.to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("command", ["replay", "compare-trace"])
+def test_a_gap_is_refused_naming_the_options_and_max_gap_bridges_it(tmp_path, gapped, command):
+    """A 0.05 s gap: refused (exit 2) with the options that get past it; --max-gap 0.06 bridges it (replay says the
+    gap it allowed); replay --end 0.2 stops before it."""
+    out = runner.invoke(app, [command, "example-9.2", str(gapped), "--out", str(tmp_path / "a")])
+    assert out.exit_code == 2, out.output
+    assert "gap of 0.05 s after t = 0.2 s" in out.stderr and "--max-gap" in out.stderr
+    if command == "replay":
+        assert "--start/--end" in out.stderr
+    ok = runner.invoke(app, [command, "example-9.2", str(gapped), "--max-gap", "0.06", "--out", str(tmp_path / "b"),
+                             "--json"])
+    assert ok.exit_code == 0, ok.output
+    if command == "replay":
+        rep = json.loads(ok.stdout)
+        assert rep["max_gap"] == 0.06 and rep["samples"] == 501
+        before = runner.invoke(app, [command, "example-9.2", str(gapped), "--end", "0.2", "--out", str(tmp_path / "c"),
+                                     "--json"])
+        assert before.exit_code == 0, before.output
+        assert json.loads(before.stdout)["samples"] == 201
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--start", "nan"], "must be a finite time"),
+    (["--end", "inf"], "must be a finite time"),
+    (["--max-gap", "0"], "must be a finite time > 0"),
+    (["--max-gap", "nan"], "must be a finite time > 0"),
+    (["--start", "5"], "outside the joint states recording"),
+    (["--start", "0.3", "--end", "0.1"], "start must be before end"),
+    (["--start", "0.4999"], "shorter than one period"),
+])
+def test_replay_refuses_a_bad_window_or_gap(tmp_path, logs, args, match):
+    _, files = logs
+    out = runner.invoke(app, ["replay", "example-9.2", str(files["csv"]), *args, "--out", str(tmp_path)])
+    assert out.exit_code == 2 and match in out.output, out.output
+
+
+def test_resample_refuses_a_window_that_is_not_a_finite_time(logs):
+    from forcecontrol.errors import ParameterError
+    from forcecontrol.realarm.io import read_recording
+
+    _, files = logs
+    rec = read_recording(files["csv"])
+    for kw in ({"start": float("nan")}, {"end": float("inf")}, {"start": "0.1"}):
+        with pytest.raises(ParameterError, match=f"{next(iter(kw))} must be a finite time"):
+            rec.resample(0.001, **kw)

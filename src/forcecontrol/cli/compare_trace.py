@@ -15,6 +15,7 @@ from .replay import (
     CaseLabel,
     JointNames,
     JointTopic,
+    MaxGap,
     RecordedLog,
     RecordFormat,
     Stamps,
@@ -76,6 +77,7 @@ def compare_trace_command(
     joint_names: JointNames = None,
     stamps: Stamps = "header",
     wrench_sense: WrenchSense = "by-end-effector",
+    max_gap: MaxGap = None,
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
 ) -> None:
@@ -96,7 +98,7 @@ def compare_trace_command(
             rec = rec.in_joint_order(joints)
         if isinstance(sim, RecordedRun) and sim.joint_names != rec.joint_names:
             rec = rec.in_joint_order(sim.joint_names)
-        cmp = compare_traces(sim, rec, max_shift=max_shift, robot=robot)
+        cmp = compare_traces(sim, rec, max_shift=max_shift, robot=robot, max_gap=max_gap)
         folder, note = prepare_output(out, _slug(f"{stem}-compare-trace"), force, ctx)
         log_notes = list(rec.metadata.get("notes", []))
         for text in [*log_notes, note]:

@@ -30,8 +30,37 @@ RecordedLog = Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet,
 CaseLabel = Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")]
 
 
+def _finite_time(value: float | None) -> float | None:
+    """--start/--end: a finite time [s] (click's float type lets nan and inf through)."""
+    import math
+
+    if value is not None and not math.isfinite(value):
+        raise typer.BadParameter(f"must be a finite time [s]; got {value!r}")
+    return value
+
+
+def _gap(value: float | None) -> float | None:
+    """--max-gap: a finite time > 0 [s]."""
+    import math
+
+    if value is not None and not (math.isfinite(value) and value > 0.0):
+        raise typer.BadParameter(f"must be a finite time > 0 [s]; got {value!r}")
+    return value
+
+
+MaxGap = Annotated[float | None, typer.Option(
+    "--max-gap", callback=_gap, help="largest gap between two logged samples bridged by interpolation [s] "
+    "(default: 10 periods); a larger one inside the window is refused")]
+Start = Annotated[float | None, typer.Option(
+    "--start", callback=_finite_time, help="replay from this time of the log [s] (its time column; bags/MCAP: from the "
+    "first message) (default: where every stream has data)")]
+End = Annotated[float | None, typer.Option(
+    "--end", callback=_finite_time, help="replay up to this time of the log [s] (default: where a stream ends)")]
+
+
 #: units of replay's JSON fields and metrics (the force error's norm takes moments' N m as N in 6-D)
-REPLAY_UNITS = {"period": "s", "torque_difference_rms": "N m", "torque_difference_max": "N m", "force_error_rms": "N",
+REPLAY_UNITS = {"period": "s", "window": "s", "max_gap": "s",
+                "torque_difference_rms": "N m", "torque_difference_max": "N m", "force_error_rms": "N",
                 "force_error_max": "N"}
 
 
@@ -182,6 +211,9 @@ def replay_command(
         typer.Option("--sensor-pose", help="the wrench frame's pose on the end-effector: x,y,z,roll,pitch,yaw [m, rad] or "
                      "16 numbers (4x4, row by row)"),
     ] = None,
+    start: Start = None,
+    end: End = None,
+    max_gap: MaxGap = None,
     json_out: JsonOut = False,
     force: ForceOverwrite = False,
     set_: SetOption = None,
@@ -207,7 +239,8 @@ def replay_command(
             rec = rec.in_joint_order(joints)  # a JointState's order need not be the model's
             X = _sensor_pose(sensor_pose, rec, robot)
             step(f"replaying {len(rec.t)} samples (compiling the controller's law on a first run)")
-            result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X)
+            result = replay(parts["controller"], rec, parts["reference"], robot, sensor_pose=X, max_gap=max_gap, start=start,
+                            end=end)
             folder, note = prepare_output(out, _slug(f"{scn.name}-replay"), force, ctx)
             step(f"writing the table and the figure of {len(rec.t)} samples")
             stem = _slug(spec.label)
@@ -222,6 +255,9 @@ def replay_command(
         return
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
+              "window": [float(result.metadata["time_origin"] - rec.time_origin),
+                         float(result.metadata["time_origin"] - rec.time_origin + result.t[-1])],
+              "max_gap": result.metadata["max_gap"],
               "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets,
               "recording": {"format": rec.metadata.get("format"), "joint_names": list(rec.joint_names),
                             "wrench_frame": rec.wrench_frame,
@@ -239,6 +275,7 @@ def replay_command(
     t.add_column("value", justify="right")
     t.add_column("unit")
     t.add_row("samples", f"{result.t.size} at Ts = {result.metadata['period']:.6g} s", "")
+    t.add_row("window", f"{report['window'][0]:.6g} to {report['window'][1]:.6g}", "s")
     for k, v in report["metrics"].items():
         t.add_row(k, f"{v:.6g}", REPLAY_UNITS.get(k, ""))
     console.print(t)

@@ -242,6 +242,7 @@ def replay(
         t=t, torque=u, torque_recorded=rec.tau, wrench=h, force_reference=f_d.copy(), force_error=f_d - h,
         q=rec.q, qd=rec.qd,
         metadata={"controller": {"type": type(controller).__name__, **controller.gains()}, "source": recorded.source,
-                  "period": Ts, "time_origin": float(recorded.time_origin + rec.t[0])},
+                  "period": Ts, "time_origin": float(recorded.time_origin + rec.t[0]),
+                  "max_gap": float(rec.metadata["resampled"]["max_gap"])},
     )
 

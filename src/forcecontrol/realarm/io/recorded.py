@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -232,12 +233,18 @@ class RecordedRun:
         """
         period = positive_scalar("period", period)
         max_gap = 10.0 * period if max_gap is None else positive_scalar("max_gap", max_gap)
+        for name, value in (("start", start), ("end", end)):
+            if value is not None and not (isinstance(value, (int, float, np.floating, np.integer))
+                                          and math.isfinite(float(value))):
+                raise ParameterError(f"{name} must be a finite time [s] or None; got {value!r}")
+        if start is not None and end is not None and float(start) >= float(end):
+            raise ParameterError(f"start must be before end; got start = {float(start):.6g} s and end = {float(end):.6g} s")
         tw = self.t if self.t_wrench is None else self.t_wrench
         streams = [("joint states", self.t)] + ([("wrench", tw)] if self.wrench is not None else [])
         lo = max(float(ts[0]) for _, ts in streams) if start is None else float(start)
         hi = min(float(ts[-1]) for _, ts in streams) if end is None else float(end)
         for name, ts in streams:
-            if lo < ts[0] - 1e-12 or hi > ts[-1] + 1e-12:
+            if lo < ts[0] - 1e-12 or hi > ts[-1] + 1e-12 or lo > ts[-1] or hi < ts[0]:
                 raise MeasurementError(
                     f"{self.source}: the window [{lo:.6g}, {hi:.6g}] s is outside the {name} recording "
                     f"[{ts[0]:.6g}, {ts[-1]:.6g}] s"
@@ -249,7 +256,7 @@ class RecordedRun:
                 i = int(np.flatnonzero(over)[0])
                 raise MeasurementError(
                     f"{self.source}: the {name} stream has a gap of {gaps[i]:.6g} s after t = {ts[i]:.6g} s, larger than "
-                    f"max_gap = {max_gap:.6g} s; cut the window (start/end) or raise max_gap"
+                    f"max_gap = {max_gap:.6g} s; cut the window (start/end; replay --start/--end) or raise max_gap (--max-gap)"
                 )
         if hi - lo < period:
             raise MeasurementError(f"{self.source}: the common window [{lo:.6g}, {hi:.6g}] s is shorter than one period")
