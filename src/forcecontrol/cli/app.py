@@ -85,6 +85,22 @@ class DataFormat(str, Enum):
     parquet = "parquet"
 
 
+def comma_numbers(option: str, text: str, what: str) -> Any:
+    """The numbers of an option given as ``a,b,c`` (``;`` also separates) as a float array.
+
+    Raises:
+        ParameterError: a part that is not a number (the message names ``option`` and says ``what`` it takes).
+    """
+    import numpy as np
+
+    from ..errors import ParameterError
+
+    try:
+        return np.array([float(x) for x in text.replace(";", ",").split(",") if x.strip()], dtype=np.float64)
+    except ValueError:
+        raise ParameterError(f"{option} must be {what} separated by commas; got {text!r}") from None
+
+
 def _slug(s: str) -> str:
     """A file-name-safe form of a name: letters, digits, single dots and dashes; never '.', '..' or a path."""
     slug = re.sub(r"[^A-Za-z0-9.]+", "-", s).lower()

@@ -20,7 +20,7 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import _fail, print_json
+from .app import _fail, comma_numbers, print_json
 
 __all__ = ["calibrate_command", "calibrate_plan_command", "calibration_report"]
 
@@ -33,10 +33,7 @@ def sensor_rpy_option(text: str | None) -> Any:
 
     if text is None:
         return None
-    try:
-        v = np.array([float(x) for x in text.replace(";", ",").split(",") if x.strip()], dtype=np.float64)
-    except ValueError:
-        raise ParameterError(f"--sensor-rpy must be 3 numbers roll,pitch,yaw [rad] separated by commas; got {text!r}") from None
+    v = comma_numbers("--sensor-rpy", text, "3 numbers roll,pitch,yaw [rad]")
     if v.size != 3 or not np.all(np.isfinite(v)):
         raise ParameterError(f"--sensor-rpy must be 3 finite numbers roll,pitch,yaw [rad]; got {v.size}: {text!r}")
     from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]

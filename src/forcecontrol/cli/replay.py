@@ -9,7 +9,19 @@ from typing import Annotated, Any
 
 import typer
 
-from .app import ForceOverwrite, JsonOut, OutFolder, _fail, _slug, compile_notice, console, prepare_output, print_json, say_note
+from .app import (
+    ForceOverwrite,
+    JsonOut,
+    OutFolder,
+    _fail,
+    _slug,
+    comma_numbers,
+    compile_notice,
+    console,
+    prepare_output,
+    print_json,
+    say_note,
+)
 from .busy import busy
 from .overrides import SetOption, apply_sets, parse_sets
 from .safe import terminal_safe
@@ -160,10 +172,7 @@ def sensor_pose_option(text: str | None, parent: str, child: str) -> Any:
 
     if text is None:
         return None
-    try:
-        v = np.array([float(x) for x in text.replace(";", ",").split(",") if x.strip()], dtype=np.float64)
-    except ValueError:
-        raise ParameterError(f"--sensor-pose must be numbers separated by commas; got {text!r}") from None
+    v = comma_numbers("--sensor-pose", text, "numbers")
     if v.size == 6 and np.all(np.isfinite(v)):
         from scipy.spatial.transform import Rotation
 
