@@ -351,8 +351,10 @@ def _python_loop(
     hdt, sdt = 0.5 * dt, dt / 6.0
     planar = q0.shape[0] == 2
     robot_nq = q0.shape[0]
-    # (x, ẋ) of a sample: from the kinematics alone where the robot offers it (the same numbers as terms' x, ẋ)
-    pose_twist = robot.pose_twist if isinstance(getattr(robot, "torque_robot", robot), PlanarTwoLink) else None
+    # (x, ẋ) of a sample: from the kinematics alone where the robot offers it (terms' x and, to round-off, its J q̇);
+    # an elastic environment's sampled wrench is its wrench there (Environment.sampled_wrench, without a second call)
+    pose_twist = getattr(robot, "pose_twist", None)
+    elastic_sample = pose_twist is not None and type(environment).sampled_wrench is Environment.sampled_wrench
 
     u = np.asarray(robot.gravity(q0), dtype=np.float64)  # held before t = 0 (see pre_start_wrench)
     friction = actuator.friction if actuator is not None and actuator.has_friction else None
@@ -373,7 +375,10 @@ def _python_loop(
     for k in range(N + 1):
         t = k * Ts
         x, xd = pose_twist(q, qd) if pose_twist is not None else _pose(robot.terms(q, qd))
-        h = environment.sampled_wrench(robot, q, qd, u if friction is None else u - friction(qd))
+        if elastic_sample:
+            h = np.asarray(environment.wrench(x, xd), dtype=np.float64)
+        else:
+            h = environment.sampled_wrench(robot, q, qd, u if friction is None else u - friction(qd))
         if sensor is not None:  # stateful sensor model (started in simulate)
             hm = sensor.measure(k, t, h, q)
         else:
