@@ -24,6 +24,29 @@ dissipated). So with σ ≤ 1
 
 the controller with its tank is passive, whatever the schedule asks. Damping may vary freely
 (any K_D ⪰ 0 only dissipates). M_d is held constant.
+
+How this tank differs from the papers' (Ferraguti et al., ICRA 2013 and IEEE T-RO 31(5) 2015, where the tank
+state is x_t with ``T = ½ x_t²``, ``ẋ_t = (σ/x_t) x̃̇ᵀ D x̃̇ − wᵀ x̃̇`` and the variable spring's force
+``K_v x̃ = −w x_t`` is supplied through the tank while ``T > ε``), compared by an outside review of the code:
+
+* *What the tank pays for.* The papers keep only the constant part of the stiffness in the storage and pay the
+  variable spring's whole power ``x̃̇ᵀ K_v x̃`` from the tank; here the storage H holds the whole K_P and the tank
+  pays ``½ x̃ᵀ ΔK x̃`` at each change (the ``½ x̃ᵀ K̇_P x̃`` term). In continuous time the two books differ by
+  ``½ x̃ᵀ K_v x̃`` (the papers' tank also holds the variable spring's energy), so the same T₀, T_min and T_max
+  are not the same settings in the two schemes.
+* *The state.* The energy T itself is kept, not x_t: no ``1/x_t`` at an empty tank, T within
+  [T_min, T_max] by construction, and the books exact to round-off at the sample time (the papers' law sampled with
+  forward Euler at 1 ms lets T dip below ε and gains energy, the review measured).
+* *An empty tank.* The papers' w drops to 0 at ``T ≤ ε``, so the stiffness falls back to its constant part; here
+  only the part of a change the tank cannot pay is refused (the stiffness stays where it is) and energy returned by
+  lowering it is always taken.
+* *σ.* The papers' σ ∈ {0, 1} switches the damper's inflow off above T̄; here ``dissipation_fraction`` σ ∈ [0, 1]
+  is a constant share of that inflow, and T_max clips every inflow (energy returned by a lower stiffness too).
+* *The damper's inflow* is the energy the damper dissipated over the last sample, capped by what the sampled loop
+  really lost (see :class:`EnergyTank`), not the continuous ``σ x̃̇ᵀ K_D x̃̇``.
+
+Each keeps ``H + T`` from growing, so each is passive; they differ in how much stiffness change a given tank
+allows.
 """
 
 from __future__ import annotations
