@@ -136,7 +136,8 @@ class CalibrationResult:
         frame_check: whether the force readings follow the model in the orientations given or in a turned
             sensor frame (:class:`FrameCheck`); None when the readings cannot tell (too few, or gravity
             directions that do not span the sensor's axes).
-        notes: what the calibration found or decided that a user must know (the same texts are warned).
+        notes: what the calibration found or decided that a user must know (a misfit of the frame check and a mass
+            clamped to 0 are also warned; the others, such as a centre of mass left undefined, are not).
     """
 
     dim: int
@@ -281,8 +282,10 @@ class FrameCheck:
 
     * *given*: the model, ``f_i = −m u_i + b`` (1 + d unknowns);
     * *turned*: the model in a sensor frame turned by ``R_es`` from the given one, ``f_i = −m R_esᵀ u_i + b``
-      (``R_es`` the nearest rotation to the linear fit's map, orthogonal Procrustes; 3 more unknowns in 3-D, 1 planar);
-    * *linear*: any linear map of gravity, ``f_i = A u_i + b`` (d² + d unknowns).
+      (``R_es`` by nonlinear least squares from the rotation nearest to the linear fit's map; 3 more unknowns in 3-D,
+      1 planar);
+    * *linear*: any linear map of gravity, ``f_i = A u_i + b`` (d² + d unknowns, fewer when the poses' gravity
+      directions span fewer axes: see :func:`frame_check`).
 
     ``statistic`` and ``p_value`` are the F-test of *given* against *linear* (``dof`` its degrees of
     freedom): a small p-value says the readings do not follow the model in the given orientations.
@@ -293,7 +296,8 @@ class FrameCheck:
 
     Attributes:
         statistic, p_value, dof: the F-test of the model in the given orientations.
-        turned_p_value: the F-test of the model in the turned sensor frame.
+        turned_p_value: the F-test of the model in the turned sensor frame (NaN when the poses leave it no degree of
+            freedom).
         rotation: ``R_es`` (d, d): the sensor frame's orientation in the given frame that fits best.
         angle_deg: its angle [deg]; axis: its unit axis (3,) (planar: (0, 0, ±1)).
         rpy: ``R_es`` as fixed-axis roll, pitch, yaw [rad] (URDF's ``rpy``; planar: (0, 0, θ)).
@@ -331,6 +335,10 @@ class FrameCheck:
         head = (f"the force readings do not follow the gravity model in the given orientations (F-test p = "
                 f"{self.p_value:.2g}; residual RMS {self.rms_given:.3g} N, {self.rms_linear:.3g} N with any linear map "
                 "of gravity)")
+        if math.isnan(self.turned_p_value):
+            return (f"{head}. The poses do not tell which turned sensor frame would explain them (the gravity directions "
+                    f"in the sensor frame span too few axes; the best fit is {self.angle_deg:.3g} deg about ({a}), rpy = {r} "
+                    "rad): check the frame of the orientations, or spread the poses (calibrate-plan) and calibrate again")
         if self.turned_p_value >= MISFIT_P:
             return (f"{head}: they fit a sensor frame turned by {self.angle_deg:.3g} deg about ({a}) from the given one "
                     f"(rpy = {r} rad; residual RMS {self.rms_turned:.3g} N). The orientations are likely another frame's "
@@ -358,16 +366,54 @@ def _f_test(rss_small: float, rss_big: float, df1: int, df2: int, scale: float) 
     return float(stat), float(fisher.sf(stat, df1, df2))
 
 
+def _rank(A: np.ndarray) -> int:
+    return int(np.linalg.matrix_rank(A, tol=1e-9 * max(1.0, float(np.abs(A).max()))))
+
+
+def _turned_fit(u: np.ndarray, y: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, float]:
+    """The sensor rotation R_es minimising the residual of ``f = −m R_esᵀ u + b`` ((m, b) solved for each rotation),
+    by nonlinear least squares from ``start``; (R_es, RSS)."""
+    from scipy.optimize import least_squares  # type: ignore[import-untyped]
+    from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]
+
+    d = u.shape[1]
+
+    def rotation(v: np.ndarray) -> np.ndarray:
+        if d == 3:
+            return Rotation.from_rotvec(v).as_matrix()
+        c, s = math.cos(v[0]), math.sin(v[0])
+        return np.array([[c, -s], [s, c]])
+
+    def residual(v: np.ndarray) -> np.ndarray:
+        A = _force_regressor(u @ rotation(v))  # u_i' = R_esᵀ u_i, as rows
+        theta, *_ = np.linalg.lstsq(A, y, rcond=None)
+        return y - A @ theta
+
+    v0 = Rotation.from_matrix(start).as_rotvec() if d == 3 else np.array([math.atan2(start[1, 0], start[0, 0])])
+    sol = least_squares(residual, v0, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    r0, r1 = residual(v0), sol.fun
+    if float(r0 @ r0) <= float(r1 @ r1):  # the start was already the best (an exact fit)
+        return start, float(r0 @ r0)
+    return rotation(sol.x), float(r1 @ r1)
+
+
 def frame_check(rotations: Any, forces: Any, *, gravity: float = 9.81) -> FrameCheck | None:
     """The F-tests of :class:`FrameCheck` on static force readings at sensor orientations.
+
+    The linear map's unknowns are those the poses identify: with gravity directions in the sensor frame
+    that span only a plane (poses turned about one horizontal axis), ``d·r`` of them (r the rank of ``[u_i, 1]``), and
+    the degrees of freedom follow. The turned sensor frame starts from the rotation nearest to the linear fit's map
+    (orthogonal Procrustes) and is refined by nonlinear least squares (the Procrustes rotation alone left too large a
+    residual when the poses cover gravity directions unevenly).
 
     Args:
         rotations: sensor orientations R_i in the base frame, (k, d, d); forces: readings in the sensor frame (k, d) [N].
         gravity: |g| [m/s²].
 
     Returns:
-        The check, or None when the readings cannot tell: fewer readings than the linear fit has unknowns plus one,
-        or gravity directions in the sensor frame that do not span its d axes.
+        The check, or None when the readings cannot tell: no more readings than the linear fit has unknowns, or
+        gravity directions that leave it no unknown beyond the model's. ``turned_p_value`` is NaN when the poses leave
+        the turned model no degree of freedom to test (they do not tell the rotation apart).
 
     Raises:
         DimensionError, MeasurementError, ParameterError: as :func:`calibrate`.
@@ -380,24 +426,25 @@ def frame_check(rotations: Any, forces: Any, *, gravity: float = 9.81) -> FrameC
     F = _readings("forces", forces, k, d)
     u = _gravity_in_sensor(R, g)
     X = np.column_stack([u, np.ones(k)])
-    df2 = k * d - (d * d + d)
-    if df2 < 1 or np.linalg.matrix_rank(X, tol=1e-9 * max(1.0, float(np.abs(X).max()))) < d + 1:
+    A_given = _force_regressor(u)
+    n_lin, n_given = d * _rank(X), _rank(A_given)
+    df1, df2 = n_lin - n_given, k * d - n_lin
+    if df1 < 1 or df2 < 1:
         return None
     coef, *_ = np.linalg.lstsq(X, F, rcond=None)
     res = F - X @ coef
     rss_lin = float(np.sum(res * res))
     y = F.reshape(-1)
-    rss_given = _rss(_force_regressor(u), y)
-    # A = −m R_esᵀ: the nearest rotation to −A (orthogonal Procrustes) is R_esᵀ
+    rss_given = _rss(A_given, y)
+    # A = −m R_esᵀ: the nearest rotation to −A (orthogonal Procrustes) is R_esᵀ; refined by least squares
     U, _s, Vt = np.linalg.svd(-coef[:d].T)
     D = np.eye(d)
     D[-1, -1] = np.sign(np.linalg.det(U @ Vt)) or 1.0
-    Qt = U @ D @ Vt
-    Res = Qt.T
-    rss_turned = _rss(_force_regressor(u @ Qt.T), y)
+    Res, rss_turned = _turned_fit(u, y, (U @ D @ Vt).T)
     scale = float(y @ y)
-    stat, p = _f_test(rss_given, rss_lin, d * d - 1, df2, scale)
-    _, p_turned = _f_test(rss_turned, rss_lin, d * d - 1 - (3 if d == 3 else 1), df2, scale)
+    stat, p = _f_test(rss_given, rss_lin, df1, df2, scale)
+    df1_turned = n_lin - (n_given + (3 if d == 3 else 1))
+    p_turned = _f_test(rss_turned, rss_lin, df1_turned, df2, scale)[1] if df1_turned >= 1 else math.nan
     if d == 3:
         rot = Rotation.from_matrix(Res)
         rv = rot.as_rotvec()
@@ -410,7 +457,7 @@ def frame_check(rotations: Any, forces: Any, *, gravity: float = 9.81) -> FrameC
         axis = np.array([0.0, 0.0, 1.0 if theta >= 0.0 else -1.0])
         rpy = np.array([0.0, 0.0, theta])
     n = k * d
-    return FrameCheck(statistic=stat, p_value=p, dof=(d * d - 1, df2), turned_p_value=p_turned, rotation=Res,
+    return FrameCheck(statistic=stat, p_value=p, dof=(df1, df2), turned_p_value=p_turned, rotation=Res,
                       angle_deg=math.degrees(angle), axis=axis, rpy=np.asarray(rpy, dtype=np.float64),
                       rms_given=math.sqrt(rss_given / n), rms_turned=math.sqrt(rss_turned / n),
                       rms_linear=math.sqrt(rss_lin / n))
@@ -536,8 +583,8 @@ def calibrate(
     check = frame_check(R, F, gravity=g)
     if check is None:
         notes.append(f"the orientations were not checked against the force readings (is the sensor frame turned from "
-                     f"the given one?): that needs at least {d + 2} readings whose gravity directions span the sensor's "
-                     f"{d} axes; got {k}")
+                     f"the given one?): that needs more readings than a linear map of gravity has unknowns, at least "
+                     f"{d + 2} readings whose gravity directions span the sensor's {d} axes; got {k}")
     elif check.significant:
         notes.append(check.note())
         warnings.warn(check.note(), CalibrationMisfitWarning, stacklevel=2)
