@@ -153,11 +153,16 @@ def test_replay_window_start_end_gives_the_recorded_torques_of_that_window(tmp_p
     rep = json.loads(out.stdout)
     assert rep["samples"] == 201 and rep["window"] == pytest.approx([0.1, 0.3], abs=1e-9)
     assert rep["max_gap"] == pytest.approx(0.01) and rep["units"]["window"] == "s"
+    assert any("starts from its reset state at t = 0.1 s" in n for n in rep["notes"]), rep.get("notes")
     table = np.genfromtxt(rep["files"]["table"], delimiter=",", names=True)
     np.testing.assert_allclose(table["u1"], res.torque[100:301, 0], atol=1e-6 * np.abs(res.torque).max())
     text = runner.invoke(app, ["replay", "example-9.2", str(files["csv"]), "--start", "0.1", "--out", str(tmp_path / "t")])
     assert text.exit_code == 0, text.output
     assert "window" in text.stdout and "0.1 to 0.5" in text.stdout
+    assert "note: the controller starts from its reset state" in text.stderr
+    whole = runner.invoke(app, ["replay", "example-9.2", str(files["csv"]), "--start", "0", "--out", str(tmp_path / "w"),
+                                "--json"])
+    assert whole.exit_code == 0 and "notes" not in json.loads(whole.stdout), whole.output
 
 
 @pytest.fixture(scope="module")

@@ -257,6 +257,11 @@ def replay_command(
             result.to_pandas().to_csv(table, index=False)
             figure = result.plot(folder / f"{stem}.png")
         log_notes = list(rec.metadata.get("notes", []))
+        first = float(result.metadata["time_origin"] - rec.time_origin)
+        if start is not None and first > float(rec.t[0]) + 0.5 * result.metadata["period"]:
+            log_notes.append(f"the controller starts from its reset state at t = {first:.6g} s of the log (--start), not "
+                             "from the state it had there in the recorded run: a controller with a state of its own "
+                             "(admittance's compliant frame, an integral action) gives other torques at first")
         for text in [*set_notes, *log_notes, note]:
             say_note(text)
     except (ForceControlError, ImportError) as exc:
