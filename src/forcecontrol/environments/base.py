@@ -37,6 +37,10 @@ class Environment(ABC):
 
     #: id of this environment's branch in the compiled loop (0: not compiled).
     kind: ClassVar[int] = 0
+    #: False when :meth:`wrench` reads only the position and the linear velocity of a 6-D pose ``x = [o_e; φ_e]``
+    #: (a surface pressed at o_e): the Python engine's integrator stages then skip the orientation's Euler angles and
+    #: pass NaN in their place, so a wrench that read them after all would give NaN, never a silent number.
+    reads_orientation: ClassVar[bool] = True
     #: True for an environment with a state of its own (e.g. friction's stick/slip): the simulator's
     #: Python loop then calls ``start(robot, q0, q̇0, rows)`` before the run, ``advance(robot, q, q̇)``
     #: after every integrator step, ``log_sample(k, x, ẋ)`` at every sample, and merges its ``signals()``.
@@ -70,7 +74,9 @@ class Environment(ABC):
         """
         fast = getattr(robot, "elastic_acceleration", None)
         if fast is not None:  # a robot with its own forward dynamics (Pinocchio's ABA)
-            return fast(q, qd, u, self.wrench)
+            if self.reads_orientation:
+                return fast(q, qd, u, self.wrench)
+            return fast(q, qd, u, self.wrench, orientation=False)
         T = robot.terms(q, qd)
         h = self.wrench(T.x, T.xd)
         return np.linalg.solve(T.B, u - T.n - T.J.T @ h), h

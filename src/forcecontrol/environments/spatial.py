@@ -87,6 +87,7 @@ class Table(Environment):
     """
 
     described: ClassVar[tuple[str, ...]] = ("point", "normal", "stiffness", "damping")
+    reads_orientation: ClassVar[bool] = False
 
     def __init__(self, point: Any, normal: Any = (0.0, 0.0, 1.0), stiffness: float = 1e4, damping: float = 0.0) -> None:
         self.dim = 6
@@ -138,6 +139,7 @@ class ConstantWrench(Environment):
     """
 
     kind: ClassVar[int] = 0
+    reads_orientation: ClassVar[bool] = False
 
     def __init__(self, wrench: Any) -> None:
         self.dim = 6

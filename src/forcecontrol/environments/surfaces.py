@@ -89,6 +89,8 @@ class ElasticSurface(Environment):
 
     #: the geometry's dimension (2 or 3).
     space: int
+    #: the contact is at o_e: the wrench reads x[:space] and ẋ[:space] only.
+    reads_orientation: ClassVar[bool] = False
 
     def _common(self, space: int, stiffness: float, damping: float, task_dim: int | None) -> None:
         self.space = space

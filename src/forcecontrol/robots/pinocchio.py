@@ -121,6 +121,10 @@ def _frame_id(pin: Any, model: Any, frame: str, frame_type: str | None) -> int:
     return int(matches[0][0])
 
 
+#: the Euler angles passed to a wrench that does not read them (Environment.reads_orientation False)
+_NO_ANGLES = np.full(3, np.nan)
+
+
 class PinocchioRobot:
     """A :class:`~forcecontrol.robots.base.RobotModel` computed by Pinocchio.
 
@@ -375,7 +379,8 @@ class PinocchioRobot:
         return self._x(M.rotation, M.translation), v[self._rows]
 
     def elastic_acceleration(
-        self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench: Callable[[np.ndarray, np.ndarray], np.ndarray]
+        self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        orientation: bool = True,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The plant (9.1) in contact with an elastic environment: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)``.
 
@@ -383,7 +388,9 @@ class PinocchioRobot:
         armature included) on ``τ = u − F q̇ − Jᵀ h_e``, which avoids forming and factorising B;
         the Jacobian is computed only while the wrench is non-zero. A model with a rotor coupling
         (a term of B that ABA does not know) takes ``terms`` and a linear solve instead. Equal to
-        ``solve(B, u − n − Jᵀ h)`` to round-off (tested).
+        ``solve(B, u − n − Jᵀ h)`` to round-off (tested). ``orientation=False`` (an environment whose wrench
+        reads only o_e and ȯ_e, :attr:`~forcecontrol.environments.base.Environment.reads_orientation`) passes NaN
+        for a pose task's Euler angles instead of computing them.
 
         Returns:
             q̈ (n,) [rad/s²] and h_e (m,) [N].
@@ -393,7 +400,13 @@ class PinocchioRobot:
             h = np.asarray(wrench(T.x, T.xd), dtype=np.float64)
             return np.linalg.solve(T.B, u - T.n - T.J.T @ h), h
         pin, model, data, fid = self._pin, self.model, self.data, self.frame_id
-        x, xd = self.pose_twist(q, qd)
+        if orientation or self.task != "pose":
+            x, xd = self.pose_twist(q, qd)
+        else:  # pose_twist without the Euler angles
+            pin.forwardKinematics(model, data, q, qd)
+            pin.updateFramePlacement(model, data, fid)
+            x = np.concatenate([data.oMf[fid].translation, _NO_ANGLES])
+            xd = pin.getFrameVelocity(model, data, fid, self._lwa).vector
         h = np.asarray(wrench(x, xd), dtype=np.float64)
         tau = u - (self._F_diag * qd if self._F_diag is not None else self.friction @ qd)
         if np.count_nonzero(h):  # h.any(), a fifth of its cost

@@ -336,13 +336,15 @@ class PlanarTwoLink:
         j00, j01, j10, j11 = -a1 * s1 - a2 * s12, -a2 * s12, a1 * c1 + a2 * c12, a2 * c12
         return np.array((a1 * c1 + a2 * c12, a1 * s1 + a2 * s12)), np.array((j00 * w0 + j01 * w1, j10 * w0 + j11 * w1))
 
-    def elastic_acceleration(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench) -> tuple[np.ndarray, np.ndarray]:
+    def elastic_acceleration(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray, wrench,
+                             orientation: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The plant (9.1) on an elastic environment: ``q̈ = B⁻¹ (u − n − Jᵀ h_e)`` with ``h_e = wrench(x, ẋ)``.
 
         One compiled call for the terms, then the 2×2 system in closed form, by the inverse as the
         compiled loops do (``core.linalg.solve2_spd``): equal to ``np.linalg.solve(B, u − n − Jᵀ h)``
         to round-off at a fifth of its cost. A B that is not numerically positive definite (a
         non-finite state) goes to ``np.linalg.solve``, which then decides as before (no checks).
+        ``orientation`` is accepted for the 6-D robots' signature; a planar task has no angles.
 
         Returns:
             q̈ (2,) [rad/s²] and h_e (2,) [N].
