@@ -234,3 +234,22 @@ def test_cli_refuses_a_bad_sensor_rpy(tmp_path, robot, value, match):
     df.to_csv(poses, index=False)
     res = CliRunner().invoke(app, ["calibrate", str(poses), "--robot", robot, f"--sensor-rpy={value}"])
     assert res.exit_code == 2 and match in res.output, res.output
+
+
+def test_cli_without_robot_takes_the_suggested_rotation_on_the_files_orientations(tmp_path, panda_poses):
+    """Orientation columns r11 … r33 of the flange and readings of a sensor turned 30 deg about x on it: `calibrate`
+    warns with a `--sensor-rpy=...` that, passed back, turns the file's orientations (R R_es) and gives no warning."""
+    Res = Rotation.from_euler("xyz", [np.radians(30.0), 0.0, 0.0]).as_matrix()
+    F, T = _readings(panda_poses @ Res, np.random.default_rng(9))
+    cols = {f"r{i + 1}{j + 1}": panda_poses[:, i, j] for i in range(3) for j in range(3)}
+    cols.update({n: F[:, j] for j, n in enumerate(("fx", "fy", "fz"))})
+    cols.update({n: T[:, j] for j, n in enumerate(("tx", "ty", "tz"))})
+    data = tmp_path / "flange.csv"
+    pd.DataFrame(cols).to_csv(data, index=False)
+    first = CliRunner().invoke(app, ["calibrate", str(data)])
+    assert first.exit_code == 0 and "warning: the force readings do not follow" in first.stderr, first.output
+    option = re.search(r"(--sensor-rpy=\S+?);", first.stderr).group(1)
+    second = CliRunner().invoke(app, ["calibrate", str(data), option, "--json"])
+    assert second.exit_code == 0 and "warning" not in second.stderr, second.output
+    rep = json.loads(second.stdout)
+    assert _angle_deg(np.array(rep["sensor_rotation"]), Res) < 0.5 and abs(rep["mass"] - MASS) < 3 * rep["mass_std"]

@@ -342,7 +342,7 @@ class FrameCheck:
         if self.turned_p_value >= MISFIT_P:
             return (f"{head}: they fit a sensor frame turned by {self.angle_deg:.3g} deg about ({a}) from the given one "
                     f"(rpy = {r} rad; residual RMS {self.rms_turned:.3g} N). The orientations are likely another frame's "
-                    f"than the sensor's: give the sensor's rotation on that frame (calibrate --robot ... --sensor-rpy={r}; "
+                    f"than the sensor's: give the sensor's rotation on that frame (calibrate ... --sensor-rpy={r}; "
                     "sensor_rotation= in Python) and calibrate again")
         return (f"{head}; no turned sensor frame explains them (the best, {self.angle_deg:.3g} deg about ({a}), leaves "
                 f"{self.rms_turned:.3g} N, F-test p = {self.turned_p_value:.2g}): check the sensor's gains and units, the "
