@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -24,6 +23,7 @@ from .replay import (
     is_ros_log,
     pick_case,
     read_log,
+    time_option,
 )
 
 __all__ = ["compare_trace_command"]
@@ -54,13 +54,6 @@ def _simulated(
     return res, f"{scn.name} ({spec.label})", int(parts["robot"].task_dim), scn.name, parts["robot"]
 
 
-def _max_shift(value: float) -> float:
-    """--max-shift: a finite time >= 0 [s] (click's range check lets NaN through)."""
-    if not math.isfinite(value) or value < 0:
-        raise typer.BadParameter(f"must be a finite time >= 0 [s]; got {value!r}")
-    return value
-
-
 def compare_trace_command(
     ctx: typer.Context,
     simulated: Annotated[str, typer.Argument(help="a scenario (simulated now) or a data file of a simulated trace")],
@@ -69,7 +62,7 @@ def compare_trace_command(
         RecordFormat.auto
     ),
     case: CaseLabel = None,
-    max_shift: Annotated[float, typer.Option(callback=_max_shift,
+    max_shift: Annotated[float, typer.Option(callback=time_option(">= 0"),
                                              help="largest time shift searched to align the traces [s], >= 0")] = 0.1,
     out: OutFolder = None,
     joint_topic: JointTopic = DEFAULT_JOINT_TOPIC,

@@ -42,32 +42,28 @@ RecordedLog = Annotated[Path, typer.Argument(help="recorded log: .csv, .parquet,
 CaseLabel = Annotated[str | None, typer.Option(help="the scenario's case (label; the first by default)")]
 
 
-def _finite_time(value: float | None) -> float | None:
-    """--start/--end: a finite time [s] (click's float type lets nan and inf through)."""
+def time_option(bound: str = "") -> Any:
+    """A callback checking a time option [s]: finite (click's float type lets nan and inf through) and, with ``bound``
+    ``">= 0"`` or ``"> 0"``, at least or above zero; None (an option not given) passes."""
     import math
 
-    if value is not None and not math.isfinite(value):
-        raise typer.BadParameter(f"must be a finite time [s]; got {value!r}")
-    return value
+    def check(value: float | None) -> float | None:
+        ok = value is None or (math.isfinite(value) and (value >= 0.0 if bound == ">= 0" else value > 0.0 if bound else True))
+        if not ok:
+            raise typer.BadParameter(f"must be a finite time{' ' + bound if bound else ''} [s]; got {value!r}")
+        return value
 
-
-def _gap(value: float | None) -> float | None:
-    """--max-gap: a finite time > 0 [s]."""
-    import math
-
-    if value is not None and not (math.isfinite(value) and value > 0.0):
-        raise typer.BadParameter(f"must be a finite time > 0 [s]; got {value!r}")
-    return value
+    return check
 
 
 MaxGap = Annotated[float | None, typer.Option(
-    "--max-gap", callback=_gap, help="largest gap between two logged samples bridged by interpolation [s] "
+    "--max-gap", callback=time_option("> 0"), help="largest gap between two logged samples bridged by interpolation [s] "
     "(default: 10 periods); a larger one inside the window is refused")]
 Start = Annotated[float | None, typer.Option(
-    "--start", callback=_finite_time, help="replay from this time of the log [s] (its time column; bags/MCAP: from the "
+    "--start", callback=time_option(), help="replay from this time of the log [s] (its time column; bags/MCAP: from the "
     "first message) (default: where every stream has data)")]
 End = Annotated[float | None, typer.Option(
-    "--end", callback=_finite_time, help="replay up to this time of the log [s] (default: where a stream ends)")]
+    "--end", callback=time_option(), help="replay up to this time of the log [s] (default: where a stream ends)")]
 
 
 #: units of replay's JSON fields and metrics (the force error's norm takes moments' N m as N in 6-D)
@@ -257,7 +253,7 @@ def replay_command(
             result.to_pandas().to_csv(table, index=False)
             figure = result.plot(folder / f"{stem}.png")
         log_notes = list(rec.metadata.get("notes", []))
-        first = float(result.metadata["time_origin"] - rec.time_origin)
+        first = float(result.metadata["time_origin"] - rec.time_origin)  # the window's start in the log's time
         if start is not None and first > float(rec.t[0]) + 0.5 * result.metadata["period"]:
             log_notes.append(f"the controller starts from its reset state at t = {first:.6g} s of the log (--start), not "
                              "from the state it had there in the recorded run: a controller with a state of its own "
@@ -269,8 +265,7 @@ def replay_command(
         return
     report = {"scenario": scn.name, "case": spec.label, "data": str(data), "samples": int(result.t.size),
               "period": result.metadata["period"], "metrics": result.metrics(),
-              "window": [float(result.metadata["time_origin"] - rec.time_origin),
-                         float(result.metadata["time_origin"] - rec.time_origin + result.t[-1])],
+              "window": [first, first + float(result.t[-1])],
               "max_gap": result.metadata["max_gap"],
               "files": {"table": str(table), "figure": str(figure)}, "units": REPLAY_UNITS, "set": sets,
               "recording": {"format": rec.metadata.get("format"), "joint_names": list(rec.joint_names),

@@ -418,13 +418,17 @@ def frame_check(rotations: Any, forces: Any, *, gravity: float = 9.81) -> FrameC
     Raises:
         DimensionError, MeasurementError, ParameterError: as :func:`calibrate`.
     """
-    from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]
-
     g = positive_scalar("gravity", gravity, "m/s^2")
     R = _rotations(rotations)
-    k, d = R.shape[0], R.shape[1]
-    F = _readings("forces", forces, k, d)
-    u = _gravity_in_sensor(R, g)
+    F = _readings("forces", forces, R.shape[0], R.shape[1])
+    return _frame_check(_gravity_in_sensor(R, g), F)
+
+
+def _frame_check(u: np.ndarray, F: np.ndarray) -> FrameCheck | None:
+    """:func:`frame_check` on checked readings F (k, d) and gravity in the sensor frame u (k, d)."""
+    from scipy.spatial.transform import Rotation  # type: ignore[import-untyped]
+
+    k, d = u.shape
     X = np.column_stack([u, np.ones(k)])
     A_given = _force_regressor(u)
     n_lin, n_given = d * _rank(X), _rank(A_given)
@@ -580,7 +584,7 @@ def calibrate(
                "torque_noise_std": st, "torque_residual_rms": rms_t, "torque_covariance": cov_t}
     if clamp_note is not None:
         notes.append(clamp_note)
-    check = frame_check(R, F, gravity=g)
+    check = _frame_check(u, F)  # the readings and rotations checked above
     if check is None:
         notes.append(f"the orientations were not checked against the force readings (is the sensor frame turned from "
                      f"the given one?): that needs more readings than a linear map of gravity has unknowns, at least "
