@@ -14,6 +14,7 @@ import pytest
 import forcecontrol.environments as envs
 from forcecontrol.environments import ElasticMesh
 from forcecontrol.environments.base import Environment
+from forcecontrol.environments.friction import STICK, FrictionalContact
 from forcecontrol.environments.heightfield_extra import BumpField
 from forcecontrol.environments.spatial import ConstantWrench, Table
 from forcecontrol.environments.surfaces import ElasticCylinder, ElasticSphere, HeightField
@@ -26,6 +27,8 @@ def _orientation_free() -> list[Environment]:
     """One 6-D instance of every library environment class that declares ``reads_orientation = False``."""
     rng = np.random.default_rng(0)
     heights = 0.4 + 0.01 * rng.standard_normal((8, 9))
+    stuck = FrictionalContact(Table([0.4, 0.0, 0.4], [0.1, -0.2, 1.0], 5e3, 30.0), 0.8, 0.5, 1.0)
+    stuck.mode, stuck.anchor = STICK, np.array([0.41, 0.01, 0.38])  # the bristle's spring and damper
     return [
         Table([0.4, 0.0, 0.4], [0.1, -0.2, 1.0], 5e3, 30.0),
         ConstantWrench([1.0, -2.0, 3.0, 0.1, 0.2, -0.3]),
@@ -34,6 +37,8 @@ def _orientation_free() -> list[Environment]:
         HeightField(heights, [0.3, -0.1], [0.03, 0.03], 5e3, 30.0, task_dim=6),
         BumpField([0.3, -0.1], 0.02, (12, 12), 0.4, 0.005, 0.1, stiffness=5e3, damping=30.0, task_dim=6),
         ElasticMesh.from_file(MESHES / "icosphere2.stl", 5e3, 30.0, offset=[0.4, 0.0, 0.4], task_dim=6),  # R = 0.1 m
+        FrictionalContact(HeightField(heights, [0.3, -0.1], [0.03, 0.03], 5e3, 30.0, task_dim=6), 0.6, 0.4, 2.0),  # sliding
+        stuck,
     ]
 
 
@@ -96,11 +101,17 @@ def test_a_wrong_declaration_gives_nan_not_a_number():
                     sensor=parts["sensor"], substeps=parts["substeps"])
 
 
-@pytest.mark.parametrize("name, cls", [("panda-admittance-contact", Table), ("panda-sphere", ElasticSphere)])
-def test_runs_that_skip_the_angles_equal_the_runs_that_compute_them(name, cls, monkeypatch):
-    scn = load_scenario(name)
+@pytest.mark.parametrize("name, cls, duration", [
+    ("panda-admittance-contact", Table, None), ("panda-sphere", ElasticSphere, None),
+    ("panda-spiral-search", FrictionalContact, 0.4),  # friction (stick and slip) on a bump field, in contact throughout
+])
+def test_runs_that_skip_the_angles_equal_the_runs_that_compute_them(name, cls, duration, monkeypatch):
+    scn = load_scenario(name) if duration is None else load_scenario(name).with_(duration=duration)
     skipped = run_scenario(scn).cases[0].result
     monkeypatch.setattr(cls, "reads_orientation", True)
     computed = run_scenario(scn).cases[0].result
     for a in ("q", "qd", "x", "xd", "wrench", "torque"):
         np.testing.assert_array_equal(getattr(skipped, a), getattr(computed, a), err_msg=a)
+    assert skipped.signals.keys() == computed.signals.keys()
+    for key, logged in skipped.signals.items():  # friction's normal force, stick/slip, ...
+        np.testing.assert_array_equal(logged, computed.signals[key], err_msg=key)

@@ -78,6 +78,9 @@ class FrictionalContact(Environment):
     """
 
     stateful: ClassVar[bool] = True
+    #: its wrench reads the first three coordinates of x (o_e) and of ẋ alone, whatever the surface (the surfaces'
+    #: ``normal_force_at`` takes a point and a velocity): a 6-D run's integrator stages skip the Euler angles
+    reads_orientation: ClassVar[bool] = False
     #: the scalar signals it logs (plottable columns of the run).
     SIGNALS: ClassVar[tuple[str, ...]] = ("normal_force", "friction_force", "tangential_speed", "stick")
     describe_type: ClassVar[str | None] = "frictional-contact"
