@@ -263,16 +263,22 @@ class FrictionalContact(Environment):
 
     def log_sample(self, k: int, x: np.ndarray, xd: np.ndarray) -> None:
         """Log sample k's friction force, normal force and mode."""
-        if not self._log:
+        log = self._log
+        if not log:
             return
-        fn, nu, _, ht = self.components(x, xd)
-        v = np.asarray(xd, dtype=np.float64)[: self.space]
-        self._log["friction"][k] = 0.0
-        self._log["friction"][k, : self.space] = ht
-        self._log["normal_force"][k] = fn
-        self._log["friction_force"][k] = math.sqrt(float(ht @ ht))
-        self._log["tangential_speed"][k] = float(np.linalg.norm(v - float(nu @ v) * nu))
-        self._log["stick"][k] = 1.0 if self.mode == STICK else 0.0
+        v0, v1, v2 = self._point(xd)
+        fn, n0, n1, n2, h0, h1, h2 = self._components(*self._point(x), v0, v1, v2)  # on scalars (a planar z is 0)
+        row = log["friction"][k]
+        row[:] = 0.0
+        row[0], row[1] = h0, h1
+        if self.space == 3:
+            row[2] = h2
+        log["normal_force"][k] = fn
+        log["friction_force"][k] = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+        vn = n0 * v0 + n1 * v1 + n2 * v2  # |v - (ν·v) ν|: the speed along the surface
+        t0, t1, t2 = v0 - vn * n0, v1 - vn * n1, v2 - vn * n2
+        log["tangential_speed"][k] = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        log["stick"][k] = 1.0 if self.mode == STICK else 0.0
 
     def signals(self) -> dict[str, np.ndarray]:
         """The logged signals of the last run (``friction`` and :attr:`SIGNALS`)."""
