@@ -431,3 +431,121 @@ def test_a_run_that_only_loads_kernels_skips_numbas_lowering_registries_and_give
     digest, modules = second.stdout.split(" ", 1)
     assert digest == first.stdout.split(" ", 1)[0]
     assert modules.strip() == "[]", modules  # nothing compiled in the second process: no registry was imported
+
+
+# Two processes started at one instant on an empty cache, running the same law: each prints the package functions it
+# compiled (outermost compiles) and a hash of its logs.
+SAME_LAW = textwrap.dedent(
+    r'''
+    import hashlib, json, sys, time
+    import numpy as np
+    from numba.core import event
+
+    compiled, depth = [], [0]
+
+    class Census(event.Listener):
+        def on_start(self, ev):
+            depth[0] += 1
+
+        def on_end(self, ev):
+            depth[0] -= 1
+            f = getattr(ev.data.get("dispatcher"), "py_func", None)
+            if depth[0] == 0 and f is not None and f.__module__.startswith("forcecontrol"):
+                compiled.append(f"{f.__module__}.{f.__qualname__}")
+
+    event.register("numba:compile", Census())
+    from forcecontrol.scenarios import load_scenario, run_scenario
+
+    scn = load_scenario("example-9.2").with_(duration=0.2)
+    start = float(sys.argv[1])
+    late = time.time() > start  # still importing when the other process began: the test would prove nothing
+    while time.time() < start:  # both processes have imported everything: their first compiles start together
+        time.sleep(0.001)
+    h = hashlib.sha256()
+    for c in run_scenario(scn, engine="compiled").cases:
+        for a in (c.result.q, c.result.qd, c.result.wrench, c.result.torque):
+            h.update(np.ascontiguousarray(a).tobytes())
+    print(json.dumps({"compiled": compiled, "hash": h.hexdigest(), "late": late}))
+    '''
+)
+
+
+def test_two_processes_missing_the_same_kernel_compile_it_once(tmp_path: Path) -> None:
+    """Started together on an empty cache, two processes running one law: one compiles every kernel, the other waits for
+    each and loads it (it compiles nothing), and both give the same logs to the bit. Without the compile lock both
+    compiled the law's loop (core/kernel_cache.py's _CompileLock)."""
+    import time
+
+    script = tmp_path / "same_law.py"
+    script.write_text(SAME_LAW)
+    cache = tmp_path / "cache"
+    start = time.time() + 8.0  # after both have started Python and imported the package, on a loaded machine too
+    procs = [subprocess.Popen([sys.executable, str(script), repr(start)], env=_env(cache), stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outs = []
+    for p in procs:
+        out, err = p.communicate(timeout=900)
+        assert p.returncode == 0, err[-3000:]
+        outs.append(json.loads(out.strip().splitlines()[-1]))
+    assert not any(o["late"] for o in outs), "a process was still importing at the start: raise the start's margin"
+    compiled = sorted((o["compiled"] for o in outs), key=len)
+    assert compiled[0] == [] and any("k_forcecontrol_loop_" in n for n in compiled[1]), compiled
+    assert outs[0]["hash"] == outs[1]["hash"]
+
+
+def test_a_compile_that_fails_lets_the_next_process_compile_at_once(tmp_path: Path, monkeypatch) -> None:
+    """A kernel whose compile raises (a type it cannot take) releases its compile lock: another process (here, another
+    open file of the lock, which flock treats alike) takes it at once, not after the wait's limit."""
+    import fcntl
+
+    import numba
+
+    from forcecontrol.core.kernel_cache import KernelCache, set_identity
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))  # this test's kernel in a cache of its own
+
+    @numba.njit(cache=True)
+    def double(x):
+        return x * 2.0
+
+    set_identity(double, f"test:failing-compile:{tmp_path.name}")
+    cache = double._cache
+    assert isinstance(cache, KernelCache)
+    with pytest.raises(numba.core.errors.TypingError):
+        double("a string")
+    assert not cache._compile_lock.held and cache._compile_lock.path.startswith(str(tmp_path))
+    fd = os.open(cache._compile_lock.path, os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # BlockingIOError while the failed compile still held it
+    finally:
+        os.close(fd)
+    assert double(2.0) == 4.0  # and this process compiles it once asked a type it takes
+
+
+def test_a_process_stuck_in_a_compile_is_waited_for_a_bounded_time(tmp_path: Path, monkeypatch, capfd) -> None:
+    """While another process holds a kernel's compile lock past COMPILE_WAIT, this one compiles it anyway and says so."""
+    import fcntl
+
+    import numba
+
+    import forcecontrol.core.kernel_cache as kc
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))
+
+    @numba.njit(cache=True)
+    def triple(x):
+        return x * 3.0
+
+    kc.set_identity(triple, f"test:stuck-compile:{tmp_path.name}")
+    lock = triple._cache._compile_lock
+    os.makedirs(os.path.dirname(lock.path), exist_ok=True)
+    monkeypatch.setattr(kc, "COMPILE_WAIT", 0.3)
+    fd = os.open(lock.path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # "another process" compiling it, never finishing
+        assert triple(2.0) == 6.0
+    finally:
+        os.close(fd)
+    err = capfd.readouterr().err
+    assert "has been compiling" in err and "compiling it here too" in err, err
+    assert not lock.held and lock.path.startswith(str(tmp_path))

@@ -23,7 +23,10 @@ Here the cache is keyed as follows:
   beside the machine code, and a load whose stored identity or digest differs from the one
   asked for is refused (one line on stderr; the kernel recompiles and the entry is rewritten).
 
-Writes hold an exclusive ``flock`` on ``<identity>.lock`` around reading and rewriting the
+A process that misses a kernel compiles it under an exclusive ``flock`` on ``<identity>.k1.compile``,
+held until the result is saved: another process missing the same kernel meanwhile waits, then loads
+it (a cold cache shared by several processes compiles each kernel once; the wait is bounded by
+``COMPILE_WAIT``). Writes hold an exclusive ``flock`` on ``<identity>.lock`` around reading and rewriting the
 index (the data file is written first, atomically, under its content-derived name); loads
 hold a shared lock while they read the index and the data file. Locks work between processes
 on one machine and between Dask workers sharing a local folder. On NFS, ``flock`` works where
@@ -41,10 +44,12 @@ import os
 import pickle
 import re
 import sys
+import time
 from collections.abc import Iterator
 from typing import Any
 
 import numba
+from numba.core import event
 from numba.core.caching import FunctionCache, IndexDataCacheFile
 from numba.core.runtime import rtsys
 from numba.core.serialize import dumps
@@ -162,6 +167,73 @@ class _LockedFiles(IndexDataCacheFile):
             f.write(payload)
 
 
+class _CompileLock:
+    """One kernel's compile, one process at a time: a process that misses the cache waits while another compiles
+    the same kernel, then loads what that one saved, instead of compiling it too.
+
+    An exclusive ``flock`` on ``<identity>.k1.compile`` (not the index's lock, which the save takes while this one is
+    held). Taken by :meth:`KernelCache.load_overload` on a miss and released once the compile's result is saved
+    (:meth:`KernelCache.save_overload`), or when the compile fails (:class:`_ReleaseAfterFailedCompile`), or when the
+    process ends (the operating system frees a dead process's locks). A wait is bounded: after :data:`COMPILE_WAIT` seconds
+    (another process stopped while compiling) this one compiles without the lock and says so. Where ``flock`` is
+    missing or refused, compiles are not serialised (each process compiles, as without this lock).
+    """
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self._fd: int | None = None
+        self._depth = 0
+
+    @property
+    def held(self) -> bool:
+        return self._depth > 0
+
+    def acquire(self, ensure_folder: Any) -> bool:
+        """Hold the lock (waiting while another process holds it); False if it could not be taken."""
+        if self._depth:  # this process compiles this kernel already (a nested compile of it): nothing to wait for
+            self._depth += 1
+            return True
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows
+            return False
+        try:
+            ensure_folder()
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError:  # a read-only cache folder: nothing is saved there either
+            return False
+        deadline = time.monotonic() + COMPILE_WAIT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    os.close(fd)
+                    _say(f"kernel cache: another process has been compiling {os.path.basename(self.path)} for over "
+                         f"{COMPILE_WAIT:.0f} s; compiling it here too")
+                    return False
+                time.sleep(0.02)
+            except OSError:  # pragma: no cover - NFS without lock support: compile without waiting
+                os.close(fd)
+                return False
+        self._fd, self._depth = fd, 1
+        return True
+
+    def release(self) -> None:
+        if not self._depth:
+            return
+        self._depth -= 1
+        if not self._depth and self._fd is not None:
+            os.close(self._fd)  # releases the lock
+            self._fd = None
+
+
+#: the longest a process waits for another's compile of the same kernel [s] (a compile takes seconds; more than this
+#: means the other process is stopped or hung)
+COMPILE_WAIT = 300.0
+
+
 def read_index(path: str) -> dict[str, Any] | None:
     """An index file of this format as ``{identity, stamp, entries}``; None if missing, foreign or of another Numba."""
     try:
@@ -192,6 +264,7 @@ class KernelCache(FunctionCache):
         base = _filename_base(self.identity, explicit)
         stamp = self._impl.locator.get_source_stamp()
         self._cache_file = _LockedFiles(self._cache_path, base, stamp, self.identity)
+        self._compile_lock = _CompileLock(os.path.join(self._cache_path, base + ".compile"))
 
     @property
     def index_path(self) -> str:
@@ -208,9 +281,45 @@ class KernelCache(FunctionCache):
         (NRT: arrays allocated in a kernel) by ``rtsys.initialize``, done here.
         """
         rtsys.initialize(target_context)
+        cres = self._load(sig, target_context)
+        if cres is not None or not self._enabled:
+            return cres
+        # a miss: this process compiles the kernel while any other that misses it waits (:class:`_CompileLock`),
+        # and a process that waited loads what the first one saved
+        if self._compile_lock.acquire(self._impl.locator.ensure_cache_path):
+            cres = self._load(sig, target_context)
+            if cres is not None:
+                self._compile_lock.release()
+        return cres
+
+    def _load(self, sig: Any, target_context: Any) -> Any:
         with self._guard_against_spurious_io_errors():
             return self._load_overload(sig, target_context)
         return None  # pragma: no cover - an I/O error swallowed by the guard (Numba's own behaviour)
+
+    def save_overload(self, sig: Any, data: Any) -> None:
+        """Save the compiled ``sig`` (Numba's save), then let the processes waiting for it load it."""
+        try:
+            super().save_overload(sig, data)
+        finally:
+            self._compile_lock.release()
+
+
+class _ReleaseAfterFailedCompile(event.Listener):
+    """A compile that raised never reaches ``save_overload``: its kernel's compile lock is released here."""
+
+    def on_start(self, ev: Any) -> None:
+        pass
+
+    def on_end(self, ev: Any) -> None:
+        cache = getattr((ev.data or {}).get("dispatcher"), "_cache", None)
+        # the exception the compile ended with (None after a compile that worked); read directly, as Numba 0.68's
+        # Event.is_failed answers True for a compile that worked
+        if getattr(ev, "_exc_details", None) is not None and isinstance(cache, KernelCache):
+            cache._compile_lock.release()
+
+
+event.register("numba:compile", _ReleaseAfterFailedCompile())
 
 
 def set_identity(dispatcher: Any, identity: str) -> None:
