@@ -103,7 +103,7 @@ def test_a_wrong_declaration_gives_nan_not_a_number():
 
 @pytest.mark.parametrize("name, cls, duration", [
     ("panda-admittance-contact", Table, None), ("panda-sphere", ElasticSphere, None),
-    ("panda-spiral-search", FrictionalContact, 0.4),  # friction (stick and slip) on a bump field, in contact throughout
+    ("panda-spiral-search", FrictionalContact, 0.4),  # sliding friction on a bump field, in contact throughout
 ])
 def test_runs_that_skip_the_angles_equal_the_runs_that_compute_them(name, cls, duration, monkeypatch):
     scn = load_scenario(name) if duration is None else load_scenario(name).with_(duration=duration)
