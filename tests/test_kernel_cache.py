@@ -486,11 +486,14 @@ def test_two_processes_missing_the_same_kernel_compile_it_once(tmp_path: Path) -
     for p in procs:
         out, err = p.communicate(timeout=900)
         assert p.returncode == 0, err[-3000:]
-        outs.append(json.loads(out.strip().splitlines()[-1]))
+        outs.append({**json.loads(out.strip().splitlines()[-1]), "stderr": err})
     assert not any(o["late"] for o in outs), "a process was still importing at the start: raise the start's margin"
-    compiled = sorted((o["compiled"] for o in outs), key=len)
-    assert compiled[0] == [] and any("k_forcecontrol_loop_" in n for n in compiled[1]), compiled
+    waiter, compiler = sorted(outs, key=lambda o: len(o["compiled"]))
+    assert waiter["compiled"] == [] and any("k_forcecontrol_loop_" in n for n in compiler["compiled"]), outs
     assert outs[0]["hash"] == outs[1]["hash"]
+    # the process that waited said so, once; the one that compiled had nothing to wait for
+    assert waiter["stderr"].count("waiting for another process that is compiling the same kernels") == 1, waiter["stderr"]
+    assert "waiting for another process" not in compiler["stderr"]
 
 
 def test_a_compile_that_fails_lets_the_next_process_compile_at_once(tmp_path: Path, monkeypatch) -> None:
@@ -547,5 +550,5 @@ def test_a_process_stuck_in_a_compile_is_waited_for_a_bounded_time(tmp_path: Pat
     finally:
         os.close(fd)
     err = capfd.readouterr().err
-    assert "has been compiling" in err and "compiling it here too" in err, err
+    assert "waiting for another process" in err and "has been compiling" in err and "compiling it here too" in err, err
     assert not lock.held and lock.path.startswith(str(tmp_path))

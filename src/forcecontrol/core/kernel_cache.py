@@ -175,7 +175,8 @@ class _CompileLock:
     held). Taken by :meth:`KernelCache.load_overload` on a miss and released once the compile's result is saved
     (:meth:`KernelCache.save_overload`), or when the compile fails (:class:`_ReleaseAfterFailedCompile`), or when the
     process ends (the operating system frees a dead process's locks). A wait is bounded: after :data:`COMPILE_WAIT` seconds
-    (another process stopped while compiling) this one compiles without the lock and says so. Where ``flock`` is
+    (another process stopped while compiling) this one compiles without the lock and says so; that it waits, it says
+    once (one line on stderr). Where ``flock`` is
     missing or refused, compiles are not serialised (each process compiles, as without this lock).
     """
 
@@ -208,6 +209,8 @@ class _CompileLock:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 break
             except BlockingIOError:
+                _say(f"kernel cache: waiting for another process that is compiling the same kernels (loaded from "
+                     f"{os.path.dirname(self.path)} once it is done)")  # once per process: a wait is never silent
                 if time.monotonic() > deadline:
                     os.close(fd)
                     _say(f"kernel cache: another process has been compiling {os.path.basename(self.path)} for over "
