@@ -85,6 +85,19 @@ def _say(message: str) -> None:
         print(f"forcecontrol: {message}", file=sys.stderr, flush=True)
 
 
+def _lock_file(path: str) -> tuple[Any, int] | None:
+    """``(fcntl, fd)`` of a lock file opened (created if missing) for ``flock``; None where there can be no lock: no
+    ``fcntl`` (Windows) or a folder that cannot be written (a read-only cache)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        return None
+    try:
+        return fcntl, os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:  # pragma: no cover - a read-only cache folder
+        return None
+
+
 class _LockedFiles(IndexDataCacheFile):
     """One kernel's index and data files: locked index updates, key-named data files, identity checked on load."""
 
@@ -99,16 +112,11 @@ class _LockedFiles(IndexDataCacheFile):
 
     @contextlib.contextmanager
     def _locked(self, exclusive: bool) -> Iterator[None]:
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows: no lock (see the module docstring)
+        opened = _lock_file(self._lock_path)
+        if opened is None:  # no lock here: loads still work (see the module docstring)
             yield
             return
-        try:
-            fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT, 0o666)
-        except OSError:  # pragma: no cover - read-only cache folder: loads still work
-            yield
-            return
+        fcntl, fd = opened
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
@@ -195,14 +203,13 @@ class _CompileLock:
             self._depth += 1
             return True
         try:
-            import fcntl
-        except ImportError:  # pragma: no cover - Windows
-            return False
-        try:
             ensure_folder()
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
-        except OSError:  # a read-only cache folder: nothing is saved there either
+        except OSError:  # a read-only cache: nothing is saved there either
             return False
+        opened = _lock_file(self.path)
+        if opened is None:
+            return False
+        fcntl, fd = opened
         deadline = time.monotonic() + COMPILE_WAIT
         while True:
             try:
